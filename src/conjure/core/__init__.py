@@ -1,0 +1,48 @@
+"""Core layer: interfaces, errors, parameters, seeding and step-size schedules.
+
+Everything else in conjure imports from here; this layer imports nothing of conjure.
+"""
+
+from conjure.core.errors import (
+    ConjureError,
+    DivergenceError,
+    IncompatibleComponentsError,
+    InvalidParameterError,
+    NotSetUpError,
+)
+from conjure.core.interfaces import (
+    Agent,
+    Domain,
+    DomainSpec,
+    Expansion,
+    Policy,
+    Representation,
+    Transition,
+)
+from conjure.core.params import Configurable
+from conjure.core.schedules import (
+    ConstantStepSize,
+    EpisodicDecay,
+    FeatureNormalizedDecay,
+    StepSizeSchedule,
+)
+
+__all__ = [
+    "Agent",
+    "Configurable",
+    "ConjureError",
+    "ConstantStepSize",
+    "DivergenceError",
+    "Domain",
+    "DomainSpec",
+    "EpisodicDecay",
+    "Expansion",
+    "FeatureNormalizedDecay",
+    "IncompatibleComponentsError",
+    "InvalidParameterError",
+    "NotSetUpError",
+    "Policy",
+    "Representation",
+    "StepSizeSchedule",
+    "Transition",
+]

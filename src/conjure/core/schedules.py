@@ -1,0 +1,111 @@
+"""Step-size (learning-rate) schedules α_t of the online learners.
+
+Geramifard (2012) uses two decaying schedules: Section 4.1.4 (online iFDD experiments) and
+Section 5.3.5 (iCCA experiments). Each schedule is a small `Configurable` whose ``value`` the
+agent calls once per learning step with the current episode number and the number of active
+features k_t.
+"""
+
+from __future__ import annotations
+
+from conjure.core.params import Configurable, Interval
+
+__all__ = ["ConstantStepSize", "EpisodicDecay", "FeatureNormalizedDecay", "StepSizeSchedule"]
+
+
+class StepSizeSchedule(Configurable):
+    """A step size α_t as a function of the episode number and the active-feature count k_t."""
+
+    def value(self, episode: int, num_active: float) -> float:
+        """Return α_t for 1-based ``episode`` and ``num_active`` = k_t (> 0)."""
+        raise NotImplementedError
+
+
+class ConstantStepSize(StepSizeSchedule):
+    """A constant step size α_t = α_0 (Algorithms 10-12 as written).
+
+    Parameters
+    ----------
+    alpha_0 : float, default 0.1
+        The step size α_0, in (0, inf).
+
+    Examples
+    --------
+    >>> ConstantStepSize(alpha_0=0.5).value(episode=10, num_active=4)
+    0.5
+    """
+
+    parameter_constraints = {"alpha_0": Interval(float, 0, None, closed="neither")}
+
+    def __init__(self, *, alpha_0: float = 0.1):
+        self.alpha_0 = alpha_0
+
+    def value(self, episode: int, num_active: float) -> float:
+        """Return α_0."""
+        return self.alpha_0
+
+
+class FeatureNormalizedDecay(StepSizeSchedule):
+    """α_t = α_0 / k_t · (N_0 + 1) / (N_0 + episode^1.1), Geramifard (2012), Section 4.1.4.
+
+    Parameters
+    ----------
+    alpha_0 : float, default 0.1
+        α_0 in (0, inf); the thesis searched {0.01, 0.1, 1}.
+    n_0 : float, default 1000
+        N_0 in [0, inf); the thesis searched {100, 1000, 1e6}.
+
+    Notes
+    -----
+    - k_t is the number of active features of the updated state. Choice: for dense features
+      (Gaussian RBF) the agent passes the L1 norm of φ(s), which equals k_t for binary ones.
+    - Choice: ``episode`` counts from 1 (the first episode gives α_0 / k_t).
+
+    Examples
+    --------
+    >>> FeatureNormalizedDecay(alpha_0=1.0, n_0=100).value(episode=1, num_active=4)
+    0.25
+    """
+
+    parameter_constraints = {
+        "alpha_0": Interval(float, 0, None, closed="neither"),
+        "n_0": Interval(float, 0, None),
+    }
+
+    def __init__(self, *, alpha_0: float = 0.1, n_0: float = 1000.0):
+        self.alpha_0 = alpha_0
+        self.n_0 = n_0
+
+    def value(self, episode: int, num_active: float) -> float:
+        """Return α_0 / k_t · (N_0 + 1) / (N_0 + episode^1.1)."""
+        return self.alpha_0 / num_active * (self.n_0 + 1.0) / (self.n_0 + episode**1.1)
+
+
+class EpisodicDecay(StepSizeSchedule):
+    """α_t = α_0 (N_0 + 1) / (N_0 + episode), Geramifard (2012), Section 5.3.5.
+
+    Parameters
+    ----------
+    alpha_0 : float, default 0.1
+        α_0 in (0, inf).
+    n_0 : float, default 1000
+        N_0 in [0, inf).
+
+    Examples
+    --------
+    >>> EpisodicDecay(alpha_0=1.0, n_0=1.0).value(episode=3, num_active=7)
+    0.5
+    """
+
+    parameter_constraints = {
+        "alpha_0": Interval(float, 0, None, closed="neither"),
+        "n_0": Interval(float, 0, None),
+    }
+
+    def __init__(self, *, alpha_0: float = 0.1, n_0: float = 1000.0):
+        self.alpha_0 = alpha_0
+        self.n_0 = n_0
+
+    def value(self, episode: int, num_active: float) -> float:
+        """Return α_0 (N_0 + 1) / (N_0 + episode)."""
+        return self.alpha_0 * (self.n_0 + 1.0) / (self.n_0 + episode)
