@@ -1,1 +1,5 @@
-"""testing layer."""
+"""Shipped checks for conjure components (and users' own), as Gymnasium's ``check_env``."""
+
+from conjure.testing.checks import applicable_checks, check_component, sample_states
+
+__all__ = ["applicable_checks", "check_component", "sample_states"]

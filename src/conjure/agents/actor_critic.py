@@ -1,0 +1,190 @@
+"""Actor-Critic, Geramifard (2012), Algorithm 12 (after Bhatnagar et al. 2007)."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from conjure.agents import _kernels
+from conjure.agents.base import STEP_SIZE, LinearTDAgent, make_schedule
+from conjure.core.interfaces import DomainSpec, Policy, Representation, Transition, check_is_set_up
+from conjure.core.params import InstanceOf
+from conjure.core.schedules import StepSizeSchedule
+from conjure.policies import Gibbs, greedy_action
+
+__all__ = ["ActorCritic"]
+
+
+class ActorCritic(LinearTDAgent):
+    """A Gibbs actor over preferences ρ = ωᵀψ(s, a) with a SARSA-style critic (Algorithm 12).
+
+    Parameters
+    ----------
+    representation : Representation
+        The critic's features φ (binary or dense).
+    actor_representation : Representation or None, default None
+        The actor's features ψ (Eq. 2.33); ``None`` means the same features as the critic.
+    policy : Policy or None, default None
+        π^actor over the preferences; ``None`` means ``Gibbs(temperature=1.0)`` (Eq. 2.32;
+        τ = 1 as in Section 5.3.5).
+    step_size : float or StepSizeSchedule, default 0.1
+        The critic's α (line 8).
+    actor_step_size : float, StepSizeSchedule or None, default None
+        The actor's α (line 9); ``None`` means the same schedule as the critic.
+    initial_weight : float, default 0.0
+        The initial value of both θ and ω.
+
+    Attributes
+    ----------
+    weights_ : ndarray of shape (n_features, n_actions)
+        The critic's θ.
+    actor_weights_ : ndarray of shape (m_features, n_actions)
+        The actor's ω.
+
+    Notes
+    -----
+    Symbols: θ ``weights_``, ω ``actor_weights_``, φ the critic's features, ψ the actor's,
+    ρ(s, a) = ωᵀψ(s, a) the preferences, τ the Gibbs temperature, δ the critic's TD error.
+
+    - Lines 7-9: a' ~ π^actor(s'); δ = r + γQ(s', a') − Q(s, a); θ += αδφ(s, a);
+      ω += αδψ(s, a).
+    - Choice: θ and ω start at ``initial_weight`` (zero) where Algorithm 12 writes Random().
+    - Choice: the greedy action for policy checks maximises the actor's preferences, as the
+      thesis evaluated actor-critic learners (Section 5.3.5).
+    - Choice: with an adaptive critic representation only the critic discovers features.
+
+    Complexity
+    ----------
+    Θ(n|A| + m|A|) per step (Algorithm 12), k and k' active features when binary.
+
+    Examples
+    --------
+    >>> from conjure.domains import ChainMDP
+    >>> from conjure.experiments import run
+    >>> from conjure.representations import Tabular
+    >>> result = run(domain=ChainMDP(), agent=ActorCritic(representation=Tabular()),
+    ...              budget_steps=300, seed=2)
+    >>> int(result.curve["learning_steps"].iloc[-1])
+    300
+    """
+
+    parameter_constraints = {
+        **LinearTDAgent.parameter_constraints,
+        "actor_representation": InstanceOf(
+            (Representation, type(None)), "a Representation or None"
+        ),
+        "actor_step_size": STEP_SIZE | InstanceOf(type(None)),
+    }
+    default_policy = Gibbs
+    expected_check_failures = {
+        "check_converges_on_chain": "the critic evaluates the stochastic Gibbs actor "
+        "(Algorithm 12), not Q*; tests/agents/test_actor_critic.py checks the actor instead",
+    }
+
+    def __init__(
+        self,
+        *,
+        representation: Representation,
+        actor_representation: Representation | None = None,
+        policy: Policy | None = None,
+        step_size: float | StepSizeSchedule = 0.1,
+        actor_step_size: float | StepSizeSchedule | None = None,
+        initial_weight: float = 0.0,
+    ):
+        self.representation = representation
+        self.actor_representation = actor_representation
+        self.policy = policy
+        self.step_size = step_size
+        self.actor_step_size = actor_step_size
+        self.initial_weight = initial_weight
+
+    def setup(self, spec: DomainSpec, seed: int | np.random.SeedSequence) -> ActorCritic:
+        """Set up the critic as `LinearTDAgent.setup`, then the actor's features and ω."""
+        super().setup(spec, seed)
+        self._is_shared = self.actor_representation is None
+        if self._is_shared:
+            self.actor_representation_ = self.representation_
+        else:
+            self.actor_representation_ = self.actor_representation.clone().setup(
+                spec, self.seeds_["actor"]
+            )
+        actor = self.actor_representation_
+        self._encode_actor = actor.active_features if actor.is_binary else actor.feature_values
+        self._actor_values = (
+            _kernels.q_values_binary if actor.is_binary else _kernels.q_values_dense
+        )
+        self._actor_add = _kernels.add_binary if actor.is_binary else _kernels.add_dense
+        self._actor_is_binary = actor.is_binary
+        self.actor_schedule_ = (
+            self.schedule_ if self.actor_step_size is None else make_schedule(self.actor_step_size)
+        )
+        self.actor_weights_ = np.full((actor.num_features_, spec.num_actions), self.initial_weight)
+        return self
+
+    def act(
+        self, state: np.ndarray, greedy: bool = False, legal_actions: np.ndarray | None = None
+    ) -> int:
+        """Return a ~ π^actor(s), or argmax_a ρ(s, a) when ``greedy``."""
+        check_is_set_up(self, "act")
+        psi = self._encode_actor(state)
+        preferences = self._actor_values(self.actor_weights_, psi)
+        legal = self._all_actions if legal_actions is None else legal_actions
+        if greedy:
+            return int(greedy_action(preferences, legal))
+        self._remember(state, psi, None)
+        return int(self.policy_.select(preferences, self.rng_, legal))
+
+    def preferences(self, state: np.ndarray) -> np.ndarray:
+        """Return ρ(s, ·) = ωᵀψ(s, ·) (Eq. 2.33)."""
+        check_is_set_up(self, "preferences")
+        return self._actor_values(self.actor_weights_, self._encode_actor(state))
+
+    def learn(self, transition: Transition) -> float:
+        """Critic and actor updates of Algorithm 12, lines 6-9; returns δ."""
+        check_is_set_up(self, "learn")
+        psi = self._actor_features(transition.state)
+        phi = psi if self._is_shared else self._encode(transition.state)
+        target = transition.reward
+        if not transition.terminated:
+            target += self.discount_ * self._bootstrap(transition)  # line 6: Q⁺(s, a)
+        episode = max(self.episode_, 1)
+        step_size = self.schedule_.value(episode, self._norm(phi))
+        delta = self._update(phi, transition.action, target, step_size)  # lines 7-8
+        if np.isfinite(delta):
+            actor_step = self.actor_schedule_.value(episode, self._actor_norm(psi))
+            self._actor_add(self.actor_weights_, psi, transition.action, actor_step * delta)
+        self._after_update(transition, phi, delta)  # line 9 done above
+        return delta
+
+    def _bootstrap(self, transition: Transition) -> float:
+        next_phi = (
+            self._actor_features(transition.next_state)
+            if self._is_shared
+            else self._encode(transition.next_state)
+        )
+        return float(self._q_values(self.weights_, next_phi)[transition.next_action])
+
+    def _actor_features(self, state: np.ndarray) -> np.ndarray:
+        """ψ(s), from the act cache when possible."""
+        return self._cached_features(state, self._encode_actor)
+
+    def _actor_norm(self, psi: np.ndarray) -> float:
+        return float(psi.shape[0]) if self._actor_is_binary else float(np.abs(psi).sum())
+
+    def _state_arrays(self) -> dict[str, np.ndarray]:
+        arrays = super()._state_arrays()
+        arrays["actor_weights"] = self.actor_weights_
+        if not self._is_shared:
+            for key, value in self.actor_representation_.state_arrays().items():
+                arrays[f"actor_representation.{key}"] = value
+        return arrays
+
+    def _load_state(self, state: dict[str, Any], arrays: dict[str, np.ndarray]) -> None:
+        super()._load_state(state, arrays)
+        self.actor_weights_ = np.array(arrays["actor_weights"], dtype=np.float64)
+        if not self._is_shared:
+            prefix = "actor_representation."
+            self.actor_representation_.load_state_arrays(
+                {k[len(prefix) :]: v for k, v in arrays.items() if k.startswith(prefix)}
+            )

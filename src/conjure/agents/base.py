@@ -1,0 +1,254 @@
+"""Shared machinery of the linear online TD learners (Algorithms 10-12).
+
+`LinearTDAgent` holds θ (n_features × |A|), the representation, the policy, the step-size
+schedule, the episode counter and the generator; subclasses say how the bootstrap target
+Q⁺(s, a) is formed. ``act`` caches φ and Q of the states it saw so ``learn`` does not encode a
+state twice: per step the learners pay one feature activation, one Q evaluation and one update.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any, ClassVar
+
+import numpy as np
+
+from conjure.agents import _kernels, persistence
+from conjure.core.errors import DivergenceError, IncompatibleComponentsError
+from conjure.core.interfaces import (
+    Agent,
+    DomainSpec,
+    Expansion,
+    Policy,
+    Representation,
+    Transition,
+    check_is_set_up,
+)
+from conjure.core.params import InstanceOf, Interval
+from conjure.core.schedules import ConstantStepSize, StepSizeSchedule
+from conjure.core.seeding import make_rng, rng_from_state, rng_state, split_seed
+from conjure.policies import EpsilonGreedy, greedy_action
+from conjure.representations.weights import grow_weights
+
+__all__ = ["STEP_SIZE", "LinearTDAgent"]
+
+STEP_SIZE = Interval(float, 0, None, closed="neither") | InstanceOf(
+    StepSizeSchedule, "a StepSizeSchedule"
+)
+
+
+class LinearTDAgent(Agent):
+    """Base of the online learners with Q(s, a) = θᵀφ(s, a) (Eq. 2.11); not used directly."""
+
+    parameter_constraints = {
+        "representation": InstanceOf(Representation, "a Representation"),
+        "policy": InstanceOf((Policy, type(None)), "a Policy or None"),
+        "step_size": STEP_SIZE,
+        "initial_weight": Interval(float, None, None),
+    }
+    default_policy: ClassVar[type[Policy]] = EpsilonGreedy
+
+    # ------------------------------------------------------------------ lifecycle
+
+    def setup(self, spec: DomainSpec, seed: int | np.random.SeedSequence) -> LinearTDAgent:
+        """Validate parameters, set up the representation and build θ for ``spec``."""
+        self.validate_params()
+        seeds = split_seed(seed, ("representation", "policy", "actor"))
+        self.seeds_ = seeds
+        self.spec_ = spec
+        self.discount_ = float(spec.discount)
+        self.representation_ = self.representation.clone().setup(spec, seeds["representation"])
+        self.policy_ = (self.default_policy() if self.policy is None else self.policy).clone()
+        self.policy_.validate_params()
+        self.schedule_ = make_schedule(self.step_size)
+        self.rng_ = make_rng(seeds["policy"])
+        self.weights_ = np.full(
+            (self.representation_.num_features_, spec.num_actions),
+            float(self.initial_weight),
+        )
+        self.episode_ = 0
+        self.num_learning_steps_ = 0
+        self._all_actions = np.arange(spec.num_actions, dtype=np.int64)
+        self._bind_kernels(self.representation_)
+        self._forget_cache()
+        self.is_set_up_ = True
+        return self
+
+    def _bind_kernels(self, representation: Representation) -> None:
+        if representation.is_binary:
+            self._encode = representation.active_features
+            self._q_values = _kernels.q_values_binary
+            self._td_step = _kernels.td_step_binary
+        else:
+            self._encode = representation.feature_values
+            self._q_values = _kernels.q_values_dense
+            self._td_step = _kernels.td_step_dense
+        self._is_binary = representation.is_binary
+
+    def begin_episode(self) -> None:
+        """Count a new episode (the schedules' ``Episode #``)."""
+        check_is_set_up(self, "begin_episode")
+        self.episode_ += 1
+
+    @property
+    def num_features(self) -> int:
+        """Number of features of the representation now."""
+        check_is_set_up(self, "num_features")
+        return int(self.representation_.num_features_)
+
+    # ------------------------------------------------------------------ acting
+
+    def act(
+        self, state: np.ndarray, greedy: bool = False, legal_actions: np.ndarray | None = None
+    ) -> int:
+        """Return π^ε(s) (or the greedy action for policy checks, which draws no random number)."""
+        try:
+            encode = self._encode
+        except AttributeError:
+            check_is_set_up(self, "act")
+        phi = encode(state)
+        q = self._q_values(self.weights_, phi)
+        legal = self._all_actions if legal_actions is None else legal_actions
+        if greedy:
+            return int(greedy_action(q, legal))
+        self._remember(state, phi, q)
+        return int(self.policy_.select(q, self.rng_, legal))
+
+    def q_values(self, state: np.ndarray) -> np.ndarray:
+        """Return Q(s, ·) under the current weights."""
+        check_is_set_up(self, "q_values")
+        return self._q_values(self.weights_, self._encode(state))
+
+    # ------------------------------------------------------------------ learning
+
+    def learn(self, transition: Transition) -> float:
+        """One TD update from ``transition``; returns δ (Algorithm 10/11, lines 4-7)."""
+        check_is_set_up(self, "learn")
+        phi = self._features(transition.state)
+        target = transition.reward
+        if not transition.terminated:
+            target += self.discount_ * self._bootstrap(transition)  # line 5: Q⁺(s, a)
+        step_size = self.schedule_.value(max(self.episode_, 1), self._norm(phi))
+        delta = self._update(phi, transition.action, target, step_size)  # lines 6-7
+        self._after_update(transition, phi, delta)
+        return delta
+
+    def _bootstrap(self, transition: Transition) -> float:
+        """Return the estimate of the next state's value used in Q⁺(s, a)."""
+        raise NotImplementedError
+
+    def _update(self, phi: np.ndarray, action: int, target: float, step_size: float) -> float:
+        return self._td_step(self.weights_, phi, action, target, step_size)
+
+    def _after_update(self, transition: Transition, phi: np.ndarray, delta: float) -> None:
+        self.num_learning_steps_ += 1
+        self._weights_version += 1
+        if not math.isfinite(delta):
+            raise DivergenceError(
+                f"{type(self).__name__}: the TD error became {delta} at learning step "
+                f"{self.num_learning_steps_}; the weights diverged. Lower the step size "
+                f"(now {self.step_size!r}) or use a feature-normalised schedule."
+            )
+        if self.representation_.is_adaptive:
+            expansion = self.representation_.discover(phi, delta)
+            if expansion is not None and expansion.num_new:
+                self._grow(expansion)
+
+    def _grow(self, expansion: Expansion) -> None:
+        """Add rows for new features, θ_f = θ_g + θ_h (Section 4.1.1), and drop stale caches."""
+        self.weights_ = grow_weights(self.weights_, expansion)
+        self._forget_cache()
+
+    def _norm(self, phi: np.ndarray) -> float:
+        """k_t: the number of active features (the L1 norm of φ for dense features)."""
+        return float(phi.shape[0]) if self._is_binary else float(np.abs(phi).sum())
+
+    # ------------------------------------------------------------------ the act/learn cache
+
+    def _forget_cache(self) -> None:
+        self._weights_version = 0
+        self._last = (None, None, None, -1)
+        self._before_last = (None, None, None, -1)
+
+    def _remember(self, state: np.ndarray, phi: np.ndarray, q: np.ndarray) -> None:
+        self._before_last = self._last
+        self._last = (state, phi, q, self._weights_version)
+
+    def _features(self, state: np.ndarray) -> np.ndarray:
+        """φ(s), from the cache when ``act`` saw this very state object."""
+        return self._cached_features(state, self._encode)
+
+    def _cached_features(self, state: np.ndarray, encode: Any) -> np.ndarray:
+        if state is self._before_last[0]:
+            return self._before_last[1]
+        if state is self._last[0]:
+            return self._last[1]
+        return encode(state)
+
+    def _next_q_values(self, state: np.ndarray) -> np.ndarray:
+        """Q(s', ·) under the current weights, from the cache when still valid."""
+        state_, _, q, version = self._last
+        if state is state_ and version == self._weights_version:
+            return q
+        return self._q_values(self.weights_, self._features(state))
+
+    # ------------------------------------------------------------------ persistence
+
+    def save(self, path: str | Path) -> Path:
+        """Write the agent to directory ``path``; see `conjure.agents.persistence`."""
+        check_is_set_up(self, "save")
+        arrays = {f"representation.{k}": v for k, v in self.representation_.state_arrays().items()}
+        arrays.update(self._state_arrays())
+        metadata = {
+            "component": persistence.component_to_dict(self),
+            "spec": self.spec_.to_dict(),
+            "state": self._state_metadata(),
+        }
+        return persistence.write(path, metadata, arrays)
+
+    @classmethod
+    def restore(cls, path: str | Path) -> LinearTDAgent:
+        """Load an agent written by `save`; it continues exactly as if never saved."""
+        document, arrays = persistence.read(path)
+        agent = persistence.component_from_dict(document["component"])
+        if not isinstance(agent, cls):
+            raise IncompatibleComponentsError(
+                f"{str(path)!r} holds a {type(agent).__name__}, not a {cls.__name__}."
+            )
+        agent.setup(DomainSpec.from_dict(document["spec"]), seed=0)
+        prefix = "representation."
+        agent.representation_.load_state_arrays(
+            {k[len(prefix) :]: v for k, v in arrays.items() if k.startswith(prefix)}
+        )
+        agent._bind_kernels(agent.representation_)
+        agent._load_state(document["state"], arrays)
+        return agent
+
+    def _state_metadata(self) -> dict[str, Any]:
+        return {
+            "episode": self.episode_,
+            "num_learning_steps": self.num_learning_steps_,
+            "rng": rng_state(self.rng_),
+        }
+
+    def _state_arrays(self) -> dict[str, np.ndarray]:
+        return {"weights": self.weights_}
+
+    def _load_state(self, state: dict[str, Any], arrays: dict[str, np.ndarray]) -> None:
+        self.episode_ = int(state["episode"])
+        self.num_learning_steps_ = int(state["num_learning_steps"])
+        self.rng_ = rng_from_state(state["rng"])
+        self.weights_ = np.array(arrays["weights"], dtype=np.float64)
+        self._forget_cache()
+
+
+def make_schedule(step_size: float | StepSizeSchedule) -> StepSizeSchedule:
+    """Return a validated schedule: a float α becomes `ConstantStepSize` (α)."""
+    schedule = (
+        step_size.clone()
+        if isinstance(step_size, StepSizeSchedule)
+        else ConstantStepSize(alpha_0=float(step_size))
+    )
+    schedule.validate_params()
+    return schedule

@@ -1,0 +1,75 @@
+"""Q-Learning, Geramifard (2012), Algorithm 10 (Watkins 1992)."""
+
+from __future__ import annotations
+
+from conjure.agents.base import LinearTDAgent
+from conjure.core.interfaces import Policy, Representation, Transition
+from conjure.core.schedules import StepSizeSchedule
+
+__all__ = ["QLearning"]
+
+
+class QLearning(LinearTDAgent):
+    """Off-policy TD control: Q⁺(s, a) = r + γ max_a' Q(s', a') (Algorithm 10).
+
+    Parameters
+    ----------
+    representation : Representation
+        φ: binary (sparse indices) or dense (e.g. Gaussian RBF).
+    policy : Policy or None, default None
+        The behaviour policy π^ε; ``None`` means ``EpsilonGreedy(epsilon=0.1)``.
+    step_size : float or StepSizeSchedule, default 0.1
+        α in (0, inf), or a schedule (Sections 4.1.4 and 5.3.5).
+    initial_weight : float, default 0.0
+        θ's initial value.
+
+    Attributes
+    ----------
+    weights_ : ndarray of shape (n_features, n_actions)
+        θ; row f holds feature f's weight for every action (Eq. 2.11).
+    representation_ : Representation
+        The set-up copy of ``representation``.
+
+    Notes
+    -----
+    Symbols: θ ``weights_``, φ(s) the representation's features, α ``step_size``, δ the value
+    ``learn`` returns.
+
+    - Choice: θ starts at ``initial_weight`` (zero) where Algorithm 10 writes θ ← Random().
+    - Choice: the max in line 5 runs over the legal actions of s' when the domain constrains
+      actions (``Transition.next_legal_actions``).
+    - Q-Learning may diverge with function approximation (Section 2.6.1); ``learn`` raises
+      `DivergenceError` as soon as δ is not finite.
+
+    Complexity
+    ----------
+    Θ(k|A|) per step for k active features (Algorithm 10).
+
+    Examples
+    --------
+    >>> from conjure.domains import ChainMDP
+    >>> from conjure.experiments import run
+    >>> from conjure.representations import Tabular
+    >>> result = run(domain=ChainMDP(), agent=QLearning(representation=Tabular()),
+    ...              budget_steps=300, seed=1)
+    >>> int(result.curve["learning_steps"].iloc[-1])
+    300
+    """
+
+    def __init__(
+        self,
+        *,
+        representation: Representation,
+        policy: Policy | None = None,
+        step_size: float | StepSizeSchedule = 0.1,
+        initial_weight: float = 0.0,
+    ):
+        self.representation = representation
+        self.policy = policy
+        self.step_size = step_size
+        self.initial_weight = initial_weight
+
+    def _bootstrap(self, transition: Transition) -> float:
+        q_next = self._next_q_values(transition.next_state)
+        legal = transition.next_legal_actions
+        return float(q_next.max() if legal is None else q_next[legal].max())  # max_a' Q(s', a')

@@ -1,0 +1,216 @@
+"""SARSA and SARSA(λ), Geramifard (2012), Algorithm 11 (Rummery and Niranjan 1994)."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from conjure.agents import _kernels
+from conjure.agents.base import LinearTDAgent
+from conjure.core.interfaces import DomainSpec, Expansion, Policy, Representation, Transition
+from conjure.core.params import Interval, Options
+from conjure.core.schedules import StepSizeSchedule
+
+__all__ = ["SARSA"]
+
+
+class SARSA(LinearTDAgent):
+    """On-policy TD control: Q⁺(s, a) = r + γ Q(s', a') with a' = π^ε(s') (Algorithm 11).
+
+    Parameters
+    ----------
+    representation : Representation
+        φ: binary (sparse indices) or dense (e.g. Gaussian RBF).
+    policy : Policy or None, default None
+        The behaviour policy π^ε; ``None`` means ``EpsilonGreedy(epsilon=0.1)`` (Section 4.1.4).
+    step_size : float or StepSizeSchedule, default 0.1
+        α in (0, inf), or a schedule such as `FeatureNormalizedDecay` (Section 4.1.4).
+    trace_decay : float, default 0.0
+        λ in [0, 1]; 0 is Algorithm 11 as written, > 0 adds eligibility traces (SARSA(λ)).
+    trace_kind : {"replacing", "accumulating"}, default "replacing"
+        How binary features' traces are refreshed; dense features always accumulate.
+    min_trace : float, default 1e-3
+        Traces that decay below this are dropped, in (0, 1).
+    initial_weight : float, default 0.0
+        θ's initial value.
+
+    Attributes
+    ----------
+    weights_ : ndarray of shape (n_features, n_actions)
+        θ; row f holds feature f's weight for every action (φ(s, a) of Eq. 2.11).
+    representation_ : Representation
+        The set-up copy of ``representation``.
+    episode_ : int
+        Episodes begun, the schedules' ``Episode #``.
+
+    Notes
+    -----
+    Symbols: θ ``weights_``, φ(s) ``representation_.active_features``, α ``step_size``,
+    δ the TD error returned by ``learn``, λ ``trace_decay``, γ the domain's discount.
+
+    - Choice: θ starts at ``initial_weight`` (zero by default) where Algorithm 11 writes
+      θ ← Random(); zero keeps runs comparable and Q finite from the first step.
+    - Choice: with traces, binary features use replacing traces by default (Singh and Sutton
+      1996); traces are cleared at the start of each episode and stored sparsely, so a step
+      costs Θ(number of live traces), never Θ(n).
+
+    Complexity
+    ----------
+    Θ(k|A|) per step for k active features (Algorithm 11: Θ(n|A|) with dense φ).
+
+    Examples
+    --------
+    >>> from conjure.domains import ChainMDP
+    >>> from conjure.experiments import run
+    >>> from conjure.representations import Tabular
+    >>> agent = SARSA(representation=Tabular(), step_size=0.5)
+    >>> result = run(domain=ChainMDP(), agent=agent, budget_steps=500, seed=0)
+    >>> int(result.curve["learning_steps"].iloc[-1])
+    500
+    """
+
+    parameter_constraints = {
+        **LinearTDAgent.parameter_constraints,
+        "trace_decay": Interval(float, 0, 1),
+        "trace_kind": Options(("replacing", "accumulating")),
+        "min_trace": Interval(float, 0, 1, closed="neither"),
+    }
+
+    def __init__(
+        self,
+        *,
+        representation: Representation,
+        policy: Policy | None = None,
+        step_size: float | StepSizeSchedule = 0.1,
+        trace_decay: float = 0.0,
+        trace_kind: str = "replacing",
+        min_trace: float = 1e-3,
+        initial_weight: float = 0.0,
+    ):
+        self.representation = representation
+        self.policy = policy
+        self.step_size = step_size
+        self.trace_decay = trace_decay
+        self.trace_kind = trace_kind
+        self.min_trace = min_trace
+        self.initial_weight = initial_weight
+
+    def setup(self, spec: DomainSpec, seed: int | np.random.SeedSequence) -> SARSA:
+        """Set up as `LinearTDAgent.setup`, plus the eligibility traces when λ > 0."""
+        super().setup(spec, seed)
+        self._has_traces = self.trace_decay > 0
+        if self._has_traces:
+            self._trace_factor = self.discount_ * self.trace_decay
+            self._make_traces()
+        return self
+
+    def _bootstrap(self, transition: Transition) -> float:
+        return self._next_q_values(transition.next_state)[transition.next_action]  # Q(s', a')
+
+    # ------------------------------------------------------------------ eligibility traces
+
+    def _make_traces(self) -> None:
+        n, num_actions = self.weights_.shape
+        if self._is_binary:
+            self.trace_slots_ = np.full((n, num_actions), -1, dtype=np.int64)
+            capacity = 1024
+            self.trace_features_ = np.zeros(capacity, dtype=np.int64)
+            self.trace_actions_ = np.zeros(capacity, dtype=np.int64)
+            self.trace_values_ = np.zeros(capacity)
+            self.trace_count_ = np.zeros(1, dtype=np.int64)
+        else:
+            self.traces_ = np.zeros((n, num_actions))
+
+    def begin_episode(self) -> None:
+        """Count a new episode and clear the eligibility traces."""
+        super().begin_episode()
+        if self._has_traces:
+            self._clear_traces()
+
+    def _clear_traces(self) -> None:
+        if self._is_binary:
+            _kernels.clear_traces(
+                self.trace_slots_, self.trace_features_, self.trace_actions_, self.trace_count_
+            )
+        else:
+            self.traces_[:] = 0.0
+
+    def _update(self, phi: np.ndarray, action: int, target: float, step_size: float) -> float:
+        if not self._has_traces:
+            return self._td_step(self.weights_, phi, action, target, step_size)
+        if not self._is_binary:
+            return _kernels.td_step_traces_dense(
+                self.weights_, phi, action, target, step_size, self._trace_factor, self.traces_
+            )
+        while True:
+            delta = _kernels.td_step_traces_binary(
+                self.weights_,
+                phi,
+                action,
+                target,
+                step_size,
+                self._trace_factor,
+                self.trace_kind == "replacing",
+                self.min_trace,
+                self.trace_slots_,
+                self.trace_features_,
+                self.trace_actions_,
+                self.trace_values_,
+                self.trace_count_,
+            )
+            if not np.isnan(delta):
+                return delta
+            self._grow_trace_capacity()
+
+    def _grow_trace_capacity(self) -> None:
+        extra = self.trace_values_.shape[0]
+        self.trace_features_ = np.concatenate([self.trace_features_, np.zeros(extra, np.int64)])
+        self.trace_actions_ = np.concatenate([self.trace_actions_, np.zeros(extra, np.int64)])
+        self.trace_values_ = np.concatenate([self.trace_values_, np.zeros(extra)])
+
+    def _after_update(self, transition: Transition, phi: np.ndarray, delta: float) -> None:
+        super()._after_update(transition, phi, delta)
+        if self._has_traces and transition.terminated:
+            self._clear_traces()
+
+    def _grow(self, expansion: Expansion) -> None:
+        super()._grow(expansion)
+        if not self._has_traces:
+            return
+        new_rows = (expansion.num_new, self.weights_.shape[1])
+        if self._is_binary:
+            self.trace_slots_ = np.vstack([self.trace_slots_, np.full(new_rows, -1, np.int64)])
+        else:
+            self.traces_ = np.vstack([self.traces_, np.zeros(new_rows)])
+
+    # ------------------------------------------------------------------ persistence
+
+    def _state_arrays(self) -> dict[str, np.ndarray]:
+        arrays = super()._state_arrays()
+        if self._has_traces and self._is_binary:
+            count = int(self.trace_count_[0])
+            arrays["trace_features"] = self.trace_features_[:count]
+            arrays["trace_actions"] = self.trace_actions_[:count]
+            arrays["trace_values"] = self.trace_values_[:count]
+        elif self._has_traces:
+            arrays["traces"] = self.traces_
+        return arrays
+
+    def _load_state(self, state: dict[str, Any], arrays: dict[str, np.ndarray]) -> None:
+        super()._load_state(state, arrays)
+        if not self._has_traces:
+            return
+        self._make_traces()
+        if not self._is_binary:
+            self.traces_[:] = arrays["traces"]
+            return
+        features, actions = arrays["trace_features"], arrays["trace_actions"]
+        count = features.shape[0]
+        while self.trace_values_.shape[0] < count:
+            self._grow_trace_capacity()
+        self.trace_features_[:count] = features
+        self.trace_actions_[:count] = actions
+        self.trace_values_[:count] = arrays["trace_values"]
+        self.trace_slots_[features, actions] = np.arange(count)
+        self.trace_count_[0] = count

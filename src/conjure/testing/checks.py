@@ -1,0 +1,408 @@
+"""Common checks every conjure component must pass, shipped for users' own components.
+
+Like Gymnasium's ``check_env`` and scikit-learn's ``check_estimator``: call
+``check_component(instance)`` (or a single ``check_*``) on a domain, representation, policy or
+agent. Each check raises ``AssertionError`` with a message saying what broke. A class may
+declare known exceptions as ``expected_check_failures = {"check_name": "reason"}``.
+"""
+
+from __future__ import annotations
+
+import copy
+import pickle
+import tempfile
+import warnings
+from collections.abc import Callable, Iterator
+from typing import Any
+
+import numpy as np
+from gymnasium.utils.env_checker import check_env
+
+from conjure.core.errors import InvalidParameterError, NotSetUpError
+from conjure.core.interfaces import Agent, Domain, DomainSpec, Policy, Representation, Transition
+from conjure.core.params import Configurable
+from conjure.core.seeding import make_rng
+
+__all__ = [
+    "applicable_checks",
+    "check_component",
+    "sample_states",
+]
+
+Check = Callable[[Any], None]
+_BAD_VALUE = "not-a-valid-value"
+
+
+# ------------------------------------------------------------------------------ helpers
+
+
+def sample_states(spec: DomainSpec, num_states: int, seed: int = 0) -> np.ndarray:
+    """Draw states uniformly within the spec's bounds (discrete dimensions rounded)."""
+    rng = make_rng(seed)
+    states = rng.uniform(spec.low, spec.high, size=(num_states, spec.num_dims))
+    states[:, spec.is_discrete] = np.round(states[:, spec.is_discrete])
+    return states
+
+
+def _chain_spec(num_states: int = 4) -> DomainSpec:
+    return DomainSpec(
+        name="checks",
+        low=[0.0, -1.0],
+        high=[num_states - 1.0, 1.0],
+        is_discrete=[True, False],
+        num_actions=2,
+        discount=0.9,
+        max_episode_steps=50,
+    )
+
+
+def _rollout(domain: Domain, agent: Agent, num_steps: int, seed: int) -> None:
+    """A minimal learning loop (the experiments layer's loop is not importable here)."""
+    spec = domain.domain_spec
+    steps, episode = 0, 0
+    while steps < num_steps:
+        state, _ = domain.reset(seed=seed + episode)
+        episode += 1
+        agent.begin_episode()
+        action = agent.act(state)
+        for _ in range(spec.max_episode_steps):
+            next_state, reward, terminated, truncated, _ = domain.step(action)
+            next_action = 0 if terminated else agent.act(next_state)
+            agent.learn(Transition(state, action, reward, next_state, next_action, terminated))
+            steps += 1
+            if terminated or truncated or steps >= num_steps:
+                break
+            state, action = next_state, next_action
+
+
+def _check_domain_for(agent: Agent) -> Domain:
+    from conjure.domains import ChainMDP
+
+    return ChainMDP(num_states=4, num_actions=2, slip=0.1)
+
+
+# ------------------------------------------------------------------------------ all components
+
+
+def check_constructor_only_stores(component: Configurable) -> None:
+    """The constructor stores each parameter unchanged and builds no learned state."""
+    params = component.get_params()
+    rebuilt = type(component)(**params)
+    for name, value in params.items():
+        assert getattr(rebuilt, name) is value, (
+            f"{type(component).__name__}.__init__ changed parameter {name!r}; "
+            f"constructors must store parameters unchanged."
+        )
+    if not isinstance(component, Domain):
+        learned = [key for key in vars(rebuilt) if key.endswith("_")]
+        assert not learned, f"{type(component).__name__}.__init__ set learned state {learned}."
+
+
+def check_clone(component: Configurable) -> None:
+    """``clone`` returns an equal, distinct component that is not set up."""
+    twin = component.clone()
+    assert twin is not component and twin == component, "clone() must return an equal copy."
+    assert not getattr(twin, "is_set_up_", False), "clone() must return a component not set up."
+
+
+def check_params_round_trip(component: Configurable) -> None:
+    """``set_params(**get_params())`` leaves the parameters unchanged."""
+    before = component.get_params()
+    twin = component.clone()
+    twin.set_params(**before)
+    assert twin == component, "set_params(**get_params()) changed the component."
+
+
+def check_bad_params_raise(component: Configurable) -> None:
+    """Each declared parameter rejects a nonsense value with `InvalidParameterError`."""
+    for name, constraint in component.parameter_constraints.items():
+        if constraint.is_satisfied_by(_BAD_VALUE):
+            continue
+        params = {**component.clone().get_params(), name: _BAD_VALUE}
+        try:
+            candidate = type(component)(**params)
+            _validate(candidate)
+        except InvalidParameterError as error:
+            assert name in str(error), f"The error for a bad {name!r} must name it: {error}"
+        else:
+            raise AssertionError(f"{type(component).__name__} accepted {name}={_BAD_VALUE!r}.")
+
+
+def _validate(component: Configurable) -> None:
+    if isinstance(component, Representation):
+        component.setup(_chain_spec(), seed=0)
+    elif isinstance(component, Agent):
+        component.setup(_check_domain_for(component).domain_spec, seed=0)
+    else:
+        component.validate_params()
+
+
+def check_global_rng_untouched(component: Configurable) -> None:
+    """Using the component never touches numpy's global random state."""
+    before = np.random.get_state()  # noqa: NPY002 (checking that nobody uses it)
+    _exercise(component)
+    after = np.random.get_state()  # noqa: NPY002
+    assert (
+        before[0] == after[0] and np.array_equal(before[1], after[1]) and (before[2:] == after[2:])
+    ), f"{type(component).__name__} used numpy's global random state."
+
+
+def _exercise(component: Configurable) -> None:
+    if isinstance(component, Domain):
+        _domain_rollout(component, seed=3, num_steps=30)
+    elif isinstance(component, Representation):
+        spec = _chain_spec()
+        representation = component.clone().setup(spec, seed=0)
+        for state in sample_states(spec, 20):
+            _features(representation, state)
+    elif isinstance(component, Policy):
+        rng = make_rng(0)
+        for _ in range(20):
+            component.select(np.array([0.0, 1.0, 1.0]), rng, np.arange(3))
+    elif isinstance(component, Agent):
+        domain = _check_domain_for(component)
+        agent = component.clone().setup(domain.domain_spec, seed=0)
+        _rollout(domain, agent, 50, seed=0)
+
+
+# ------------------------------------------------------------------------------ domains
+
+
+def _domain_rollout(domain: Domain, seed: int, num_steps: int) -> list[tuple]:
+    records = []
+    observation, _ = domain.reset(seed=seed)
+    action_rng = make_rng(seed)
+    records.append(("reset", observation.tolist()))
+    for _ in range(num_steps):
+        legal = domain.legal_actions(observation)
+        action = int(legal[action_rng.integers(legal.shape[0])])
+        observation, reward, terminated, truncated, _ = domain.step(action)
+        records.append((action, observation.tolist(), float(reward), terminated, truncated))
+        if terminated or truncated:
+            observation, _ = domain.reset()
+            records.append(("reset", observation.tolist()))
+    return records
+
+
+def check_gymnasium_env(domain: Domain) -> None:
+    """Gymnasium's ``check_env`` passes with its warnings turned into errors."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        check_env(domain.unwrapped, skip_render_check=True)
+
+
+def check_seeded_rollout(domain: Domain) -> None:
+    """The same seed gives the same rollout; the spec matches the spaces."""
+    first = _domain_rollout(domain, seed=11, num_steps=60)
+    second = _domain_rollout(domain.clone(), seed=11, num_steps=60)
+    assert first == second, "The same seed gave different rollouts."
+    spec = domain.domain_spec
+    assert spec.num_actions == domain.action_space.n, "domain_spec.num_actions != action_space.n"
+    assert spec.num_dims == domain.observation_space.shape[0], "domain_spec dims != observations"
+
+
+def check_pickle_round_trip(domain: Domain) -> None:
+    """A pickled and restored domain continues the same rollout."""
+    domain.reset(seed=5)
+    twin = pickle.loads(pickle.dumps(domain))
+    legal = domain.legal_actions(domain.reset(seed=5)[0])
+    twin.reset(seed=5)
+    action = int(legal[0])
+    first, second = domain.step(action), twin.step(action)
+    assert np.array_equal(first[0], second[0]) and first[1:4] == second[1:4], (
+        "A pickled domain stepped differently from the original."
+    )
+
+
+# ------------------------------------------------------------------------------ representations
+
+
+def _features(representation: Representation, state: np.ndarray) -> np.ndarray:
+    if representation.is_binary:
+        return representation.active_features(state)
+    return representation.feature_values(state)
+
+
+def check_features_valid(representation: Representation) -> None:
+    """φ(s) is sorted unique int64 indices in range (binary) or finite floats (dense)."""
+    spec = _chain_spec()
+    rep = representation.clone().setup(spec, seed=0)
+    assert rep.num_features_ > 0, "A set-up representation needs at least one feature."
+    for state in sample_states(spec, 200):
+        phi = _features(rep, state)
+        if rep.is_binary:
+            assert phi.dtype == np.int64, f"active_features must be int64; got {phi.dtype}"
+            assert phi.size > 0, "Every state needs at least one active feature."
+            assert np.all(np.diff(phi) > 0), f"Active features not sorted and unique: {phi}"
+            assert phi[0] >= 0 and phi[-1] < rep.num_features_, f"Index out of range: {phi}"
+        else:
+            assert phi.shape == (rep.num_features_,) and np.all(np.isfinite(phi))
+        assert np.array_equal(phi, _features(rep, state.copy())), "φ(s) is not deterministic."
+
+
+def check_wrong_state_shape_raises(representation: Representation) -> None:
+    """A state from another space raises `InvalidParameterError` naming the shape."""
+    rep = representation.clone().setup(_chain_spec(), seed=0)
+    try:
+        _features(rep, np.zeros(5))
+    except InvalidParameterError as error:
+        assert "(5,)" in str(error), f"The error must name the bad shape: {error}"
+    else:
+        raise AssertionError("A 5-D state was accepted by a representation set up for 2-D.")
+
+
+def check_not_set_up_raises(component: Representation | Agent) -> None:
+    """Using a component before ``setup`` raises `NotSetUpError`."""
+    fresh = component.clone()
+    if isinstance(fresh, Representation):
+        calls = [lambda: _features(fresh, np.zeros(2))]
+    else:
+        state = np.zeros(1)
+        calls = [
+            lambda: fresh.act(state),
+            lambda: fresh.learn(Transition(state, 0, 0.0, state, 0, False)),
+        ]
+    for call in calls:
+        try:
+            call()
+        except NotSetUpError:
+            continue
+        raise AssertionError(f"{type(fresh).__name__} did not raise NotSetUpError before setup.")
+
+
+def check_representation_state_round_trip(representation: Representation) -> None:
+    """``state_arrays`` then ``load_state_arrays`` into a fresh copy preserves φ."""
+    spec = _chain_spec()
+    rep = representation.clone().setup(spec, seed=1)
+    states = sample_states(spec, 100, seed=2)
+    expected = [_features(rep, state) for state in states]
+    twin = representation.clone().setup(spec, seed=99)
+    twin.load_state_arrays(copy.deepcopy(rep.state_arrays()))
+    for state, phi in zip(states, expected, strict=True):
+        assert np.array_equal(_features(twin, state), phi), "Restored φ differs."
+
+
+# ------------------------------------------------------------------------------ policies
+
+
+def check_policy_probabilities(policy: Policy) -> None:
+    """Probabilities sum to one, are zero on illegal actions and match sampled frequencies."""
+    values = np.array([0.5, 1.0, -2.0, 1.0])
+    legal = np.array([0, 1, 3])
+    probs = policy.probabilities(values, legal)
+    assert np.isclose(probs.sum(), 1.0) and probs[2] == 0.0, f"Bad probabilities {probs}"
+    rng = make_rng(0)
+    counts = np.bincount([policy.select(values, rng, legal) for _ in range(4000)], minlength=4)
+    assert np.allclose(counts / 4000, probs, atol=0.03), f"Sampled {counts / 4000} vs {probs}"
+
+
+# ------------------------------------------------------------------------------ agents
+
+
+def _trained(agent: Agent, num_steps: int, seed: int) -> tuple[Agent, Domain]:
+    domain = _check_domain_for(agent)
+    learner = agent.clone().setup(domain.domain_spec, seed=seed)
+    _rollout(domain, learner, num_steps, seed=seed)
+    return learner, domain
+
+
+def check_actions_in_space(agent: Agent) -> None:
+    """Every action lies in the action space, exploratory or greedy."""
+    learner, domain = _trained(agent, 100, seed=0)
+    n = domain.domain_spec.num_actions
+    for state in sample_states(domain.domain_spec, 50):
+        for greedy in (False, True):
+            action = learner.act(state, greedy=greedy)
+            assert isinstance(action, int) and 0 <= action < n, f"Bad action {action!r}"
+
+
+def check_agent_determinism(agent: Agent) -> None:
+    """The same seed gives identical weights; the weights stay finite."""
+    first, _ = _trained(agent, 300, seed=4)
+    second, _ = _trained(agent, 300, seed=4)
+    for name, value in vars(first).items():
+        if name.endswith("weights_"):
+            assert np.array_equal(value, getattr(second, name)), f"{name} differs for one seed."
+            assert np.all(np.isfinite(value)), f"{name} is not finite."
+
+
+def check_save_restore_continues(agent: Agent) -> None:
+    """N steps, save, restore, N more steps equals 2N straight steps."""
+    domain = _check_domain_for(agent)
+    straight = agent.clone().setup(domain.domain_spec, seed=8)
+    _rollout(domain, straight, 200, seed=8)
+    _rollout(domain, straight, 200, seed=9)
+
+    halves = agent.clone().setup(domain.domain_spec, seed=8)
+    _rollout(domain, halves, 200, seed=8)
+    with tempfile.TemporaryDirectory() as directory:
+        halves.save(directory)
+        resumed = type(halves).restore(directory)
+    _rollout(domain, resumed, 200, seed=9)
+    for name, value in vars(straight).items():
+        if name.endswith("weights_"):
+            assert np.array_equal(value, getattr(resumed, name)), f"{name} differs after restore."
+
+
+def check_converges_on_chain(agent: Agent) -> None:
+    """On a 2-state chain (γ = 0.9, reward 1 for moving right) Q(0, ·) nears Q* = (1, 0.9).
+
+    Slow (a few thousand steps); the tests mark it. Tolerance 0.05 covers SARSA's ε-greedy
+    fixed point, Q(0, stay) = 0.895.
+    """
+    from conjure.domains import ChainMDP
+
+    domain = ChainMDP(num_states=2, num_actions=2)
+    learner = agent.clone().setup(domain.domain_spec, seed=0)
+    _rollout(domain, learner, 4000, seed=0)
+    q = learner.q_values(np.zeros(1))
+    assert np.allclose(q, [1.0, 0.9], atol=0.05), f"Q(0, ·) = {q}, expected about [1, 0.9]."
+
+
+# ------------------------------------------------------------------------------ entry points
+
+_CHECKS: dict[type, tuple[Check, ...]] = {
+    Configurable: (
+        check_constructor_only_stores,
+        check_clone,
+        check_params_round_trip,
+        check_bad_params_raise,
+        check_global_rng_untouched,
+    ),
+    Domain: (check_gymnasium_env, check_seeded_rollout, check_pickle_round_trip),
+    Representation: (
+        check_features_valid,
+        check_wrong_state_shape_raises,
+        check_not_set_up_raises,
+        check_representation_state_round_trip,
+    ),
+    Policy: (check_policy_probabilities,),
+    Agent: (
+        check_not_set_up_raises,
+        check_actions_in_space,
+        check_agent_determinism,
+        check_save_restore_continues,
+    ),
+}
+SLOW_CHECKS = (check_converges_on_chain,)
+
+
+def applicable_checks(component: Configurable, slow: bool = False) -> Iterator[Check]:
+    """Yield every check that applies to ``component``, minus its declared exceptions.
+
+    With ``slow``, yield only the slow learning checks (for agents).
+    """
+    skipped = getattr(component, "expected_check_failures", {})
+    if slow:
+        candidates = SLOW_CHECKS if isinstance(component, Agent) else ()
+    else:
+        candidates = [c for kind, cs in _CHECKS.items() if isinstance(component, kind) for c in cs]
+    for check in candidates:
+        if check.__name__ not in skipped:
+            yield check
+
+
+def check_component(component: Configurable, slow: bool = False) -> None:
+    """Run every applicable check on ``component``; raise on the first failure."""
+    for check in applicable_checks(component, slow=slow):
+        check(component)

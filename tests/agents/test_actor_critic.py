@@ -1,0 +1,42 @@
+import numpy as np
+import pytest
+
+from conjure.agents import ActorCritic
+from conjure.core import Transition
+from conjure.domains import ChainMDP, InvertedPendulum
+from conjure.policies import Gibbs
+from conjure.representations import RBF, IndependentDiscretization, Tabular
+from conjure.testing.checks import _rollout
+
+
+def test_one_update_moves_critic_and_actor_by_alpha_delta():
+    domain = ChainMDP(num_states=4, num_actions=2)
+    agent = ActorCritic(representation=Tabular(), step_size=0.5, actor_step_size=0.25)
+    agent.setup(domain.domain_spec, seed=0)
+    agent.begin_episode()
+    s = np.array([2.0])
+    delta = agent.learn(Transition(s, 0, 1.0, np.array([3.0]), 0, True))
+    assert delta == pytest.approx(1.0)
+    assert agent.q_values(s)[0] == pytest.approx(0.5)  # θ += α δ φ(s, a), line 8
+    assert agent.preferences(s)[0] == pytest.approx(0.25)  # ω += α δ ψ(s, a), line 9
+    assert agent.preferences(s)[1] == 0.0
+
+
+def test_actor_learns_to_prefer_moving_right():
+    domain = ChainMDP(num_states=4, num_actions=2)
+    agent = ActorCritic(representation=Tabular(), policy=Gibbs(temperature=0.5), step_size=0.2)
+    agent.setup(domain.domain_spec, seed=1)
+    _rollout(domain, agent, 5000, seed=1)
+    for s in range(3):
+        assert agent.act(np.array([float(s)]), greedy=True) == 0
+        assert np.argmax(agent.preferences(np.array([float(s)]))) == 0
+
+
+def test_separate_dense_actor_features_work():
+    domain = InvertedPendulum()
+    agent = ActorCritic(
+        representation=IndependentDiscretization(), actor_representation=RBF(), step_size=0.05
+    ).setup(domain.domain_spec, seed=0)
+    _rollout(domain, agent, 300, seed=0)
+    assert agent.actor_weights_.shape == (agent.actor_representation_.num_features_, 3)
+    assert np.all(np.isfinite(agent.actor_weights_)) and np.abs(agent.actor_weights_).sum() > 0

@@ -1,0 +1,57 @@
+"""Every registered component against every applicable common check (STYLE §6)."""
+
+import inspect
+
+import pytest
+
+from conjure.agents import SARSA, ActorCritic, QLearning
+from conjure.domains import GridWorld
+from conjure.experiments.registry import LAYERS
+from conjure.representations import RBF, Tabular, TileCoding
+from conjure.testing import applicable_checks
+
+#: Values for required constructor parameters, by parameter name.
+REQUIRED = {"representation": lambda: Tabular(num_buckets=5), "env_id": lambda: "CartPole-v1"}
+
+#: Variants beyond each registered class's defaults.
+VARIANTS = [
+    SARSA(representation=TileCoding(num_tilings=4, tiles_per_dim=4), trace_decay=0.8),
+    SARSA(representation=TileCoding(num_tilings=3, tiles_per_dim=4, memory_size=64)),
+    QLearning(representation=RBF()),
+    ActorCritic(representation=Tabular(), actor_representation=RBF()),
+    GridWorld(map_name="gridworld2", step_reward=-0.01, noise=0.2),
+    TileCoding(num_tilings=2, tiles_per_dim=3, dimension_groups=[[0], [1], [0, 1]]),
+]
+
+
+def example(cls):
+    params = {}
+    for name, parameter in inspect.signature(cls.__init__).parameters.items():
+        if name != "self" and parameter.default is inspect.Parameter.empty:
+            params[name] = REQUIRED[name]()
+    return cls(**params)
+
+
+COMPONENTS = [example(cls) for registry in LAYERS.values() for cls in registry.values()]
+COMPONENTS += VARIANTS
+CASES = [
+    pytest.param(component, check, id=f"{component!r}-{check.__name__}")
+    for component in COMPONENTS
+    for check in applicable_checks(component)
+]
+SLOW_CASES = [
+    pytest.param(component, check, id=f"{component!r}-{check.__name__}")
+    for component in COMPONENTS
+    for check in applicable_checks(component, slow=True)
+]
+
+
+@pytest.mark.parametrize(("component", "check"), CASES)
+def test_common_check(component, check):
+    check(component)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(("component", "check"), SLOW_CASES)
+def test_slow_common_check(component, check):
+    check(component)

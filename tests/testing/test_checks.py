@@ -1,0 +1,63 @@
+"""The shipped checks catch the defects they exist for."""
+
+import numpy as np
+import pytest
+
+from conjure.core import Representation
+from conjure.core.params import Interval
+from conjure.representations import Tabular
+from conjure.testing import applicable_checks, check_component, checks
+
+
+class Unsorted(Representation):
+    """Section 0: a deliberately broken representation."""
+
+    def __init__(self, *, num_buckets: int = 4):
+        self.num_buckets = num_buckets
+
+    def setup(self, spec, seed):
+        self.spec_, self.num_features_, self.is_set_up_ = spec, 8, True
+        return self
+
+    def active_features(self, state):
+        return np.array([5, 1], dtype=np.int64)
+
+
+class Meddling(Tabular):
+    """A constructor that changes its parameter, and a setup that uses global random state."""
+
+    parameter_constraints = {"num_buckets": Interval(int, 1, None)}
+
+    def __init__(self, *, num_buckets: int = 4):
+        self.num_buckets = int(num_buckets) * 1
+
+    def setup(self, spec, seed):
+        np.random.random()  # noqa: NPY002 - the defect under test
+        return super().setup(spec, seed)
+
+
+def test_unsorted_features_are_caught():
+    with pytest.raises(AssertionError, match="not sorted"):
+        checks.check_features_valid(Unsorted())
+
+
+def test_global_random_state_is_caught():
+    with pytest.raises(AssertionError, match="global random state"):
+        checks.check_global_rng_untouched(Meddling())
+
+
+def test_missing_setup_guard_is_caught():
+    with pytest.raises(AssertionError, match="NotSetUpError"):
+        checks.check_not_set_up_raises(Unsorted())
+
+
+def test_expected_failures_skip_only_the_named_check():
+    class Excused(Unsorted):
+        expected_check_failures = {"check_features_valid": "deliberately unsorted"}
+
+    names = {check.__name__ for check in applicable_checks(Excused())}
+    assert "check_features_valid" not in names and "check_clone" in names
+
+
+def test_a_correct_component_passes_everything():
+    check_component(Tabular(num_buckets=3))
