@@ -159,9 +159,11 @@ def check_is_set_up(component: Any, method: str) -> None:
 class Domain(gym.Env, Configurable):
     """A conjure domain: a `gymnasium.Env` that also describes itself to learners and planners.
 
-    Subclasses build ``observation_space``, ``action_space`` and ``domain_spec`` in their
-    constructor (Gymnasium's ``make`` and wrappers need the spaces at once) and take every random
-    number from ``self.np_random``, seeded by ``reset(seed=...)``.
+    Subclasses build ``observation_space``, ``action_space`` and ``domain_spec`` in ``_build``,
+    which their constructor calls (Gymnasium's ``make`` and wrappers need the spaces at once,
+    so domains validate at construction, unlike other components) and which `set_params`
+    calls again; every random number comes from ``self.np_random``, seeded by
+    ``reset(seed=...)``.
 
     Notes
     -----
@@ -173,6 +175,16 @@ class Domain(gym.Env, Configurable):
 
     metadata: ClassVar[dict[str, Any]] = {"render_modes": []}
     domain_spec: DomainSpec
+
+    def _build(self) -> None:
+        """Validate the parameters and build the spaces and ``domain_spec`` from them."""
+        raise NotImplementedError
+
+    def set_params(self, **params: Any) -> Domain:
+        """Set parameters, then rebuild the spaces and spec from them."""
+        super().set_params(**params)
+        self._build()
+        return self
 
     def legal_actions(self, state: np.ndarray) -> np.ndarray:
         """Return the sorted legal actions of ``state`` (every action unless constrained)."""

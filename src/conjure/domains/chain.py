@@ -1,0 +1,167 @@
+"""A tiny chain MDP with a known optimal value function, for tests."""
+
+from __future__ import annotations
+
+from typing import Any, ClassVar
+
+import numpy as np
+from gymnasium import spaces
+
+from conjure.core.interfaces import Domain, DomainSpec
+from conjure.core.params import Constraint, Interval, Options
+
+__all__ = ["ChainMDP"]
+
+
+class ChainMDP(Domain):
+    """Walk right along a chain of states to the terminal end; V* is known in closed form.
+
+    A test domain for the Bellman equation, Geramifard (2012) Section 2.1, Equation 2.5. States
+    are 0 .. n−1, the episode starts in 0 and state n−1 is terminal. Action 0 moves one state
+    right and earns ``step_reward``; with ``num_actions = 2``, action 1 stays put and earns 0.
+    With probability ``slip`` a move fails: the agent stays put and earns 0.
+
+    For n = 4, γ = 0.9, reward 1 and no slip, V* = Q*(·, 0) = [2.71, 1.9, 1, 0] and
+    Q*(s, 1) = 0.9 V*(s).
+
+    Parameters
+    ----------
+    num_states : int, default=4
+        n, the number of states, in [2, inf).
+    num_actions : {1, 2}, default=1
+        1: only "move right"; 2: also "stay".
+    step_reward : float, default=1.0
+        Reward of a successful move right; any finite float.
+    slip : float, default=0.0
+        Probability in [0, 1) that a move right fails (stay put, reward 0).
+    discount : float, default=0.9
+        γ in [0, 1].
+    max_episode_steps : int, default=100
+        Episode cap, in [1, inf).
+
+    Attributes
+    ----------
+    domain_spec : DomainSpec
+        One discrete dimension with bounds [0, n − 1].
+
+    Notes
+    -----
+    The optimal values follow by backward induction from V*(n−1) = 0:
+
+        M(s) = (1 − p)(r + γ V*(s+1)) / (1 − p γ),  V*(s) = max(M(s), 0 if "stay" exists else M(s)),
+
+    since staying forever earns 0. Then Q*(s, 0) = (1 − p)(r + γ V*(s+1)) + p γ V*(s) and
+    Q*(s, 1) = γ V*(s); both are 0 in the terminal state.
+
+    - Choice: a failed move (``slip``) earns 0, like staying.
+    - Choice: the observation is the state index as a float64 vector of shape (1,).
+
+    Examples
+    --------
+    >>> ChainMDP().optimal_values().round(2).tolist()
+    [2.71, 1.9, 1.0, 0.0]
+    """
+
+    parameter_constraints: ClassVar[dict[str, Constraint]] = {
+        "num_states": Interval(int, 2, None),
+        "num_actions": Options((1, 2)),
+        "step_reward": Interval(float, None, None),
+        "slip": Interval(float, 0.0, 1.0, closed="left"),
+        "discount": Interval(float, 0.0, 1.0),
+        "max_episode_steps": Interval(int, 1, None),
+    }
+
+    def __init__(
+        self,
+        *,
+        num_states: int = 4,
+        num_actions: int = 1,
+        step_reward: float = 1.0,
+        slip: float = 0.0,
+        discount: float = 0.9,
+        max_episode_steps: int = 100,
+    ) -> None:
+        self.num_states = num_states
+        self.num_actions = num_actions
+        self.step_reward = step_reward
+        self.slip = slip
+        self.discount = discount
+        self.max_episode_steps = max_episode_steps
+        self._build()
+
+    def _build(self) -> None:
+        """Validate the parameters and build the spaces and spec."""
+        self.validate_params()
+        n = int(self.num_states)
+        low = np.zeros(1, dtype=np.float64)
+        high = np.array([n - 1], dtype=np.float64)
+        self.observation_space = spaces.Box(low=low, high=high, dtype=np.float64)
+        self.action_space = spaces.Discrete(int(self.num_actions))
+        self.domain_spec = DomainSpec(
+            name="ChainMDP",
+            low=low,
+            high=high,
+            is_discrete=[True],
+            num_actions=int(self.num_actions),
+            discount=float(self.discount),
+            max_episode_steps=int(self.max_episode_steps),
+        )
+        self._state = 0
+        self._slip = float(self.slip)
+        self._step_reward = float(self.step_reward)
+
+    def reset(
+        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[np.ndarray, dict[str, Any]]:
+        """Start an episode in state 0."""
+        super().reset(seed=seed)
+        self._state = 0
+        return np.array([0.0]), {}
+
+    def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
+        """Move right (action 0) or stay (action 1)."""
+        a = self.check_action(action)
+        last = self.num_states - 1
+        state, reward = self._state, 0.0
+        if state < last and a == 0:
+            if self._slip == 0.0 or self.np_random.random() >= self._slip:
+                state, reward = state + 1, self._step_reward
+        self._state = state
+        return np.array([float(state)]), reward, state == last, False, {}
+
+    def tabular_model(self) -> tuple[np.ndarray, np.ndarray]:
+        """Return the exact model (P, R): P[a, s, s'] probabilities and R[a, s] expected rewards.
+
+        The terminal state n − 1 absorbs with reward 0 under every action.
+        """
+        n, num_actions = int(self.num_states), int(self.num_actions)
+        p = float(self.slip)
+        transitions = np.zeros((num_actions, n, n))
+        rewards = np.zeros((num_actions, n))
+        for s in range(n - 1):
+            transitions[0, s, s + 1] = 1.0 - p
+            transitions[0, s, s] += p
+            rewards[0, s] = (1.0 - p) * float(self.step_reward)
+            if num_actions == 2:
+                transitions[1, s, s] = 1.0
+        transitions[:, n - 1, n - 1] = 1.0
+        return transitions, rewards
+
+    def optimal_values(self) -> np.ndarray:
+        """Return V*(s) for every state (closed form, see Notes)."""
+        return self.optimal_q_values().max(axis=1)
+
+    def optimal_q_values(self) -> np.ndarray:
+        """Return Q*(s, a) of shape (num_states, num_actions) (closed form, see Notes)."""
+        n, gamma, p = int(self.num_states), float(self.discount), float(self.slip)
+        r = float(self.step_reward)
+        values = np.zeros(n)
+        for s in range(n - 2, -1, -1):
+            move = (1.0 - p) * (r + gamma * values[s + 1]) / (1.0 - p * gamma)
+            values[s] = max(move, 0.0) if self.num_actions == 2 else move
+        q = np.zeros((n, int(self.num_actions)))
+        for s in range(n - 1):
+            q[s, 0] = (1.0 - p) * (r + gamma * values[s + 1]) + p * gamma * values[s]
+            if self.num_actions == 2:
+                q[s, 1] = gamma * values[s]
+        return q

@@ -1,0 +1,224 @@
+"""Component registries: one plain dict per layer, one line per component (STYLE §3).
+
+A config names a component by its ``kind`` (the class name; ``Gymnasium`` for
+`GymnasiumDomain`) and gives its ``params``; a parameter whose value is itself a component is
+written as a nested ``{kind, params}``. Kinds are unique across layers, so a nested kind is
+looked up in every registry.
+
+Notes
+-----
+- Choice: no import-time registration decorators; to add a component, add one line here.
+"""
+
+from __future__ import annotations
+
+import inspect
+import re
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+
+from conjure.agents import SARSA, ActorCritic, QLearning
+from conjure.core.errors import InvalidParameterError
+from conjure.core.params import Configurable, did_you_mean
+from conjure.core.schedules import ConstantStepSize, EpisodicDecay, FeatureNormalizedDecay
+from conjure.domains import ChainMDP, GridWorld, GymnasiumDomain, InvertedPendulum
+from conjure.policies import EpsilonGreedy, Gibbs
+from conjure.representations import RBF, IndependentDiscretization, Tabular, TileCoding
+
+__all__ = [
+    "AGENTS",
+    "DOMAINS",
+    "LAYERS",
+    "POLICIES",
+    "REPRESENTATIONS",
+    "SCHEDULES",
+    "build",
+    "find_kind",
+    "kind_of",
+    "to_spec",
+]
+
+DOMAINS: dict[str, type[Configurable]] = {
+    "ChainMDP": ChainMDP,
+    "GridWorld": GridWorld,
+    "Gymnasium": GymnasiumDomain,
+    "InvertedPendulum": InvertedPendulum,
+}
+REPRESENTATIONS: dict[str, type[Configurable]] = {
+    "IndependentDiscretization": IndependentDiscretization,
+    "RBF": RBF,
+    "Tabular": Tabular,
+    "TileCoding": TileCoding,
+}
+POLICIES: dict[str, type[Configurable]] = {
+    "EpsilonGreedy": EpsilonGreedy,
+    "Gibbs": Gibbs,
+}
+AGENTS: dict[str, type[Configurable]] = {
+    "ActorCritic": ActorCritic,
+    "QLearning": QLearning,
+    "SARSA": SARSA,
+}
+SCHEDULES: dict[str, type[Configurable]] = {
+    "ConstantStepSize": ConstantStepSize,
+    "EpisodicDecay": EpisodicDecay,
+    "FeatureNormalizedDecay": FeatureNormalizedDecay,
+}
+
+#: Every registry by layer name (the ``layer`` argument of `build`).
+LAYERS: dict[str, dict[str, type[Configurable]]] = {
+    "domain": DOMAINS,
+    "representation": REPRESENTATIONS,
+    "policy": POLICIES,
+    "agent": AGENTS,
+    "schedule": SCHEDULES,
+}
+
+
+def _all_kinds() -> list[str]:
+    return [kind for registry in LAYERS.values() for kind in registry]
+
+
+def find_kind(kind: str, layer: str | None = None, *, path: str = "") -> type[Configurable]:
+    """Return the class registered as ``kind`` (in ``layer``, or in any layer if ``None``)."""
+    where = f"{path}: " if path else ""
+    if layer is not None and layer not in LAYERS:
+        raise InvalidParameterError(
+            f"Unknown layer {layer!r}.{did_you_mean(layer, LAYERS)} Known: {', '.join(LAYERS)}."
+        )
+    registries = [LAYERS[layer]] if layer is not None else list(LAYERS.values())
+    if not isinstance(kind, str):
+        raise InvalidParameterError(f"{where}`kind` must be a component name; got {kind!r}.")
+    for registry in registries:
+        if kind in registry:
+            return registry[kind]
+    known = sorted(k for registry in registries for k in registry)
+    noun = f"{layer} kind" if layer is not None else "kind"
+    raise InvalidParameterError(
+        f"{where}unknown {noun} {kind!r}.{did_you_mean(kind, known)} Known: {', '.join(known)}."
+    )
+
+
+def _is_component_spec(value: Any) -> bool:
+    return isinstance(value, Mapping) and "kind" in value and set(value) <= {"kind", "params"}
+
+
+def build(layer: str | None, spec: Mapping[str, Any], *, path: str = "") -> Configurable:
+    """Build a component from ``{kind, params}``, building nested ``{kind, params}`` values.
+
+    Parameters
+    ----------
+    layer : str or None
+        ``"domain"``, ``"representation"``, ``"policy"``, ``"agent"`` or ``"schedule"``;
+        ``None`` looks the kind up in every registry.
+    spec : mapping
+        ``{"kind": name, "params": {...}}`` (``params`` may be omitted).
+    path : str, default ""
+        Where ``spec`` sits in the config (``agents.tile.params``), prefixed to error messages.
+
+    Returns
+    -------
+    Configurable
+        The component, with validated parameters (not set up).
+
+    Raises
+    ------
+    InvalidParameterError
+        For an unknown kind or parameter (with a did-you-mean suggestion), a missing required
+        parameter, or a value that breaks the component's declared constraints.
+    """
+    where = path or (layer or "component")
+    if not isinstance(spec, Mapping) or "kind" not in spec:
+        raise InvalidParameterError(
+            f"{where}: a component must be a mapping {{kind: Name, params: {{...}}}}; got {spec!r}."
+        )
+    extra = set(spec) - {"kind", "params"}
+    if extra:
+        name = sorted(extra)[0]
+        raise InvalidParameterError(
+            f"{where}: unexpected key {name!r}.{did_you_mean(name, ['kind', 'params'])} "
+            f"A component has only `kind` and `params`."
+        )
+    cls = find_kind(spec["kind"], layer, path=f"{where}.kind")
+    params = spec.get("params") or {}
+    if not isinstance(params, Mapping):
+        raise InvalidParameterError(f"{where}.params must be a mapping; got {params!r}.")
+    known = cls.param_names()
+    built: dict[str, Any] = {}
+    for name, value in params.items():
+        if name not in known:
+            raise InvalidParameterError(
+                f"{where}.params: {cls.__name__} has no parameter {name!r}."
+                f"{did_you_mean(str(name), known)} Known: {', '.join(known)}."
+            )
+        built[name] = _build_value(value, f"{where}.params.{name}")
+    defaults = cls.param_defaults()
+    missing = [n for n in known if n not in built and defaults[n] is inspect.Parameter.empty]
+    if missing:
+        raise InvalidParameterError(
+            f"{where}.params: `{cls.__name__}.{missing[0]}` is required but was not given."
+        )
+    try:
+        component = cls(**built)
+    except InvalidParameterError as exc:  # domains validate in their constructor
+        named = re.search(rf"`{cls.__name__}\.(\w+)`", str(exc))
+        field = f"{where}.params.{named.group(1)}" if named else f"{where}.params"
+        raise InvalidParameterError(f"{field}: {exc}") from exc
+    except TypeError as exc:  # a constructor that rejects its arguments
+        raise InvalidParameterError(f"{where}: cannot build {cls.__name__}: {exc}") from exc
+    try:
+        component.validate_params()
+    except InvalidParameterError as exc:
+        bad = [
+            name
+            for name, constraint in cls.parameter_constraints.items()
+            if not constraint.is_satisfied_by(getattr(component, name, None))
+        ]
+        field = f"{where}.params.{bad[0]}" if bad else f"{where}.params"
+        raise InvalidParameterError(f"{field}: {exc}") from exc
+    return component
+
+
+def _build_value(value: Any, path: str) -> Any:
+    if _is_component_spec(value):
+        return build(None, value, path=path)
+    if isinstance(value, list):
+        return [_build_value(v, f"{path}[{i}]") for i, v in enumerate(value)]
+    return value
+
+
+def kind_of(component: Configurable) -> str:
+    """Return the registry name of ``component``'s class (its class name if unregistered)."""
+    for registry in LAYERS.values():
+        for kind, cls in registry.items():
+            if type(component) is cls:
+                return kind
+    return type(component).__name__
+
+
+def to_spec(component: Configurable) -> dict[str, Any]:
+    """Return ``{kind, params}`` with every parameter (defaults included), as plain YAML data.
+
+    The inverse of `build`: ``build(None, to_spec(c)) == c``.
+    """
+    return {
+        "kind": kind_of(component),
+        "params": {name: to_plain(value) for name, value in component.get_params().items()},
+    }
+
+
+def to_plain(value: Any) -> Any:
+    """Return ``value`` as plain YAML/JSON data (components as ``{kind, params}``)."""
+    if isinstance(value, Configurable):
+        return to_spec(value)
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    if isinstance(value, np.generic):
+        return value.item()
+    if isinstance(value, Mapping):
+        return {str(k): to_plain(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [to_plain(v) for v in value]
+    return value

@@ -1,0 +1,253 @@
+"""One experiment run: learn for a step budget, checking the greedy policy along the way.
+
+``run(domain=..., agent=..., budget_steps=..., seed=...)`` is the library's front door (STYLE
+§8); `run_config` does the same from a config. A run splits its seed into independent streams
+for the learning domain, the evaluation domain and the agent, so policy checks never perturb
+learning: the same seed gives the same learning trajectory whatever ``num_policy_checks``.
+
+Notes
+-----
+- Choice: policy checks run at learning steps ``budget_steps * i // num_policy_checks`` for
+  ``i = 0 .. num_policy_checks`` (step 0 included), possibly in the middle of a learning
+  episode, which then continues.
+- Choice: every policy check replays the same evaluation start states (the evaluation domain is
+  reset with the same seed at each check), so differences between checks reflect the policy.
+- Choice: ``wall_time_s`` and ``steps_per_second`` count learning time only (not evaluation).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from conjure.core.errors import DivergenceError, InvalidParameterError
+from conjure.core.interfaces import Agent, Domain
+from conjure.core.seeding import seed_to_int, split_seed
+from conjure.experiments.loop import LearningLoop, run_episode
+
+__all__ = ["CURVE_COLUMNS", "TIMING_COLUMNS", "Result", "run", "run_config", "run_resolved"]
+
+#: The columns of a learning curve, one row per policy check.
+CURVE_COLUMNS = (
+    "learning_steps",
+    "learning_episodes",
+    "return",
+    "discounted_return",
+    "episode_length",
+    "num_features",
+    "wall_time_s",
+    "steps_per_second",
+)
+#: The curve columns that depend on the machine, not on the seed.
+TIMING_COLUMNS = ("wall_time_s", "steps_per_second")
+
+
+@dataclass
+class Result:
+    """What a run produced: its learning curve, seed and resolved config.
+
+    Attributes
+    ----------
+    curve : pandas.DataFrame
+        One row per policy check, columns `CURVE_COLUMNS`.
+    seed : int
+        The run's seed.
+    config : dict or None
+        The resolved run config (``None`` for runs built from objects).
+    agent : Agent or None
+        The trained agent (object runs and `run_config`; not kept by parallel experiments).
+    agent_name, domain_name : str
+        For `summary`.
+    is_complete : bool
+        False for the partial result a `DivergenceError` carries.
+    """
+
+    curve: pd.DataFrame
+    seed: int
+    config: dict[str, Any] | None = None
+    agent: Agent | None = field(default=None, repr=False)
+    agent_name: str = ""
+    domain_name: str = ""
+    is_complete: bool = True
+
+    def to_frame(self) -> pd.DataFrame:
+        """Return the curve with a leading ``seed`` column (and ``label`` if the config has one)."""
+        frame = self.curve.copy()
+        frame.insert(0, "seed", self.seed)
+        if self.config is not None and "label" in self.config:
+            frame.insert(0, "label", self.config["label"])
+        return frame
+
+    def summary(self) -> str:
+        """Return a one-paragraph account of the run."""
+        who = f"{self.agent_name or 'agent'} on {self.domain_name or 'domain'}, seed {self.seed}"
+        if self.curve.empty:
+            return f"{who}: no policy check recorded."
+        last = self.curve.iloc[-1]
+        best = float(self.curve["return"].max())
+        status = "" if self.is_complete else " (stopped early)"
+        return (
+            f"{who}{status}: {int(last['learning_steps']):,} learning steps in "
+            f"{int(last['learning_episodes']):,} episodes; final greedy return "
+            f"{last['return']:.4g} (best {best:.4g}, discounted {last['discounted_return']:.4g}, "
+            f"episode length {last['episode_length']:.4g}); {int(last['num_features']):,} "
+            f"features; {_format_rate(last['steps_per_second'])} learning steps/s."
+        )
+
+
+def _format_rate(value: float) -> str:
+    return "n/a" if not math.isfinite(value) else f"{value:,.0f}"
+
+
+def _check_count(name: str, value: Any, low: int) -> int:
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < low:
+        raise InvalidParameterError(f"`run.{name}` must be an int in [{low}, inf); got {value!r}.")
+    return int(value)
+
+
+def _evaluate(domain: Domain, agent: Agent, num_episodes: int, seed: int) -> tuple[float, ...]:
+    stats = [
+        run_episode(domain, agent, learn=False, seed=seed if k == 0 else None)
+        for k in range(num_episodes)
+    ]
+    return (
+        float(np.mean([s.episode_return for s in stats])),
+        float(np.mean([s.discounted_return for s in stats])),
+        float(np.mean([s.num_steps for s in stats])),
+    )
+
+
+def run(
+    *,
+    domain: Domain,
+    agent: Agent,
+    budget_steps: int,
+    seed: int,
+    num_policy_checks: int = 10,
+    eval_episodes: int = 1,
+    config: dict[str, Any] | None = None,
+) -> Result:
+    """Set up ``agent``, learn on ``domain`` for ``budget_steps`` steps and record a curve.
+
+    Parameters
+    ----------
+    domain : Domain
+        The learning domain (reset and stepped in place); a clone serves the policy checks.
+    agent : Agent
+        The learner; ``setup`` is called here, so it is trained in place.
+    budget_steps : int
+        Learning steps, >= 1 (exact, even if the last episode is cut short).
+    seed : int
+        Split into domain, evaluation and agent seeds (`conjure.core.seeding.split_seed`).
+    num_policy_checks : int, default 10
+        Greedy evaluations after the first one at step 0, evenly spaced in steps.
+    eval_episodes : int, default 1
+        Greedy episodes per policy check (their mean is recorded).
+    config : dict or None
+        The resolved config to record in the result.
+
+    Returns
+    -------
+    Result
+
+    Raises
+    ------
+    DivergenceError
+        If the agent diverges; its ``partial_result`` holds the curve recorded so far.
+    """
+    budget_steps = _check_count("budget_steps", budget_steps, 1)
+    num_policy_checks = _check_count("num_policy_checks", num_policy_checks, 1)
+    eval_episodes = _check_count("eval_episodes", eval_episodes, 1)
+    seeds = split_seed(seed, ("domain", "evaluation", "agent"))
+    agent.setup(domain.domain_spec, seeds["agent"])
+    eval_domain = domain.clone()
+    eval_seed = seed_to_int(seeds["evaluation"])
+    loop = LearningLoop(domain, agent, seed=seed_to_int(seeds["domain"]))
+    names = {"agent_name": type(agent).__name__, "domain_name": domain.domain_spec.name}
+    int_seed = int(seed) if isinstance(seed, (int, np.integer)) else -1
+
+    rows: list[tuple[Any, ...]] = []
+    wall_time = 0.0
+    for i in range(num_policy_checks + 1):
+        target = budget_steps * i // num_policy_checks
+        started = time.perf_counter()
+        try:
+            loop.advance(target - loop.total_steps)
+            wall_time += time.perf_counter() - started
+            checked = _evaluate(eval_domain, agent, eval_episodes, eval_seed)
+        except DivergenceError as exc:
+            partial = Result(_to_curve(rows), int_seed, config, agent, **names, is_complete=False)
+            last = int(rows[-1][0]) if rows else 0
+            error = DivergenceError(
+                f"Learning diverged at learning step {loop.total_steps + 1:,} of "
+                f"{budget_steps:,} ({names['agent_name']} on {names['domain_name']}, seed "
+                f"{seed}): {exc} The likely fix is a lower step size (e.g. halve `step_size` "
+                f"or the schedule's `alpha_0`). The curve up to step {last:,} is in "
+                f"`.partial_result`."
+            )
+            error.partial_result = partial  # type: ignore[attr-defined]
+            raise error from exc
+        rate = loop.total_steps / wall_time if loop.total_steps > 0 else math.nan
+        rows.append(
+            (
+                loop.total_steps,
+                loop.num_completed_episodes,
+                *checked,
+                int(agent.num_features),
+                wall_time,
+                rate,
+            )
+        )
+    return Result(_to_curve(rows), int_seed, config, agent, **names)
+
+
+def _to_curve(rows: list[tuple[Any, ...]]) -> pd.DataFrame:
+    frame = pd.DataFrame(rows, columns=list(CURVE_COLUMNS))
+    return frame.astype(
+        {
+            "learning_steps": "int64",
+            "learning_episodes": "int64",
+            "num_features": "int64",
+            "return": "float64",
+            "discounted_return": "float64",
+            "episode_length": "float64",
+            "wall_time_s": "float64",
+            "steps_per_second": "float64",
+        }
+    )
+
+
+def run_resolved(run_spec: dict[str, Any]) -> Result:
+    """Run from one resolved run config (`conjure.experiments.config.resolve_run`'s output)."""
+    from conjure.experiments import registry
+
+    label = run_spec.get("label", "agent")
+    domain = registry.build("domain", run_spec["domain"], path="domain")
+    agent = registry.build("agent", run_spec["agent"], path=f"agents.{label}")
+    return run(
+        domain=domain,
+        agent=agent,
+        budget_steps=run_spec["budget_steps"],
+        seed=run_spec["seed"],
+        num_policy_checks=run_spec["num_policy_checks"],
+        eval_episodes=run_spec["eval_episodes"],
+        config=run_spec,
+    )
+
+
+def run_config(config: Any, *, agent_name: str, seed: int) -> Result:
+    """Run agent ``agent_name`` of an experiment config (dict or `ExperimentConfig`) once.
+
+    Examples
+    --------
+    ``run_config(load_config("examples/pendulum.yaml"), agent_name="tile_coding", seed=0)``
+    """
+    from conjure.experiments.config import parse_config, resolve_run
+
+    parsed = parse_config(config)
+    return run_resolved(resolve_run(parsed, agent_name, seed))

@@ -1,0 +1,170 @@
+"""Tests of the conjure command line (click's CliRunner)."""
+
+from __future__ import annotations
+
+import textwrap
+
+import pytest
+from click.testing import CliRunner
+
+from conjure.experiments.cli import main
+
+TINY = textwrap.dedent(
+    """\
+    name: tiny
+    domain: {kind: ChainMDP, params: {num_states: 4, num_actions: 2}}
+    agents:
+      q:
+        kind: QLearning
+        params: {representation: {kind: Tabular}, step_size: 0.5}
+      sarsa:
+        kind: SARSA
+        params: {representation: {kind: Tabular}, step_size: 0.5}
+    budget_steps: 200
+    num_policy_checks: 4
+    seeds: 3
+    """
+)
+
+
+@pytest.fixture
+def config_file(tmp_path):
+    path = tmp_path / "tiny.yaml"
+    path.write_text(TINY)
+    return path
+
+
+def test_list_shows_every_component():
+    result = CliRunner().invoke(main, ["list"], terminal_width=200)
+    assert result.exit_code == 0, result.output
+    for name in (
+        "InvertedPendulum",
+        "Gymnasium",
+        "TileCoding",
+        "EpsilonGreedy",
+        "SARSA",
+        "ConstantStepSize",
+        "num_tilings",
+        "epsilon",
+    ):
+        assert name in result.output
+
+
+def test_run_then_plot(config_file, tmp_path):
+    out = tmp_path / "out"
+    runner = CliRunner()
+    result = runner.invoke(
+        main,
+        [
+            "run",
+            str(config_file),
+            "--seeds",
+            "2",
+            "--out",
+            str(out),
+            "--max-workers",
+            "1",
+            "--set",
+            "agents.q.params.step_size=0.25",
+        ],
+        terminal_width=200,
+    )
+    assert result.exit_code == 0, result.output
+    assert (out / "results.parquet").is_file() and (out / "summary.csv").is_file()
+    assert (out / "learning_curve.png").is_file()
+    assert (out / "runs" / "q" / "seed_1" / "curve.csv").is_file()
+    assert not (out / "runs" / "q" / "seed_2").exists()  # --seeds 2 overrides the file's 3
+    assert "step_size: 0.25" in (out / "runs" / "q" / "seed_0" / "config.resolved.yaml").read_text()
+    assert "sarsa" in result.output and "final return" in result.output
+
+    again = runner.invoke(
+        main,
+        [
+            "run",
+            str(config_file),
+            "--seeds",
+            "2",
+            "--out",
+            str(out),
+            "--max-workers",
+            "1",
+            "--set",
+            "agents.q.params.step_size=0.25",
+        ],
+        terminal_width=200,
+    )
+    assert again.exit_code == 0 and "4 finished run(s) were reused" in again.output
+
+    plotted = runner.invoke(main, ["plot", str(out), "--metric", "num_features"])
+    assert plotted.exit_code == 0, plotted.output
+    assert (out / "learning_curve_num_features.png").is_file()
+
+
+def test_config_error_is_one_clean_line(config_file, tmp_path):
+    result = CliRunner().invoke(
+        main, ["run", str(config_file), "--out", str(tmp_path / "o"), "--set", "budget_step=5"]
+    )
+    assert result.exit_code == 2
+    assert "Did you mean 'budget_steps'?" in result.output
+    assert "Traceback" not in result.output
+    assert len(result.output.strip().splitlines()) == 1
+
+
+def test_malformed_yaml_and_missing_results(tmp_path):
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("name: [unclosed\n")
+    result = CliRunner().invoke(main, ["run", str(bad)])
+    assert result.exit_code == 2 and "malformed YAML" in result.output
+    plotted = CliRunner().invoke(main, ["plot", str(tmp_path)])
+    assert plotted.exit_code == 2 and "results.parquet" in plotted.output
+
+
+def test_failed_runs_give_exit_code_1(tmp_path, monkeypatch):
+    from test_loop import FakeAgent, FakeWalk
+
+    from conjure.experiments import registry
+
+    monkeypatch.setitem(registry.AGENTS, "FakeAgent", FakeAgent)
+    monkeypatch.setitem(registry.DOMAINS, "FakeWalk", FakeWalk)
+    path = tmp_path / "fake.yaml"
+    path.write_text(
+        textwrap.dedent(
+            """\
+        name: fake
+        domain: {kind: FakeWalk}
+        agents:
+          good: {kind: FakeAgent}
+          broken: {kind: FakeAgent, params: {fail_in_setup: true}}
+        budget_steps: 50
+        seeds: 1
+        """
+        )
+    )
+    result = CliRunner().invoke(
+        main,
+        ["run", str(path), "--out", str(tmp_path / "o"), "--max-workers", "1"],
+        terminal_width=200,
+    )
+    assert result.exit_code == 1, result.output
+    assert "broken/seed_0" in result.output and "fake setup failure" in result.output
+    assert (tmp_path / "o" / "runs" / "broken" / "seed_0" / "error.txt").is_file()
+    assert (tmp_path / "o" / "learning_curve.png").is_file()
+
+
+def test_invalid_component_value_exits_2(config_file, tmp_path):
+    result = CliRunner().invoke(
+        main,
+        [
+            "run",
+            str(config_file),
+            "--out",
+            str(tmp_path / "o"),
+            "--max-workers",
+            "1",
+            "--set",
+            "domain.params.num_actions=3",
+            "--quiet",
+        ],
+    )
+    assert result.exit_code == 2
+    assert "domain.params.num_actions" in result.output

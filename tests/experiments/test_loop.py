@@ -1,0 +1,268 @@
+"""Tests of the run loop (run_episode, LearningLoop), with tiny fake components.
+
+The fakes defined here (`FakeWalk`, `FakeAgent`) are reused by the other experiments tests.
+"""
+
+from __future__ import annotations
+
+import itertools
+from typing import Any, ClassVar
+
+import numpy as np
+import pytest
+from gymnasium import spaces
+
+from conjure.core.errors import DivergenceError, InvalidParameterError
+from conjure.core.interfaces import Agent, Domain, DomainSpec, Transition
+from conjure.core.params import InstanceOf, Interval
+from conjure.core.seeding import make_rng
+from conjure.experiments.loop import LearningLoop, profile_steps, run_episode
+
+
+class FakeWalk(Domain):
+    """Walk on 0..length; action 1 moves right, 0 left; reaching ``length`` terminates.
+
+    The start state (0, 1 or 2) is drawn from ``np_random``; reward -1 per step.
+    """
+
+    parameter_constraints: ClassVar = {"length": Interval(int, 1, None)}
+
+    def __init__(
+        self,
+        *,
+        length: int = 5,
+        max_episode_steps: int = 50,
+        has_action_constraints: bool = False,
+        truncate_at: int | None = None,
+    ):
+        self.length = length
+        self.max_episode_steps = max_episode_steps
+        self.has_action_constraints = has_action_constraints
+        self.truncate_at = truncate_at
+        self.observation_space = spaces.Box(0.0, float(length), shape=(1,), dtype=np.float64)
+        self.action_space = spaces.Discrete(2)
+        self.domain_spec = DomainSpec(
+            name="FakeWalk",
+            low=[0.0],
+            high=[float(length)],
+            is_discrete=[True],
+            num_actions=2,
+            discount=0.9,
+            max_episode_steps=max_episode_steps,
+            has_action_constraints=has_action_constraints,
+        )
+        self.num_legal_calls = 0
+
+    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
+        super().reset(seed=seed)
+        self._x = int(self.np_random.integers(3)) if self.length > 3 else 0
+        self._t = 0
+        return np.array([float(self._x)]), {}
+
+    def step(self, action: int):
+        self._x = min(self.length, self._x + 1) if action == 1 else max(0, self._x - 1)
+        self._t += 1
+        terminated = self._x == self.length
+        truncated = self.truncate_at is not None and self._t >= self.truncate_at
+        return np.array([float(self._x)]), -1.0, terminated, truncated, {}
+
+    def legal_actions(self, state: np.ndarray) -> np.ndarray:
+        self.num_legal_calls += 1
+        if state[0] == 0:
+            return np.array([1], dtype=np.int64)
+        return np.array([0, 1], dtype=np.int64)
+
+
+class FakeAgent(Agent):
+    """Explores uniformly with its own RNG, acts 'right' greedily, records what it sees."""
+
+    parameter_constraints: ClassVar = {
+        "step_size": Interval(float, 0.0, 1.0, closed="right"),
+        "diverge_at": Interval(int, 1, None) | InstanceOf(type(None)),
+    }
+
+    def __init__(
+        self,
+        *,
+        step_size: float = 0.5,
+        diverge_at: int | None = None,
+        fail_in_setup: bool = False,
+        greedy_action: int = 1,
+    ):
+        self.step_size = step_size
+        self.diverge_at = diverge_at
+        self.fail_in_setup = fail_in_setup
+        self.greedy_action = greedy_action
+
+    def setup(self, spec: DomainSpec, seed: Any) -> FakeAgent:
+        self.validate_params()
+        if self.fail_in_setup:
+            raise RuntimeError("fake setup failure")
+        self.rng_ = make_rng(seed)
+        self.num_actions_ = spec.num_actions
+        self.transitions_: list[Transition] = []
+        self.events_: list[str] = []
+        self.value_ = 0.0
+        self.num_greedy_acts_ = 0
+        return self
+
+    def begin_episode(self) -> None:
+        self.events_.append("begin")
+
+    def act(self, state, greedy=False, legal_actions=None) -> int:
+        if greedy:
+            self.num_greedy_acts_ += 1
+            return self.greedy_action
+        legal = np.arange(self.num_actions_) if legal_actions is None else legal_actions
+        return int(legal[self.rng_.integers(len(legal))])
+
+    def learn(self, transition: Transition) -> float:
+        self.transitions_.append(transition)
+        if self.diverge_at is not None and len(self.transitions_) >= self.diverge_at:
+            raise DivergenceError("fake TD error is nan")
+        td_error = transition.reward - self.value_
+        self.value_ += self.step_size * td_error
+        return td_error
+
+    @property
+    def num_features(self) -> int:
+        return 1 + len(self.transitions_) // 100
+
+
+def make_agent(spec: DomainSpec, seed: int = 0, **params: Any) -> FakeAgent:
+    return FakeAgent(**params).setup(spec, seed)
+
+
+# ---------------------------------------------------------------------------------------------
+
+
+def test_greedy_episode_stops_at_termination_with_returns():
+    domain = FakeWalk(length=5)
+    agent = make_agent(domain.domain_spec)
+    stats = run_episode(domain, agent, seed=0)
+    start = 5 - stats.num_steps
+    assert 0 <= start <= 2
+    assert stats.episode_return == -stats.num_steps
+    expected = -sum(0.9**t for t in range(stats.num_steps))
+    assert stats.discounted_return == pytest.approx(expected)
+    assert agent.transitions_ == []  # a policy check never learns
+
+
+def test_episode_stops_at_the_cap():
+    domain = FakeWalk(length=5, max_episode_steps=7)
+    agent = make_agent(domain.domain_spec, greedy_action=0)  # walks left forever
+    assert run_episode(domain, agent, seed=0).num_steps == 7
+    assert run_episode(domain, agent, seed=0, max_steps=3).num_steps == 3
+
+
+def test_episode_stops_at_truncation():
+    domain = FakeWalk(length=5, truncate_at=2)
+    agent = make_agent(domain.domain_spec, greedy_action=0)
+    assert run_episode(domain, agent, seed=0).num_steps == 2
+
+
+def test_learning_episode_calls_begin_episode_and_learns_each_step():
+    domain = FakeWalk(length=5, max_episode_steps=20)
+    agent = make_agent(domain.domain_spec)
+    stats = run_episode(domain, agent, learn=True, seed=1)
+    assert agent.events_ == ["begin"]
+    assert len(agent.transitions_) == stats.num_steps
+    last = agent.transitions_[-1]
+    if last.terminated:
+        assert last.next_action == 0
+
+
+def test_transitions_chain_state_and_action():
+    domain = FakeWalk(length=5, max_episode_steps=20)
+    agent = make_agent(domain.domain_spec)
+    loop = LearningLoop(domain, agent, seed=3)
+    loop.advance(200)
+    transitions = agent.transitions_
+    for before, after in itertools.pairwise(transitions):
+        if not before.terminated and before.next_state[0] == after.state[0]:
+            assert after.action == before.next_action
+
+
+def test_learning_budget_is_exact_and_resumable():
+    domain = FakeWalk(length=5, max_episode_steps=6)
+    agent = make_agent(domain.domain_spec)
+    loop = LearningLoop(domain, agent, seed=0)
+    assert loop.advance(0) == 0
+    assert loop.advance(37) == 37
+    assert loop.advance(5) == 42
+    assert len(agent.transitions_) == 42
+    assert loop.num_episodes == agent.events_.count("begin")
+
+
+def test_pausing_mid_episode_changes_nothing():
+    def trajectory(chunks: list[int]) -> list[tuple]:
+        domain = FakeWalk(length=6, max_episode_steps=9)
+        agent = make_agent(domain.domain_spec, seed=11)
+        loop = LearningLoop(domain, agent, seed=5)
+        for chunk in chunks:
+            loop.advance(chunk)
+            assert loop.total_steps <= sum(chunks)
+        return [
+            (float(t.state[0]), t.action, t.next_action, t.terminated) for t in agent.transitions_
+        ]
+
+    straight = trajectory([100])
+    assert trajectory([1, 2, 3, 94]) == straight
+    assert trajectory([33, 33, 34]) == straight
+
+
+def test_episode_ends_and_restarts_at_the_cap():
+    domain = FakeWalk(length=50, max_episode_steps=4)
+    agent = make_agent(domain.domain_spec, seed=0)
+    loop = LearningLoop(domain, agent, seed=0)
+    loop.advance(10)
+    assert loop.num_episodes == 3
+    assert loop.num_completed_episodes == 2
+    assert loop.is_mid_episode
+
+
+def test_legal_actions_only_when_constrained():
+    free = FakeWalk(length=5)
+    agent = make_agent(free.domain_spec)
+    LearningLoop(free, agent, seed=0).advance(50)
+    assert free.num_legal_calls == 0
+    assert all(t.next_legal_actions is None for t in agent.transitions_)
+
+    constrained = FakeWalk(length=5, has_action_constraints=True)
+    agent = make_agent(constrained.domain_spec)
+    LearningLoop(constrained, agent, seed=0).advance(200)
+    assert constrained.num_legal_calls > 0
+    for t in agent.transitions_:
+        if t.state[0] == 0:
+            assert t.action == 1  # only the legal action is ever taken in state 0
+        if not t.terminated:
+            assert t.next_legal_actions is not None
+
+
+def test_divergence_leaves_a_consistent_step_count():
+    domain = FakeWalk(length=5)
+    agent = make_agent(domain.domain_spec, diverge_at=13)
+    loop = LearningLoop(domain, agent, seed=0)
+    with pytest.raises(DivergenceError):
+        loop.advance(100)
+    assert loop.total_steps == 12
+
+
+def test_bad_step_counts_are_rejected():
+    domain = FakeWalk()
+    loop = LearningLoop(domain, make_agent(domain.domain_spec), seed=0)
+    with pytest.raises(InvalidParameterError):
+        loop.advance(-1)
+    with pytest.raises(InvalidParameterError):
+        loop.advance(2.5)  # type: ignore[arg-type]
+
+
+def test_profile_steps_reports_per_call_times_and_learns():
+    domain = FakeWalk(length=5)
+    agent = make_agent(domain.domain_spec)
+    timings = profile_steps(domain, agent, num_steps=300, seed=0)
+    assert set(timings) == {"step_us", "act_us", "learn_us", "loop_us", "steps_per_second"}
+    assert all(timings[k] > 0 for k in ("step_us", "act_us", "learn_us", "steps_per_second"))
+    assert len(agent.transitions_) == 300
+    with pytest.raises(InvalidParameterError):
+        profile_steps(domain, agent, num_steps=0)

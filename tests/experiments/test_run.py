@@ -1,0 +1,176 @@
+"""Tests of run(): budgets, policy checks, seeding, determinism and divergence."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+from test_loop import FakeAgent, FakeWalk
+
+from conjure.core.errors import DivergenceError, InvalidParameterError
+from conjure.experiments.run import CURVE_COLUMNS, TIMING_COLUMNS, Result, run
+
+
+def fake_run(seed: int = 0, **kwargs) -> Result:
+    agent_params = kwargs.pop("agent_params", {})
+    defaults = {"budget_steps": 1000, "num_policy_checks": 10}
+    return run(
+        domain=FakeWalk(length=6, max_episode_steps=15),
+        agent=FakeAgent(**agent_params),
+        seed=seed,
+        **{**defaults, **kwargs},
+    )
+
+
+def without_timing(curve: pd.DataFrame) -> pd.DataFrame:
+    return curve.drop(columns=list(TIMING_COLUMNS))
+
+
+def test_curve_has_one_row_per_check_at_the_right_steps():
+    result = fake_run(budget_steps=1000, num_policy_checks=4)
+    assert list(result.curve.columns) == list(CURVE_COLUMNS)
+    assert result.curve["learning_steps"].tolist() == [0, 250, 500, 750, 1000]
+    assert len(result.agent.transitions_) == 1000  # the budget is exact
+    assert result.curve["num_features"].tolist() == [1, 3, 6, 8, 11]
+    assert np.isnan(result.curve["steps_per_second"].iloc[0])
+    assert (result.curve["steps_per_second"].iloc[1:] > 0).all()
+    assert result.curve["wall_time_s"].is_monotonic_increasing
+
+
+def test_uneven_budget_checks_are_floored_and_end_at_the_budget():
+    result = fake_run(budget_steps=10, num_policy_checks=3)
+    assert result.curve["learning_steps"].tolist() == [0, 3, 6, 10]
+
+
+def test_greedy_evaluation_is_recorded():
+    result = fake_run(eval_episodes=3)
+    # The greedy fake walks right; start states are 0, 1 or 2 on a length-6 walk.
+    assert result.curve["episode_length"].between(4.0, 6.0).all()
+    assert (result.curve["return"] == -result.curve["episode_length"]).all()
+    assert result.agent.num_greedy_acts_ > 0
+
+
+def test_evaluation_does_not_change_learning():
+    few = fake_run(seed=3, num_policy_checks=1)
+    many = fake_run(seed=3, num_policy_checks=17, eval_episodes=2)
+
+    def trajectory(result):
+        return [
+            (float(t.state[0]), t.action, t.reward, t.next_action)
+            for t in result.agent.transitions_
+        ]
+
+    assert trajectory(few) == trajectory(many)
+    assert few.curve["learning_episodes"].iloc[-1] == many.curve["learning_episodes"].iloc[-1]
+
+
+def test_same_seed_same_curve_different_seed_different_learning():
+    first, second = fake_run(seed=7), fake_run(seed=7)
+    pd.testing.assert_frame_equal(without_timing(first.curve), without_timing(second.curve))
+    other = fake_run(seed=8)
+    assert [t.action for t in other.agent.transitions_] != [
+        t.action for t in first.agent.transitions_
+    ]
+
+
+def test_determinism_across_processes():
+    here = Path(__file__).parent
+    script = textwrap.dedent(
+        f"""
+        import sys
+        sys.path.insert(0, {str(here)!r})
+        from test_run import fake_run, without_timing
+        print(without_timing(fake_run(seed=5).curve).to_json())
+        """
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", script], capture_output=True, text=True, check=True, timeout=120
+    ).stdout
+    other = json.loads(out.strip().splitlines()[-1])
+    mine = json.loads(without_timing(fake_run(seed=5).curve).to_json())
+    assert other == mine
+
+
+def test_divergence_keeps_the_partial_curve_and_names_the_fix():
+    with pytest.raises(DivergenceError) as caught:
+        fake_run(budget_steps=1000, num_policy_checks=10, agent_params={"diverge_at": 450})
+    message = str(caught.value)
+    assert "step 450" in message
+    assert "step size" in message
+    partial = caught.value.partial_result
+    assert isinstance(partial, Result)
+    assert not partial.is_complete
+    assert partial.curve["learning_steps"].tolist() == [0, 100, 200, 300, 400]
+    assert "stopped early" in partial.summary()
+
+
+def test_bad_run_arguments():
+    with pytest.raises(InvalidParameterError, match="budget_steps"):
+        fake_run(budget_steps=0)
+    with pytest.raises(InvalidParameterError, match="num_policy_checks"):
+        fake_run(num_policy_checks=0)
+    with pytest.raises(InvalidParameterError, match="eval_episodes"):
+        fake_run(eval_episodes=0)
+
+
+def test_result_summary_and_frame():
+    result = fake_run(seed=2)
+    text = result.summary()
+    assert "FakeAgent on FakeWalk, seed 2" in text and "1,000 learning steps" in text
+    frame = result.to_frame()
+    assert frame["seed"].eq(2).all() and len(frame) == 11
+
+
+def test_run_config_with_real_components():
+    pytest.importorskip("conjure.agents")
+    from conjure.experiments.run import run_config
+
+    config = {
+        "name": "chain",
+        "domain": {"kind": "ChainMDP", "params": {"num_states": 4, "num_actions": 2}},
+        "agents": {
+            "q": {
+                "kind": "QLearning",
+                "params": {
+                    "representation": {"kind": "Tabular"},
+                    "policy": {"kind": "EpsilonGreedy", "params": {"epsilon": 0.2}},
+                    "step_size": 0.5,
+                },
+            }
+        },
+        "budget_steps": 300,
+        "num_policy_checks": 3,
+    }
+    first = run_config(config, agent_name="q", seed=1)
+    second = run_config(config, agent_name="q", seed=1)
+    pd.testing.assert_frame_equal(without_timing(first.curve), without_timing(second.curve))
+    assert first.config["label"] == "q"
+    assert first.config["agent"]["params"]["policy"]["params"]["epsilon"] == 0.2
+    assert first.curve["learning_steps"].tolist() == [0, 100, 200, 300]
+
+
+def test_policy_checks_do_not_perturb_a_real_agent():
+    pytest.importorskip("conjure.agents")
+    from conjure.agents import SARSA
+    from conjure.domains import InvertedPendulum
+    from conjure.policies import EpsilonGreedy
+    from conjure.representations import TileCoding
+
+    def trained(num_policy_checks):
+        agent = SARSA(representation=TileCoding(), policy=EpsilonGreedy(epsilon=0.1))
+        run(
+            domain=InvertedPendulum(),
+            agent=agent,
+            budget_steps=1500,
+            seed=4,
+            num_policy_checks=num_policy_checks,
+        )
+        return agent.weights_
+
+    np.testing.assert_array_equal(trained(1), trained(9))
