@@ -130,8 +130,9 @@ class InstanceOf(Constraint):
         if self.description is not None:
             return self.description
         kinds = self.kind if isinstance(self.kind, tuple) else (self.kind,)
-        names = ["None" if k is type(None) else k.__name__ for k in kinds]
-        return "an instance of " + " or ".join(names)
+        names = [k.__name__ for k in kinds if k is not type(None)]
+        described = ["an instance of " + " or ".join(names)] if names else []
+        return " or ".join(described + (["None"] if type(None) in kinds else []))
 
 
 class Predicate(Constraint):

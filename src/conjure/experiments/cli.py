@@ -86,7 +86,10 @@ def run_command(
     )
     if not outcome.results.empty:
         figure = plot_learning_curves(
-            outcome.results, out_dir / "learning_curve.png", title=experiment.name
+            outcome.results,
+            out_dir / "learning_curve.png",
+            metric=experiment.metric,
+            title=experiment.name,
         )
         console.print(f"Results in {out_dir}; learning curves in {figure}.")
     if outcome.errors:

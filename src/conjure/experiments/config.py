@@ -16,6 +16,7 @@ An experiment YAML looks like::
     eval_episodes: 1              # default 1
     seeds: 4                      # a count (seeds 0..3) or an explicit list [0, 7, 9]
     max_workers: 2                # optional
+    metric: episode_length        # the curve column summarised and plotted; default return
 
 `load_config` reads it, applies ``--set dotted.path=value`` overrides, validates the tree
 (pydantic) and builds every component once so that a bad kind, parameter, type or range fails
@@ -129,6 +130,19 @@ class ExperimentConfig(BaseModel):
     eval_episodes: PositiveInt = 1
     seeds: int | list[int] = 1
     max_workers: PositiveInt | None = None
+    metric: str = "return"
+
+    @field_validator("metric")
+    @classmethod
+    def _metric_is_a_curve_column(cls, metric: str) -> str:
+        from conjure.experiments.run import CURVE_COLUMNS
+
+        if metric not in CURVE_COLUMNS:
+            raise ValueError(
+                f"metric must be a learning-curve column, one of {', '.join(CURVE_COLUMNS)}; "
+                f"got {metric!r}"
+            )
+        return metric
 
     @field_validator("agents")
     @classmethod

@@ -77,11 +77,13 @@ class ExperimentResult:
     results : pandas.DataFrame
         Every finished run's curve (``results.parquet``).
     summary : pandas.DataFrame
-        Per label: final mean return ± 95% CI, features, steps/s (``summary.csv``).
+        Per label: final mean ``metric`` ± 95% CI, features, steps/s (``summary.csv``).
     errors : dict
         ``(label, seed) -> one-line message`` for the runs that failed this time.
     num_skipped : int
         Runs found finished and not rerun.
+    metric : str
+        The learning-curve column the summary reports.
     """
 
     out_dir: Path
@@ -89,6 +91,7 @@ class ExperimentResult:
     summary: pd.DataFrame
     errors: dict[tuple[str, int], str] = field(default_factory=dict)
     num_skipped: int = 0
+    metric: str = "return"
 
 
 def _execute(run_spec: dict[str, Any], directory: str) -> tuple[str, int, str | None]:
@@ -222,35 +225,38 @@ def run_experiment(
 
     finished_runs = [(spec["label"], spec["seed"]) for spec in all_runs]
     results = load_results(out_dir, finished_runs)
-    summary = summarize(results)
+    summary = summarize(results, metric=config.metric)
     write_results(out_dir, results, summary)
-    outcome = ExperimentResult(out_dir, results, summary, errors, num_skipped)
+    outcome = ExperimentResult(out_dir, results, summary, errors, num_skipped, config.metric)
     if progress:
         print_summary(outcome, console)
     return outcome
 
 
 def print_summary(outcome: ExperimentResult, console: Console | None = None) -> None:
-    """Print the per-label summary table (final return ± 95% CI, features, steps/s)."""
+    """Print the per-label summary table (final metric ± 95% CI, features, steps/s)."""
     console = console or Console()
+    metric = outcome.metric
     table = Table(title=f"{outcome.out_dir}: final policy check, mean over seeds")
     for name, justify in (
         ("label", "left"),
         ("seeds", "right"),
-        ("final return ± 95% CI", "right"),
+        (f"final {metric.replace('_', ' ')} ± 95% CI", "right"),
         ("features", "right"),
         ("steps/s", "right"),
     ):
         table.add_column(name, justify=justify)  # type: ignore[arg-type]
-    for row in outcome.summary.itertuples(index=False):
-        half = row.final_return_ci95
+    for row in outcome.summary.to_dict("records"):
+        half = row[f"final_{metric}_ci95"]
         ci = "" if pd.isna(half) else f" ± {half:.4g}"
         table.add_row(
-            str(row.label),
-            str(row.num_seeds),
-            f"{row.final_return_mean:.4g}{ci}",
-            f"{row.final_num_features:,.0f}",
-            "n/a" if pd.isna(row.mean_steps_per_second) else f"{row.mean_steps_per_second:,.0f}",
+            str(row["label"]),
+            str(row["num_seeds"]),
+            f"{row[f'final_{metric}_mean']:.4g}{ci}",
+            f"{row['final_num_features']:,.0f}",
+            "n/a"
+            if pd.isna(row["mean_steps_per_second"])
+            else f"{row['mean_steps_per_second']:,.0f}",
         )
     console.print(table)
     if outcome.num_skipped:
