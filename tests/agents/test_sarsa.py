@@ -129,3 +129,14 @@ def test_save_restore_with_traces_continues_exactly(tmp_path):
     _rollout(domain, resumed, 300, seed=6)
     assert np.array_equal(resumed.weights_, straight.weights_)
     assert resumed.get_params() == straight.get_params() or repr(resumed) == repr(straight)
+
+
+def test_traces_grow_with_discovered_features():
+    from conjure.core import Expansion
+
+    domain = ChainMDP(num_states=4, num_actions=2)
+    agent = SARSA(representation=Tabular(), trace_decay=0.5).setup(domain.domain_spec, seed=0)
+    _rollout(domain, agent, 20, seed=0)
+    agent._grow(Expansion(first_new=4, parents=np.array([[0, 1]])))
+    assert agent.weights_.shape == (5, 2) and agent.trace_slots_.shape == (5, 2)
+    assert np.all(agent.trace_slots_[4] == -1)

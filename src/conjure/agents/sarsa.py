@@ -11,6 +11,7 @@ from conjure.agents.base import LinearTDAgent
 from conjure.core.interfaces import DomainSpec, Expansion, Policy, Representation, Transition
 from conjure.core.params import Interval, Options
 from conjure.core.schedules import StepSizeSchedule
+from conjure.representations.weights import append_rows
 
 __all__ = ["SARSA"]
 
@@ -178,11 +179,10 @@ class SARSA(LinearTDAgent):
         super()._grow(expansion)
         if not self._has_traces:
             return
-        new_rows = (expansion.num_new, self.weights_.shape[1])
         if self._is_binary:
-            self.trace_slots_ = np.vstack([self.trace_slots_, np.full(new_rows, -1, np.int64)])
+            self.trace_slots_ = append_rows(self.trace_slots_, expansion.num_new, fill=-1)
         else:
-            self.traces_ = np.vstack([self.traces_, np.zeros(new_rows)])
+            self.traces_ = append_rows(self.traces_, expansion.num_new)
 
     # ------------------------------------------------------------------ persistence
 

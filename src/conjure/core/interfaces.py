@@ -131,7 +131,11 @@ class Expansion:
     """Features an adaptive representation added in one step (Algorithms 20-22).
 
     New features are numbered ``first_new .. first_new + len(parents) - 1``; row i of
-    ``parents`` holds the two existing features g, h whose conjunction is new feature i.
+    ``parents`` holds the two existing features g, h whose conjunction is new feature i, so
+    learners set θ_i = θ_g + θ_h (Section 4.1.1). A parent of −1 contributes nothing: a split
+    tile (adaptive tile coding) lists (t, −1) to copy θ_t, a new prototype (−1, −1) starts at
+    zero. A parent may be a feature added earlier in the same expansion. Features are never
+    removed: a representation that retires a feature simply stops activating it.
     """
 
     first_new: int

@@ -7,7 +7,46 @@ import numpy as np
 from conjure.core.errors import InvalidParameterError
 from conjure.core.interfaces import Expansion
 
-__all__ = ["grow_weights"]
+__all__ = ["append_rows", "grow_weights"]
+
+
+def append_rows(array: np.ndarray, num_new: int, fill: float = 0.0) -> np.ndarray:
+    """Return ``array`` with ``num_new`` rows of ``fill`` appended, in amortised Θ(row) time.
+
+    The result is a leading-rows view of a buffer with spare capacity (doubled when full), so
+    adding features one at a time costs Θ(1) rows each, not a copy of the whole array: the
+    thesis's requirement that online iFDD's per-step cost not grow with the number of features
+    (Section 4.1.3). The result may share memory with ``array``: always use the returned array.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> grown = append_rows(np.ones((2, 3)), 1, fill=-1.0)
+    >>> grown.tolist()
+    [[1.0, 1.0, 1.0], [1.0, 1.0, 1.0], [-1.0, -1.0, -1.0]]
+    >>> append_rows(grown, 1).base is grown.base  # spare capacity is reused
+    True
+    """
+    num_rows = array.shape[0]
+    buffer = array.base if _is_leading_view(array) else None
+    if buffer is None or buffer.shape[0] < num_rows + num_new:
+        capacity = max(2 * num_rows, num_rows + num_new, 16)
+        buffer = np.empty((capacity, *array.shape[1:]), dtype=array.dtype)
+        buffer[:num_rows] = array
+    buffer[num_rows : num_rows + num_new] = fill
+    return buffer[: num_rows + num_new]
+
+
+def _is_leading_view(array: np.ndarray) -> bool:
+    base = array.base
+    return (
+        isinstance(base, np.ndarray)
+        and base.base is None
+        and base.flags.c_contiguous
+        and base.shape[1:] == array.shape[1:]
+        and base.dtype == array.dtype
+        and base.__array_interface__["data"][0] == array.__array_interface__["data"][0]
+    )
 
 
 def grow_weights(weights: np.ndarray, expansion: Expansion | None) -> np.ndarray:
@@ -28,24 +67,25 @@ def grow_weights(weights: np.ndarray, expansion: Expansion | None) -> np.ndarray
     Returns
     -------
     ndarray, shape (n + expansion.num_new, ...)
-        A new array (the same object if nothing was added) with row ``first_new + i`` equal to
-        ``weights[g_i] + weights[h_i]``.
+        Row ``first_new + i`` equals ``weights[g_i] + weights[h_i]``; a parent of −1 adds
+        nothing (a split tile copies its one parent, a fresh prototype starts at zero). The
+        result comes from `append_rows`, so it may share memory with ``weights``.
 
     Raises
     ------
     InvalidParameterError
         If ``expansion.first_new`` is not the current row count, or a parent is not an
-        existing feature.
+        existing feature or −1.
 
     Notes
     -----
     - Symbols: θ ``weights``; (g, h) a row of ``expansion.parents``.
     - Choice: a new feature may have a parent added earlier in the same expansion (rows are
-      filled in order), so parents must lie in ``[0, first_new + i)``.
+      filled in order), so parents must lie in ``[0, first_new + i)`` (or be −1).
 
     Complexity
     ----------
-    Θ(n · |A|) when features are added (one copy of θ), Θ(1) otherwise.
+    Amortised Θ(|A|) per new feature (see `append_rows`), Θ(1) when nothing is added.
 
     Examples
     --------
@@ -69,16 +109,14 @@ def grow_weights(weights: np.ndarray, expansion: Expansion | None) -> np.ndarray
         return weights
     parents = np.asarray(expansion.parents, dtype=np.int64).reshape(num_new, 2)
     limits = num_rows + np.arange(num_new)[:, None]
-    if np.any(parents < 0) or np.any(parents >= limits):
+    if np.any(parents < -1) or np.any(parents >= limits):
         raise InvalidParameterError(
-            f"grow_weights: parents must be existing features (row i in [0, {num_rows} + i)); "
-            f"got {parents.tolist()}."
+            f"grow_weights: parents must be existing features (row i in [0, {num_rows} + i)) "
+            f"or -1; got {parents.tolist()}."
         )
-    grown = np.empty((num_rows + num_new, *weights.shape[1:]), dtype=weights.dtype)
-    grown[:num_rows] = weights
-    if np.all(parents < num_rows):
-        grown[num_rows:] = weights[parents[:, 0]] + weights[parents[:, 1]]
-    else:
-        for i, (g, h) in enumerate(parents):
-            grown[num_rows + i] = grown[g] + grown[h]
+    grown = append_rows(weights, num_new)
+    for i in range(num_new):
+        for parent in parents[i]:
+            if parent >= 0:
+                grown[num_rows + i] += grown[parent]
     return grown
