@@ -1,0 +1,1 @@
+"""Models: exact tabular (P, R) models and generative samplers shared by planners (ch. 2)."""
