@@ -252,7 +252,17 @@ class Representation(Configurable):
         return None
 
     def check_state(self, state: Any) -> np.ndarray:
-        """Return ``state`` as a float64 vector of the set-up dimension, or raise clearly."""
+        """Return ``state`` as a float64 vector of the set-up dimension, or raise clearly.
+
+        A float64 vector of the right length is returned as it is (the hot path: one type and
+        one shape test).
+        """
+        if (
+            type(state) is np.ndarray
+            and state.dtype == np.float64
+            and state.shape == self.spec_.low.shape
+        ):
+            return state
         array = np.asarray(state, dtype=np.float64)
         if array.ndim != 1 or array.shape[0] != self.spec_.num_dims:
             raise InvalidParameterError(

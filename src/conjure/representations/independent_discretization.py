@@ -99,10 +99,5 @@ class IndependentDiscretization(Representation):
         except AttributeError:
             check_is_set_up(self, "active_features")
             raise
-        if not (
-            type(state) is np.ndarray
-            and state.dtype == np.float64
-            and state.shape == self.offsets_.shape
-        ):
-            state = self.check_state(state)
+        state = self.check_state(state)
         return independent_features(state, dims, self.offsets_)

@@ -173,12 +173,7 @@ class RBF(Representation):
         except AttributeError:
             check_is_set_up(self, "feature_values")
             raise
-        if not (
-            type(state) is np.ndarray
-            and state.dtype == np.float64
-            and state.shape == self.widths_.shape
-        ):
-            state = self.check_state(state)
+        state = self.check_state(state)
         return rbf_values(state, affine, self._scaled_centers, self.num_features_)
 
     def state_arrays(self) -> dict[str, np.ndarray]:

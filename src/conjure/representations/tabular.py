@@ -105,10 +105,5 @@ class Tabular(Representation):
         except AttributeError:
             check_is_set_up(self, "active_features")
             raise
-        if not (
-            type(state) is np.ndarray
-            and state.dtype == np.float64
-            and state.shape == self.num_buckets_.shape
-        ):
-            state = self.check_state(state)
+        state = self.check_state(state)
         return tabular_feature(state, dims, self._strides)

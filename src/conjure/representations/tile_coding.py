@@ -202,7 +202,6 @@ class TileCoding(Representation):
                 )
 
         self._dims = dims
-        self._state_shape = (spec.num_dims,)
         self._layout = np.array(layout_rows, dtype=np.int64).reshape(-1, 3)
         self._group_table = np.array(group_rows, dtype=np.int64).reshape(-1, 4)
         self._num_tilings = num_tilings
@@ -229,12 +228,7 @@ class TileCoding(Representation):
         except AttributeError:
             check_is_set_up(self, "active_features")
             raise
-        if not (
-            type(state) is np.ndarray
-            and state.dtype == np.float64
-            and state.shape == self._state_shape
-        ):
-            state = self.check_state(state)
+        state = self.check_state(state)
         if self._is_hashed:
             return hashed_tile_features(
                 state,
