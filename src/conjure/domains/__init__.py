@@ -10,12 +10,24 @@ from typing import Any
 
 import gymnasium as gym
 
+from conjure.domains.blocksworld import BlocksWorld
 from conjure.domains.chain import ChainMDP
 from conjure.domains.gridworld import GridWorld
 from conjure.domains.gymnasium_adapter import GymnasiumDomain, from_gymnasium
 from conjure.domains.pendulum import InvertedPendulum
+from conjure.domains.persistent_surveillance import PersistentSurveillance
+from conjure.domains.rescue_mission import RescueMission
 
-__all__ = ["ChainMDP", "GridWorld", "GymnasiumDomain", "InvertedPendulum", "from_gymnasium"]
+__all__ = [
+    "BlocksWorld",
+    "ChainMDP",
+    "GridWorld",
+    "GymnasiumDomain",
+    "InvertedPendulum",
+    "PersistentSurveillance",
+    "RescueMission",
+    "from_gymnasium",
+]
 
 # (id, entry point, max_episode_steps, kwargs)
 _REGISTRATIONS: tuple[tuple[str, str, int, dict[str, Any]], ...] = (
@@ -34,6 +46,14 @@ _REGISTRATIONS: tuple[tuple[str, str, int, dict[str, Any]], ...] = (
         {"map_name": "gridworld2", "step_reward": -0.01, "noise": 0.2},
     ),
     ("conjure/ChainMDP-v0", "conjure.domains.chain:ChainMDP", 100, {}),
+    ("conjure/BlocksWorld-v0", "conjure.domains.blocksworld:BlocksWorld", 1000, {}),
+    (
+        "conjure/PersistentSurveillance-v0",
+        "conjure.domains.persistent_surveillance:PersistentSurveillance",
+        1000,
+        {},
+    ),
+    ("conjure/RescueMission-v0", "conjure.domains.rescue_mission:RescueMission", 10, {}),
 )
 
 

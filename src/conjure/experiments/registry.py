@@ -23,9 +23,25 @@ from conjure.agents import SARSA, ActorCritic, QLearning
 from conjure.core.errors import InvalidParameterError
 from conjure.core.params import Configurable, did_you_mean
 from conjure.core.schedules import ConstantStepSize, EpisodicDecay, FeatureNormalizedDecay
-from conjure.domains import ChainMDP, GridWorld, GymnasiumDomain, InvertedPendulum
+from conjure.domains import (
+    BlocksWorld,
+    ChainMDP,
+    GridWorld,
+    GymnasiumDomain,
+    InvertedPendulum,
+    PersistentSurveillance,
+    RescueMission,
+)
 from conjure.policies import EpsilonGreedy, Gibbs
-from conjure.representations import RBF, IndependentDiscretization, Tabular, TileCoding
+from conjure.representations import (
+    RBF,
+    AdaptiveTileCoding,
+    BinaryIndicators,
+    IndependentDiscretization,
+    SparseDistributedMemory,
+    Tabular,
+    TileCoding,
+)
 
 __all__ = [
     "AGENTS",
@@ -41,14 +57,20 @@ __all__ = [
 ]
 
 DOMAINS: dict[str, type[Configurable]] = {
+    "BlocksWorld": BlocksWorld,
     "ChainMDP": ChainMDP,
     "GridWorld": GridWorld,
     "Gymnasium": GymnasiumDomain,
     "InvertedPendulum": InvertedPendulum,
+    "PersistentSurveillance": PersistentSurveillance,
+    "RescueMission": RescueMission,
 }
 REPRESENTATIONS: dict[str, type[Configurable]] = {
+    "AdaptiveTileCoding": AdaptiveTileCoding,
+    "BinaryIndicators": BinaryIndicators,
     "IndependentDiscretization": IndependentDiscretization,
     "RBF": RBF,
+    "SparseDistributedMemory": SparseDistributedMemory,
     "Tabular": Tabular,
     "TileCoding": TileCoding,
 }

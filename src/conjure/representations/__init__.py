@@ -1,15 +1,28 @@
-"""Representations φ(s) (Geramifard 2012, Sections 2.4, 3.1 and 4.1.4) and the weight rule.
+"""Representations φ(s) (Geramifard 2012, Sections 2.4, 3.1, 4.1 and 4.3) and the weight rule.
 
 Binary, sparse representations return the sorted indices of their active features
 (`active_features`); the dense `RBF` returns every feature value (`feature_values`).
-`grow_weights` applies θ_f = θ_g + θ_h (Section 4.1.1) when an adaptive representation adds
-features.
+Adaptive representations add features in `discover`; `grow_weights` applies
+θ_f = θ_g + θ_h (Section 4.1.1) to the learner's weights.
 """
 
+from conjure.representations.adaptive_tile_coding import AdaptiveTileCoding
 from conjure.representations.independent_discretization import IndependentDiscretization
+from conjure.representations.indicators import BinaryIndicators
 from conjure.representations.rbf import RBF
+from conjure.representations.sparse_distributed_memory import SparseDistributedMemory
 from conjure.representations.tabular import Tabular
 from conjure.representations.tile_coding import TileCoding
-from conjure.representations.weights import grow_weights
+from conjure.representations.weights import append_rows, grow_weights
 
-__all__ = ["RBF", "IndependentDiscretization", "Tabular", "TileCoding", "grow_weights"]
+__all__ = [
+    "RBF",
+    "AdaptiveTileCoding",
+    "BinaryIndicators",
+    "IndependentDiscretization",
+    "SparseDistributedMemory",
+    "Tabular",
+    "TileCoding",
+    "append_rows",
+    "grow_weights",
+]

@@ -44,11 +44,12 @@ def sample_states(spec: DomainSpec, num_states: int, seed: int = 0) -> np.ndarra
     return states
 
 
-def _chain_spec(num_states: int = 4) -> DomainSpec:
+def _check_spec() -> DomainSpec:
+    """A 2-D spec every representation accepts: one binary and one continuous unit dimension."""
     return DomainSpec(
         name="checks",
-        low=[0.0, -1.0],
-        high=[num_states - 1.0, 1.0],
+        low=[0.0, 0.0],
+        high=[1.0, 1.0],
         is_discrete=[True, False],
         num_actions=2,
         discount=0.9,
@@ -130,7 +131,7 @@ def check_bad_params_raise(component: Configurable) -> None:
 
 def _validate(component: Configurable) -> None:
     if isinstance(component, Representation):
-        component.setup(_chain_spec(), seed=0)
+        component.setup(_check_spec(), seed=0)
     elif isinstance(component, Agent):
         component.setup(_check_domain_for(component).domain_spec, seed=0)
     else:
@@ -151,7 +152,7 @@ def _exercise(component: Configurable) -> None:
     if isinstance(component, Domain):
         _domain_rollout(component, seed=3, num_steps=30)
     elif isinstance(component, Representation):
-        spec = _chain_spec()
+        spec = _check_spec()
         representation = component.clone().setup(spec, seed=0)
         for state in sample_states(spec, 20):
             _features(representation, state)
@@ -225,7 +226,7 @@ def _features(representation: Representation, state: np.ndarray) -> np.ndarray:
 
 def check_features_valid(representation: Representation) -> None:
     """φ(s) is sorted unique int64 indices in range (binary) or finite floats (dense)."""
-    spec = _chain_spec()
+    spec = _check_spec()
     rep = representation.clone().setup(spec, seed=0)
     assert rep.num_features_ > 0, "A set-up representation needs at least one feature."
     for state in sample_states(spec, 200):
@@ -242,7 +243,7 @@ def check_features_valid(representation: Representation) -> None:
 
 def check_wrong_state_shape_raises(representation: Representation) -> None:
     """A state from another space raises `InvalidParameterError` naming the shape."""
-    rep = representation.clone().setup(_chain_spec(), seed=0)
+    rep = representation.clone().setup(_check_spec(), seed=0)
     try:
         _features(rep, np.zeros(5))
     except InvalidParameterError as error:
@@ -272,7 +273,7 @@ def check_not_set_up_raises(component: Representation | Agent) -> None:
 
 def check_representation_state_round_trip(representation: Representation) -> None:
     """``state_arrays`` then ``load_state_arrays`` into a fresh copy preserves φ."""
-    spec = _chain_spec()
+    spec = _check_spec()
     rep = representation.clone().setup(spec, seed=1)
     states = sample_states(spec, 100, seed=2)
     expected = [_features(rep, state) for state in states]
