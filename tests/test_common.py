@@ -7,11 +7,21 @@ import pytest
 from conjure.agents import SARSA, ActorCritic, QLearning
 from conjure.domains import GridWorld
 from conjure.experiments.registry import LAYERS
-from conjure.representations import RBF, Tabular, TileCoding
+from conjure.representations import (
+    RBF,
+    IndependentDiscretization,
+    OnlineIFDD,
+    Tabular,
+    TileCoding,
+)
 from conjure.testing import applicable_checks
 
 #: Values for required constructor parameters, by parameter name.
-REQUIRED = {"representation": lambda: Tabular(num_buckets=5), "env_id": lambda: "CartPole-v1"}
+REQUIRED = {
+    "representation": lambda: Tabular(num_buckets=5),
+    "base": lambda: IndependentDiscretization(num_buckets=5),
+    "env_id": lambda: "CartPole-v1",
+}
 
 #: Variants beyond each registered class's defaults.
 VARIANTS = [
@@ -21,6 +31,12 @@ VARIANTS = [
     ActorCritic(representation=Tabular(), actor_representation=RBF()),
     GridWorld(map_name="gridworld2", step_reward=-0.01, noise=0.2),
     TileCoding(num_tilings=2, tiles_per_dim=3, dimension_groups=[[0], [1], [0, 1]]),
+    OnlineIFDD(base=TileCoding(num_tilings=2, tiles_per_dim=3), relevance="ifdd_plus"),
+    SARSA(
+        representation=OnlineIFDD(base=IndependentDiscretization(), discovery_threshold=0.01),
+        trace_decay=0.7,
+    ),
+    ActorCritic(representation=OnlineIFDD(base=Tabular(), discovery_threshold=0.01)),
 ]
 
 

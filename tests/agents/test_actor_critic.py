@@ -40,3 +40,17 @@ def test_separate_dense_actor_features_work():
     _rollout(domain, agent, 300, seed=0)
     assert agent.actor_weights_.shape == (agent.actor_representation_.num_features_, 3)
     assert np.all(np.isfinite(agent.actor_weights_)) and np.abs(agent.actor_weights_).sum() > 0
+
+
+def test_shared_adaptive_features_grow_both_weight_tables():
+    from conjure.representations.online_ifdd import OnlineIFDD
+
+    domain = InvertedPendulum()
+    agent = ActorCritic(
+        representation=OnlineIFDD(base=IndependentDiscretization(), discovery_threshold=0.05),
+        step_size=0.1,
+    ).setup(domain.domain_spec, seed=0)
+    _rollout(domain, agent, 3000, seed=0)
+    n = agent.representation_.num_features_
+    assert n > agent.representation_.num_initial_features_
+    assert agent.weights_.shape[0] == agent.actor_weights_.shape[0] == n

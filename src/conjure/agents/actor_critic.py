@@ -8,10 +8,18 @@ import numpy as np
 
 from conjure.agents import _kernels
 from conjure.agents.base import STEP_SIZE, LinearTDAgent, make_schedule
-from conjure.core.interfaces import DomainSpec, Policy, Representation, Transition, check_is_set_up
+from conjure.core.interfaces import (
+    DomainSpec,
+    Expansion,
+    Policy,
+    Representation,
+    Transition,
+    check_is_set_up,
+)
 from conjure.core.params import InstanceOf
 from conjure.core.schedules import StepSizeSchedule
 from conjure.policies import Gibbs, greedy_action
+from conjure.representations.weights import grow_weights
 
 __all__ = ["ActorCritic"]
 
@@ -171,6 +179,12 @@ class ActorCritic(LinearTDAgent):
 
     def _actor_norm(self, psi: np.ndarray) -> float:
         return float(psi.shape[0]) if self._actor_is_binary else float(np.abs(psi).sum())
+
+    def _grow(self, expansion: Expansion) -> None:
+        """Grow θ, and ω too when the actor shares the critic's (adaptive) features."""
+        super()._grow(expansion)
+        if self._is_shared:
+            self.actor_weights_ = grow_weights(self.actor_weights_, expansion)
 
     def _state_arrays(self) -> dict[str, np.ndarray]:
         arrays = super()._state_arrays()

@@ -9,6 +9,8 @@ Adaptive representations add features in `discover`; `grow_weights` applies
 from conjure.representations.adaptive_tile_coding import AdaptiveTileCoding
 from conjure.representations.independent_discretization import IndependentDiscretization
 from conjure.representations.indicators import BinaryIndicators
+from conjure.representations.online_ifdd import OnlineIFDD
+from conjure.representations.random_expansion import RandomExpansion
 from conjure.representations.rbf import RBF
 from conjure.representations.sparse_distributed_memory import SparseDistributedMemory
 from conjure.representations.tabular import Tabular
@@ -20,6 +22,8 @@ __all__ = [
     "AdaptiveTileCoding",
     "BinaryIndicators",
     "IndependentDiscretization",
+    "OnlineIFDD",
+    "RandomExpansion",
     "SparseDistributedMemory",
     "Tabular",
     "TileCoding",
