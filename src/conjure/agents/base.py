@@ -151,7 +151,7 @@ class LinearTDAgent(Agent):
                 f"(now {self.step_size!r}) or use a feature-normalised schedule."
             )
         if self.representation_.is_adaptive:
-            expansion = self.representation_.discover(phi, delta)
+            expansion = self.representation_.discover(phi, delta, transition.state)
             if expansion is not None and expansion.num_new:
                 self._grow(expansion)
 

@@ -247,8 +247,14 @@ class Representation(Configurable):
         phi[self.active_features(state)] = 1.0
         return phi
 
-    def discover(self, active: np.ndarray, td_error: float) -> Expansion | None:
-        """Update relevances from one TD error and return new features, if any (Alg 20-22)."""
+    def discover(
+        self, active: np.ndarray, td_error: float, state: np.ndarray | None = None
+    ) -> Expansion | None:
+        """Update relevances from one TD error and return new features, if any (Alg 20-22).
+
+        ``active`` is the φ(s) the learner just updated with δ = ``td_error``; ``state`` is s
+        itself, for representations that split the state space (ARiFDD, adaptive tile coding).
+        """
         return None
 
     def check_state(self, state: Any) -> np.ndarray:

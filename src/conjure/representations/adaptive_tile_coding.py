@@ -248,7 +248,9 @@ class AdaptiveTileCoding(Representation):
     # -----------------------------------------------------------------------------------------
     # discovery
 
-    def discover(self, active: np.ndarray, td_error: float) -> Expansion | None:
+    def discover(
+        self, active: np.ndarray, td_error: float, state: np.ndarray | None = None
+    ) -> Expansion | None:
         """Record δ for the active tile; split it if its learning stalled (Whiteson et al.)."""
         check_is_set_up(self, "discover")
         tile = int(active[0])

@@ -297,7 +297,9 @@ class OnlineIFDD(Representation):
 
     # ------------------------------------------------------------------ Algorithms 20 and 21
 
-    def discover(self, active: np.ndarray, td_error: float) -> Expansion | None:
+    def discover(
+        self, active: np.ndarray, td_error: float, state: np.ndarray | None = None
+    ) -> Expansion | None:
         """Update the relevances of the co-active pairs of φ̇(s) with δ; add features (Alg 20/21).
 
         ``active`` must be the φ̇(s) used in the TD update. Returns the new features with their

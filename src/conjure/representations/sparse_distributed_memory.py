@@ -260,7 +260,9 @@ class SparseDistributedMemory(Representation):
     # -----------------------------------------------------------------------------------------
     # discovery (Ratitch & Precup's dynamic allocation)
 
-    def discover(self, active: np.ndarray, td_error: float) -> Expansion | None:
+    def discover(
+        self, active: np.ndarray, td_error: float, state: np.ndarray | None = None
+    ) -> Expansion | None:
         """Allocate prototypes around the updated state if it activates fewer than N_min."""
         check_is_set_up(self, "discover")
         if active.shape[0] >= self._min_active or self.num_features_ >= self._max_features:
