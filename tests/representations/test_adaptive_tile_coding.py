@@ -45,7 +45,8 @@ def feed(rep, stream):
     """Call discover for each (state, δ); return the non-empty expansions with their step."""
     grown = []
     for step, (state, delta) in enumerate(stream):
-        expansion = rep.discover(rep.active_features(np.asarray(state, dtype=float)), delta)
+        state = np.asarray(state, dtype=float)
+        expansion = rep.discover(rep.active_features(state), delta, state)
         if expansion is not None:
             grown.append((step, expansion))
     return grown
@@ -180,7 +181,7 @@ def test_random_stream_keeps_features_valid_and_consistent_with_the_boxes():
     for state in states:
         phi = rep.active_features(state)
         check_indices(phi, rep.num_features_)
-        expansion = rep.discover(phi, float(np.sin(3 * state[0]) + rng.normal()))
+        expansion = rep.discover(phi, float(np.sin(3 * state[0]) + rng.normal()), state)
         if expansion is not None:
             assert expansion.first_new == seen and expansion.parents.tolist() == [[phi[0], -1]]
             seen += expansion.num_new
@@ -191,10 +192,12 @@ def test_random_stream_keeps_features_valid_and_consistent_with_the_boxes():
         assert tile_of_box(rep, state).tolist() == rep.active_features(state).tolist(), state
 
 
-def test_unknown_phi_still_counts_towards_the_stall():
-    rep = AdaptiveTileCoding(patience=2).setup(LINE, seed=0)
-    for _ in range(5):
-        assert rep.discover(np.array([0]), 1.0) is None  # no state: no half statistics
+def test_discover_needs_the_state():
+    rep = AdaptiveTileCoding(patience=1).setup(LINE, seed=0)
+    with pytest.raises(InvalidParameterError, match="state=None"):
+        rep.discover(np.array([0]), 1.0)
+    with pytest.raises(InvalidParameterError, match=r"\(2,\)"):
+        rep.discover(np.array([0]), 1.0, state=np.zeros(2))
     assert rep.num_features_ == 1
 
 

@@ -59,7 +59,7 @@ def drive(rep, states, seed=0):
     for state in states:
         phi = rep.active_features(state)
         check_indices(phi, rep.num_features_)
-        expansion = rep.discover(phi, float(rng.normal()))
+        expansion = rep.discover(phi, float(rng.normal()), state)
         if expansion is not None:
             assert expansion.first_new + expansion.num_new == rep.num_features_
             assert np.all(expansion.parents == -1)
@@ -107,20 +107,20 @@ def test_hand_checked_allocation_at_the_state():
     rep = SparseDistributedMemory(activation_radius=0.25, min_active=2).setup(LINE, seed=0)
     phi = rep.active_features(np.array([0.1]))
     assert phi.tolist() == [0]
-    expansion = rep.discover(phi, 0.3)
+    expansion = rep.discover(phi, 0.3, np.array([0.1]))
     assert expansion.first_new == 2 and expansion.parents.tolist() == [[-1, -1]]
     np.testing.assert_allclose(rep.centers_.ravel(), [0.25, 0.75, 0.1])
     assert rep.active_features(np.array([0.1])).tolist() == [0, 2]
     weights = np.array([[1.0, 2.0, 3.0], [4.0, 5.0, 6.0]])
     np.testing.assert_array_equal(grow_weights(weights, expansion)[2], [0.0, 0.0, 0.0])
     # covered enough now: no further allocation
-    assert rep.discover(rep.active_features(np.array([0.1])), 0.3) is None
+    assert rep.discover(rep.active_features(np.array([0.1])), 0.3, np.array([0.1])) is None
 
 
 def test_allocation_fills_up_to_min_active_within_the_box():
     rep = SparseDistributedMemory(activation_radius=0.1, min_active=4).setup(LINE, seed=0)
     phi = rep.active_features(np.array([0.42]))
-    expansion = rep.discover(phi, 1.0)
+    expansion = rep.discover(phi, 1.0, np.array([0.42]))
     assert expansion.num_new == 4 - phi.size
     new = rep.centers_[expansion.first_new :].ravel()
     assert new[0] == pytest.approx(0.42)
@@ -128,18 +128,24 @@ def test_allocation_fills_up_to_min_active_within_the_box():
     assert rep.active_features(np.array([0.42])).size == 4
 
 
-def test_unknown_or_covered_phi_allocates_nothing():
+def test_covered_state_allocates_nothing_and_a_missing_state_raises():
     rep = SparseDistributedMemory(activation_radius=0.25, min_active=2).setup(LINE, seed=0)
-    assert rep.discover(np.array([1]), 1.0) is None  # never returned by active_features
-    assert rep.discover(rep.active_features(np.array([0.5])), 1.0) is None  # 2 active
+    middle = np.array([0.5])
+    assert rep.discover(rep.active_features(middle), 1.0, middle) is None  # 2 active
+    assert rep.num_features_ == 2
+    with pytest.raises(InvalidParameterError, match="state=None"):
+        rep.discover(rep.active_features(np.array([0.1])), 1.0)
+    with pytest.raises(InvalidParameterError, match=r"\(3,\)"):
+        rep.discover(np.array([0]), 1.0, state=np.zeros(3))
     assert rep.num_features_ == 2
 
 
 def test_memory_grown_since_phi_is_rechecked():
     rep = SparseDistributedMemory(activation_radius=0.25, min_active=2).setup(LINE, seed=0)
     stale = rep.active_features(np.array([0.1]))
-    rep.discover(rep.active_features(np.array([0.12])), 1.0)  # adds 0.12, which covers 0.1
-    assert rep.discover(stale, 1.0) is None
+    near = np.array([0.12])
+    rep.discover(rep.active_features(near), 1.0, near)  # adds 0.12, which covers 0.1
+    assert rep.discover(stale, 1.0, np.array([0.1])) is None
     assert rep.num_features_ == 3
 
 

@@ -9,6 +9,8 @@ from gymnasium import spaces
 
 from conjure.core.interfaces import Domain, DomainSpec
 from conjure.core.params import Constraint, Interval, Options
+from conjure.models.enumerate import enumerate_model
+from conjure.models.tabular import TabularModel
 
 __all__ = ["ChainMDP"]
 
@@ -128,6 +130,29 @@ class ChainMDP(Domain):
                 state, reward = state + 1, self._step_reward
         self._state = state
         return np.array([float(state)]), reward, state == last, False, {}
+
+    def start_states(self) -> list[tuple[float, np.ndarray]]:
+        """Return [(1, state 0)]: the start distribution, for `enumerate_model`."""
+        return [(1.0, np.array([0.0]))]
+
+    def outcomes(self, state: Any, action: int) -> list[tuple[float, np.ndarray, float, bool]]:
+        """Return the one-step outcomes [(p, s', r, terminated)] of ``action`` in ``state``."""
+        s, last = round(float(np.asarray(state).reshape(-1)[0])), self.num_states - 1
+        stay = (np.array([float(s)]), 0.0, s == last)
+        if s >= last or action != 0:
+            return [(1.0, *stay)]
+        move = (np.array([float(s + 1)]), float(self.step_reward), s + 1 == last)
+        if self.slip == 0.0:
+            return [(1.0, *move)]
+        return [(1.0 - float(self.slip), *move), (float(self.slip), *stay)]
+
+    def set_state(self, state: Any) -> None:
+        """Put the chain in ``state`` (the generative-model hook, Eq. 2.28)."""
+        self._state = round(float(np.asarray(state).reshape(-1)[0]))
+
+    def model(self) -> TabularModel:
+        """Return the exact `TabularModel`, enumerated from `outcomes` (Section 2.1)."""
+        return enumerate_model(self)
 
     def tabular_model(self) -> tuple[np.ndarray, np.ndarray]:
         """Return the exact model (P, R): P[a, s, s'] probabilities and R[a, s] expected rewards.

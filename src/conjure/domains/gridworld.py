@@ -7,13 +7,15 @@ from pathlib import Path
 from typing import Any, ClassVar
 
 import numpy as np
+import scipy.sparse as sp
 from gymnasium import spaces
 
 from conjure.core.errors import InvalidParameterError
 from conjure.core.interfaces import Domain, DomainSpec
 from conjure.core.params import Constraint, InstanceOf, Interval, did_you_mean
+from conjure.models.tabular import TabularModel
 
-__all__ = ["GridWorld", "load_map", "shipped_maps"]
+__all__ = ["GridWorld", "check_grid", "load_map", "open_grid", "shipped_maps"]
 
 MAPS_DIR = Path(__file__).resolve().parent / "maps"
 
@@ -67,19 +69,56 @@ def load_map(map_name: str | os.PathLike[str]) -> np.ndarray:
             f"GridWorld map {str(path)!r} must be a non-empty rectangle of codes; every line "
             f"must have the same number of cells."
         )
+    return check_grid(grid, repr(str(path)))
+
+
+def check_grid(grid: np.ndarray, where: str = "array") -> np.ndarray:
+    """Validate a grid of cell codes 0-5 (one start, at least one goal) and return it as int64.
+
+    Examples
+    --------
+    >>> check_grid(np.array([[2, 0, 3]])).tolist()
+    [[2, 0, 3]]
+    """
+    grid = np.asarray(grid)
+    if grid.ndim != 2 or grid.size == 0 or not np.issubdtype(grid.dtype, np.integer):
+        raise InvalidParameterError(
+            f"GridWorld map {where} must be a non-empty 2-D integer array of cell codes; got "
+            f"shape {grid.shape} and dtype {grid.dtype}."
+        )
+    grid = grid.astype(np.int64)
     bad = sorted(set(np.unique(grid).tolist()) - {FREE, BLOCKED, START, GOAL, PIT, WINDY})
     if bad:
         raise InvalidParameterError(
-            f"GridWorld map {str(path)!r} has unknown cell codes {bad}; codes are 0 free, "
+            f"GridWorld map {where} has unknown cell codes {bad}; codes are 0 free, "
             f"1 blocked, 2 start, 3 goal, 4 pit, 5 free (windy)."
         )
     num_starts = int(np.count_nonzero(grid == START))
     if num_starts != 1 or not np.any(grid == GOAL):
         raise InvalidParameterError(
-            f"GridWorld map {str(path)!r} needs exactly one start cell (code 2) and at least "
+            f"GridWorld map {where} needs exactly one start cell (code 2) and at least "
             f"one goal (code 3); it has {num_starts} start(s) and "
             f"{int(np.count_nonzero(grid == GOAL))} goal(s)."
         )
+    return grid
+
+
+def open_grid(rows: int, cols: int, *, blocked_fraction: float = 0.1, seed: int = 0) -> np.ndarray:
+    """Return a large random map: start at the top left, goal at the bottom right.
+
+    A fraction of the other cells is blocked and 0.5% are pits (drawn with ``seed``); used
+    for the 10⁴-10⁶-state planning benchmarks.
+
+    Examples
+    --------
+    >>> open_grid(3, 4, blocked_fraction=0.0).tolist()
+    [[2, 0, 0, 0], [0, 0, 0, 0], [0, 0, 0, 3]]
+    """
+    rng = np.random.default_rng(seed)
+    u = rng.random((rows, cols))
+    grid = np.where(u < blocked_fraction, BLOCKED, FREE).astype(np.int64)
+    grid[(u >= blocked_fraction) & (u < blocked_fraction + 0.005)] = PIT
+    grid[0, 0], grid[-1, -1] = START, GOAL
     return grid
 
 
@@ -94,8 +133,9 @@ class GridWorld(Domain):
 
     Parameters
     ----------
-    map_name : str or path, default="gridworld1"
-        A shipped map (``gridworld1`` 10×7, ``gridworld2`` 5×22, ``4x5``) or a map file path.
+    map_name : str, path or ndarray, default="gridworld1"
+        A shipped map (``gridworld1`` 10×7, ``gridworld2`` 5×22, ``4x5``), a map file path or
+        a 2-D integer array of cell codes (see `from_grid` and `open_grid`).
     step_reward : float, default=-0.001
         Reward of every step that reaches neither a goal nor a pit; any finite float.
     noise : float, default=0.3
@@ -154,7 +194,9 @@ class GridWorld(Domain):
     """
 
     parameter_constraints: ClassVar[dict[str, Constraint]] = {
-        "map_name": InstanceOf((str, os.PathLike), "a shipped map name or a path"),
+        "map_name": InstanceOf(
+            (str, os.PathLike, np.ndarray), "a shipped map name, a path or a grid array"
+        ),
         "step_reward": Interval(float, None, None),
         "noise": Interval(float, 0.0, 1.0),
         "discount": Interval(float, 0.0, 1.0),
@@ -178,6 +220,11 @@ class GridWorld(Domain):
         self._build()
 
     @classmethod
+    def from_grid(cls, grid: np.ndarray, **params: Any) -> GridWorld:
+        """A grid world on a map given as a 2-D array of cell codes (e.g. `open_grid`)."""
+        return cls(map_name=np.asarray(grid, dtype=np.int64), **params)
+
+    @classmethod
     def gridworld_1(cls, **params: Any) -> GridWorld:
         """GridWorld-1 (Section 5.1): 10×7 map, step reward −0.001, η = 0.3."""
         return cls(**{"map_name": "gridworld1", "step_reward": -0.001, "noise": 0.3, **params})
@@ -194,39 +241,48 @@ class GridWorld(Domain):
             raise InvalidParameterError(
                 f"`GridWorld.step_reward` must be a finite float; got {self.step_reward!r}."
             )
-        grid = load_map(self.map_name)
+        if isinstance(self.map_name, np.ndarray):
+            grid = check_grid(self.map_name.copy())
+            map_label = f"array {grid.shape[0]}x{grid.shape[1]}"
+        else:
+            grid = load_map(self.map_name)
+            map_label = Path(os.fspath(self.map_name)).stem
         grid.flags.writeable = False
         rows, cols = grid.shape
         self.grid_ = grid
         start = np.argwhere(grid == START)[0]
         self.start_ = (int(start[0]), int(start[1]))
 
+        # Vectorised move tables (maps of 10^6 cells build in about a second).
+        r, c = np.indices((rows, cols))
         feasible = np.zeros((rows, cols, len(MOVES)), dtype=bool)
-        next_cell: list[list[int]] = []
-        for r in range(rows):
-            for c in range(cols):
-                targets = []
-                for a, (dr, dc) in enumerate(MOVES):
-                    nr, nc = r + dr, c + dc
-                    if 0 <= nr < rows and 0 <= nc < cols and grid[nr, nc] != BLOCKED:
-                        feasible[r, c, a] = True
-                        targets.append(nr * cols + nc)
-                    else:
-                        targets.append(r * cols + c)
-                next_cell.append(targets)
+        targets = np.empty((rows, cols, len(MOVES)), dtype=np.int64)
+        for a, (dr, dc) in enumerate(MOVES):
+            nr, nc = r + dr, c + dc
+            inside = (nr >= 0) & (nr < rows) & (nc >= 0) & (nc < cols)
+            ok = inside.copy()
+            ok[inside] = grid[nr[inside], nc[inside]] != BLOCKED
+            feasible[:, :, a] = ok
+            targets[:, :, a] = np.where(ok, nr * cols + nc, r * cols + c)
         feasible.flags.writeable = False
         self.feasible_moves_ = feasible
+        self._targets = targets.reshape(-1, len(MOVES))
 
         # Per-cell Python lists: the fastest lookups from the step's Python code.
-        codes = grid.reshape(-1).tolist()
-        self._next_cell = next_cell
-        self._feasible = [tuple(np.flatnonzero(f).tolist()) for f in feasible.reshape(-1, 4)]
-        self._reward = [
-            1.0 if code == GOAL else -1.0 if code == PIT else float(self.step_reward)
-            for code in codes
-        ]
-        self._terminal = [code in (GOAL, PIT) for code in codes]
-        self._coords = [(float(i // cols), float(i % cols)) for i in range(rows * cols)]
+        codes = grid.reshape(-1)
+        flat_feasible = feasible.reshape(-1, len(MOVES))
+        self._next_cell = self._targets.tolist()
+        self._feasible = [tuple(a for a in range(4) if row[a]) for row in flat_feasible.tolist()]
+        reward = np.where(codes == GOAL, 1.0, np.where(codes == PIT, -1.0, self.step_reward))
+        self._reward = reward.astype(np.float64).tolist()
+        self._terminal = ((codes == GOAL) | (codes == PIT)).tolist()
+        self._coords = list(
+            zip(
+                (np.arange(rows * cols) // cols).astype(np.float64).tolist(),
+                (np.arange(rows * cols) % cols).astype(np.float64).tolist(),
+                strict=True,
+            )
+        )
         self._start_cell = self.start_[0] * cols + self.start_[1]
         self._cell = self._start_cell
         self._noise = float(self.noise)
@@ -236,7 +292,7 @@ class GridWorld(Domain):
         self.observation_space = spaces.Box(low=low, high=high, dtype=np.float64)
         self.action_space = spaces.Discrete(len(MOVES))
         self.domain_spec = DomainSpec(
-            name=f"GridWorld({Path(os.fspath(self.map_name)).stem})",
+            name=f"GridWorld({map_label})",
             low=low,
             high=high,
             is_discrete=[True, True],
@@ -267,3 +323,77 @@ class GridWorld(Domain):
         self._cell = cell
         obs = np.array(self._coords[cell], dtype=np.float64)
         return obs, self._reward[cell], self._terminal[cell], False, {}
+
+    def set_state(self, state: Any) -> None:
+        """Put the agent in cell ``state`` = (row, col) (the generative-model hook, Eq. 2.28)."""
+        row, col = (round(float(x)) for x in np.asarray(state).reshape(-1)[:2])
+        rows, cols = self.grid_.shape
+        if not (0 <= row < rows and 0 <= col < cols) or self.grid_[row, col] == BLOCKED:
+            raise InvalidParameterError(
+                f"GridWorld.set_state: ({row}, {col}) is not a free cell of the {rows}x{cols} map."
+            )
+        self._cell = row * cols + col
+
+    def model(self) -> TabularModel:
+        """Return the exact model: one state per non-blocked cell, goals and pits absorbing.
+
+        P^a_{ss'} = (1 − η)·[s' = move(s, a)] + η/k·[s' ∈ feasible moves of s] (k of them; a
+        cell without feasible moves stays put), R(s, a) = Σ P^a_{ss'} r(s'), built vectorised
+        in Θ(|S||A|) (Section 2.3's P and R).
+        """
+        grid = self.grid_
+        rows, cols = grid.shape
+        codes = grid.reshape(-1)
+        cells = np.flatnonzero(codes != BLOCKED)
+        num_states = cells.size
+        index = np.full(rows * cols, -1, dtype=np.int64)
+        index[cells] = np.arange(num_states)
+        terminal = (codes[cells] == GOAL) | (codes[cells] == PIT)
+        cell_reward = np.asarray(self._reward)
+        targets = self._targets[cells]  # (|S|, 4) cell ids
+        feasible = self.feasible_moves_.reshape(-1, len(MOVES))[cells]
+        num_feasible = feasible.sum(axis=1)
+        eta = float(self.noise)
+        live = np.flatnonzero(~terminal)
+        transitions, rewards = [], np.zeros((num_states, len(MOVES)))
+        for a in range(len(MOVES)):
+            r_parts = [live]
+            c_parts = [index[targets[live, a]]]
+            p_parts = [np.full(live.size, 1.0 - eta)]
+            if eta > 0.0:
+                has_moves = live[num_feasible[live] > 0]
+                stuck = live[num_feasible[live] == 0]
+                for m in range(len(MOVES)):
+                    chosen = has_moves[feasible[has_moves, m]]
+                    r_parts.append(chosen)
+                    c_parts.append(index[targets[chosen, m]])
+                    p_parts.append(eta / num_feasible[chosen])
+                r_parts.append(stuck)
+                c_parts.append(stuck)
+                p_parts.append(np.full(stuck.size, eta))
+            absorbing = np.flatnonzero(terminal)
+            r_parts.append(absorbing)
+            c_parts.append(absorbing)
+            p_parts.append(np.ones(absorbing.size))
+            row_ids, col_ids = np.concatenate(r_parts), np.concatenate(c_parts)
+            probs = np.concatenate(p_parts)
+            matrix = sp.csr_matrix((probs, (row_ids, col_ids)), shape=(num_states, num_states))
+            matrix.sum_duplicates()
+            transitions.append(matrix)
+            live_rows = row_ids < num_states
+            reward_of = cell_reward[cells[col_ids]] * probs
+            reward_of[terminal[row_ids]] = 0.0
+            rewards[:, a] = np.bincount(row_ids[live_rows], reward_of[live_rows], num_states)
+        states = np.stack([cells // cols, cells % cols], axis=1).astype(np.float64)
+        start = np.zeros(num_states)
+        start[index[self._start_cell]] = 1.0
+        return TabularModel(
+            transitions=transitions,
+            rewards=rewards,
+            is_terminal=terminal,
+            discount=float(self.discount),
+            states=states,
+            start_distribution=start,
+            name=self.domain_spec.name,
+            spec=self.domain_spec,
+        )

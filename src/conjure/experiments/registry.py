@@ -19,7 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from conjure.agents import SARSA, ActorCritic, QLearning
+from conjure.agents import LSPI, LSPIBRM, SARSA, ActorCritic, QLearning
 from conjure.core.errors import InvalidParameterError
 from conjure.core.params import Configurable, did_you_mean
 from conjure.core.schedules import ConstantStepSize, EpisodicDecay, FeatureNormalizedDecay
@@ -32,10 +32,12 @@ from conjure.domains import (
     PersistentSurveillance,
     RescueMission,
 )
+from conjure.planners import QAPI, VAPI, PolicyIteration, ValueIteration
 from conjure.policies import EpsilonGreedy, Gibbs
 from conjure.representations import (
     RBF,
     AdaptiveTileCoding,
+    ARiFDD,
     BinaryIndicators,
     IndependentDiscretization,
     OnlineIFDD,
@@ -49,6 +51,7 @@ __all__ = [
     "AGENTS",
     "DOMAINS",
     "LAYERS",
+    "PLANNERS",
     "POLICIES",
     "REPRESENTATIONS",
     "SCHEDULES",
@@ -68,6 +71,7 @@ DOMAINS: dict[str, type[Configurable]] = {
     "RescueMission": RescueMission,
 }
 REPRESENTATIONS: dict[str, type[Configurable]] = {
+    "ARiFDD": ARiFDD,
     "AdaptiveTileCoding": AdaptiveTileCoding,
     "BinaryIndicators": BinaryIndicators,
     "IndependentDiscretization": IndependentDiscretization,
@@ -84,8 +88,16 @@ POLICIES: dict[str, type[Configurable]] = {
 }
 AGENTS: dict[str, type[Configurable]] = {
     "ActorCritic": ActorCritic,
+    "LSPI": LSPI,
+    "LSPIBRM": LSPIBRM,
     "QLearning": QLearning,
     "SARSA": SARSA,
+}
+PLANNERS: dict[str, type[Configurable]] = {
+    "PolicyIteration": PolicyIteration,
+    "QAPI": QAPI,
+    "VAPI": VAPI,
+    "ValueIteration": ValueIteration,
 }
 SCHEDULES: dict[str, type[Configurable]] = {
     "ConstantStepSize": ConstantStepSize,
@@ -99,6 +111,7 @@ LAYERS: dict[str, dict[str, type[Configurable]]] = {
     "representation": REPRESENTATIONS,
     "policy": POLICIES,
     "agent": AGENTS,
+    "planner": PLANNERS,
     "schedule": SCHEDULES,
 }
 

@@ -7,6 +7,7 @@ Adaptive representations add features in `discover`; `grow_weights` applies
 """
 
 from conjure.representations.adaptive_tile_coding import AdaptiveTileCoding
+from conjure.representations.arifdd import ARiFDD
 from conjure.representations.independent_discretization import IndependentDiscretization
 from conjure.representations.indicators import BinaryIndicators
 from conjure.representations.online_ifdd import OnlineIFDD
@@ -19,6 +20,7 @@ from conjure.representations.weights import append_rows, grow_weights
 
 __all__ = [
     "RBF",
+    "ARiFDD",
     "AdaptiveTileCoding",
     "BinaryIndicators",
     "IndependentDiscretization",

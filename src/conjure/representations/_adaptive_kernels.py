@@ -3,7 +3,6 @@
 Adaptive tile coding (Whiteson et al., 2007) keeps its tiles as the leaves of a kd-tree in flat
 arrays; sparse distributed memories (Ratitch & Precup, 2004) keep their prototypes in a
 uniform grid of linked lists. Inputs are trusted: the representations validate at ``setup``.
-`RecentStates` (plain Python) lets both find the state behind the φ that `discover` receives.
 """
 
 from __future__ import annotations
@@ -12,48 +11,11 @@ import numpy as np
 from numba import njit
 
 __all__ = [
-    "RecentStates",
     "atc_leaf",
     "atc_record",
     "sdm_active",
     "sdm_cell",
 ]
-
-
-# ---------------------------------------------------------------------------------------------
-# The state behind φ
-
-
-class RecentStates:
-    """The last few (φ, s) pairs a representation returned, to find s from φ in `discover`.
-
-    `Representation.discover` receives φ(s) and δ but not s; the learners pass the very array
-    that `active_features` returned, so s is found by the identity of φ, else (a copy of φ)
-    by equal content, most recent first.
-    """
-
-    def __init__(self, size: int = 4):
-        self._pairs: list = [(None, None)] * size
-        self._next = 0
-
-    def remember(self, phi: np.ndarray, state: np.ndarray) -> None:
-        """Keep ``phi`` and a copy of ``state``, forgetting the oldest pair."""
-        slot = self._next
-        self._pairs[slot] = (phi, state.copy())
-        self._next = (slot + 1) % len(self._pairs)
-
-    def find(self, active: np.ndarray) -> np.ndarray | None:
-        """Return the state whose φ is ``active`` (or equals it), or ``None``."""
-        pairs = self._pairs
-        for phi, state in pairs:
-            if phi is active:
-                return state
-        size = len(pairs)
-        for k in range(1, size + 1):
-            phi, state = pairs[(self._next - k) % size]
-            if phi is not None and np.array_equal(phi, active):
-                return state
-        return None
 
 
 # ---------------------------------------------------------------------------------------------
@@ -95,7 +57,6 @@ def _split_point(low: float, high: float, is_discrete: bool) -> float:
 def atc_record(
     tile: int,
     state: np.ndarray,
-    has_state: bool,
     td_error: float,
     patience: int,
     can_split: bool,
@@ -121,12 +82,11 @@ def atc_record(
     else:
         num_since_lowest[tile] += 1
     d = tile_low.shape[1]
-    if has_state:
-        for i in range(d):
-            mid = _split_point(tile_low[tile, i], tile_high[tile, i], is_discrete[i])
-            half = 1 if state[i] >= mid else 0
-            half_sums[tile, i, half] += td_error
-            half_counts[tile, i, half] += 1
+    for i in range(d):
+        mid = _split_point(tile_low[tile, i], tile_high[tile, i], is_discrete[i])
+        half = 1 if state[i] >= mid else 0
+        half_sums[tile, i, half] += td_error
+        half_counts[tile, i, half] += 1
     if num_since_lowest[tile] < patience or not can_split:
         return -1
     num_since_lowest[tile] = 0  # whether or not a dimension qualifies, wait again

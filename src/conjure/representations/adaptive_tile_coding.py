@@ -8,7 +8,7 @@ from conjure.core.errors import InvalidParameterError
 from conjure.core.interfaces import DomainSpec, Expansion, Representation, check_is_set_up
 from conjure.core.params import Interval
 from conjure.core.seeding import as_seed_sequence
-from conjure.representations._adaptive_kernels import RecentStates, atc_leaf, atc_record
+from conjure.representations._adaptive_kernels import atc_leaf, atc_record
 from conjure.representations._kernels import per_dimension, positive_ints
 from conjure.representations.weights import append_rows
 
@@ -78,10 +78,8 @@ class AdaptiveTileCoding(Representation):
       a δ and are wide enough (``min_tile_width``; a discrete tile needs two values).
     - Choice: the statistics pool the TD errors of all actions: tiles are shared by the
       actions (θ has one column per action), and `discover` receives δ without the action.
-    - Choice: `discover` receives φ(s), not s; the representation remembers the last few
-      (φ, s) pairs it returned and finds s by the identity of φ (the learners pass the very
-      array they updated), else by equal content. A φ it never returned updates the stall
-      count but not the half statistics.
+    - `discover` needs the updated state s (the learners pass it as ``state``) to place it in
+      the prospective halves; ``state=None`` raises `InvalidParameterError`.
     - Choice: split tiles start afresh (lowest |δ| = ∞, no half statistics), and features
       are never removed: the parent id keeps the lower half.
     - Choice: states outside ``[low, high]`` fall in the edge tiles; NaN goes to the lower
@@ -102,7 +100,7 @@ class AdaptiveTileCoding(Representation):
     >>> rep.num_features_
     1
     >>> for x, delta in [(0.2, 1.0), (0.8, -1.0), (0.3, 1.0)]:
-    ...     expansion = rep.discover(rep.active_features([x]), delta)
+    ...     expansion = rep.discover(rep.active_features([x]), delta, state=[x])
     >>> expansion.first_new, expansion.parents.tolist()
     (1, [[0, -1]])
     >>> rep.active_features([0.3]).tolist(), rep.active_features([0.7]).tolist()
@@ -206,7 +204,6 @@ class AdaptiveTileCoding(Representation):
         self._patience = int(self.patience)
         self._max_features = int(self.max_features)
         self._state_shape = (d,)
-        self._recent = RecentStates()
         self.spec_ = spec
         self.num_features_ = num_initial
         self.num_initial_features_ = num_initial
@@ -241,9 +238,7 @@ class AdaptiveTileCoding(Representation):
             and state.shape == self._state_shape
         ):
             state = self.check_state(state)
-        phi = atc_leaf(state, node_dim, self._node_threshold, self._node_left, self._node_feature)
-        self._recent.remember(phi, state)
-        return phi
+        return atc_leaf(state, node_dim, self._node_threshold, self._node_left, self._node_feature)
 
     # -----------------------------------------------------------------------------------------
     # discovery
@@ -251,15 +246,21 @@ class AdaptiveTileCoding(Representation):
     def discover(
         self, active: np.ndarray, td_error: float, state: np.ndarray | None = None
     ) -> Expansion | None:
-        """Record δ for the active tile; split it if its learning stalled (Whiteson et al.)."""
+        """Record δ at s for the active tile; split it if its learning stalled (Whiteson et al.).
+
+        ``state`` is the s whose φ(s) = ``active`` the learner just updated; it is required.
+        """
         check_is_set_up(self, "discover")
+        if state is None:
+            raise InvalidParameterError(
+                f"{type(self).__name__}.discover needs the updated state s to place it in its "
+                f"tile's halves; got state=None. Pass discover(active, td_error, state=s)."
+            )
+        state = self.check_state(state)
         tile = int(active[0])
-        state = self._recent.find(active)
-        has_state = state is not None
         split_dim = atc_record(
             tile,
-            state if has_state else self._tile_low[tile],
-            has_state,
+            state,
             float(td_error),
             self._patience,
             self.num_features_ < self._max_features,
@@ -364,7 +365,6 @@ class AdaptiveTileCoding(Representation):
             dtype = getattr(self, f"_{name}").dtype
             setattr(self, f"_{name}", loaded[name].astype(dtype, copy=True))
         self.num_features_ = int(num_tiles)
-        self._recent = RecentStates()
 
 
 def _split_evenly(

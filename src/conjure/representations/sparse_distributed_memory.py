@@ -10,7 +10,7 @@ from conjure.core.errors import InvalidParameterError
 from conjure.core.interfaces import DomainSpec, Expansion, Representation, check_is_set_up
 from conjure.core.params import Interval, Predicate
 from conjure.core.seeding import as_seed_sequence
-from conjure.representations._adaptive_kernels import RecentStates, sdm_active, sdm_cell
+from conjure.representations._adaptive_kernels import sdm_active, sdm_cell
 from conjure.representations.weights import append_rows
 
 __all__ = ["SparseDistributedMemory"]
@@ -95,10 +95,9 @@ class SparseDistributedMemory(Representation):
     - Choice: the one new prototype centred on the state is skipped if a prototype already
       sits exactly there; the others' offsets come from a generator seeded by the setup seed
       and the allocation count, so runs are deterministic and restores continue exactly.
-    - Choice: `discover` receives φ(s), not s; the representation remembers the last few
-      under-covered states it encoded and finds s by the identity of φ (the learners pass the
-      very array they updated), else by equal content; the count is re-checked against the
-      current memory before allocating.
+    - `discover` needs the updated state s (the learners pass it as ``state``) to allocate
+      around it; ``state=None`` raises `InvalidParameterError`. The count is re-checked
+      against the current memory before allocating.
     - Choice: states outside ``[low, high]`` are clipped into it (NaN to ``low``); discrete
       dimensions are scaled like continuous ones.
     - Neighbour search: prototypes sit in linked lists per cell of a uniform grid (cells at
@@ -122,7 +121,7 @@ class SparseDistributedMemory(Representation):
     >>> phi = rep.active_features([0.1])
     >>> phi.tolist()
     [0]
-    >>> expansion = rep.discover(phi, td_error=1.0)
+    >>> expansion = rep.discover(phi, td_error=1.0, state=[0.1])
     >>> expansion.first_new, expansion.parents.tolist()
     (2, [[-1, -1]])
     >>> rep.centers_[2].tolist(), rep.active_features([0.1]).tolist()
@@ -214,7 +213,6 @@ class SparseDistributedMemory(Representation):
             self._link(k)
         self.num_features_ = num
         self.num_allocations_ = int(num_allocations)
-        self._recent = RecentStates()
 
     def _link(self, k: int) -> None:
         cell = sdm_cell(self._centers[k], self._grid)
@@ -243,7 +241,7 @@ class SparseDistributedMemory(Representation):
             and state.shape == self._state_shape
         ):
             state = self.check_state(state)
-        phi = sdm_active(
+        return sdm_active(
             state,
             low,
             self._inverse_range,
@@ -253,9 +251,6 @@ class SparseDistributedMemory(Representation):
             self._cell_head,
             self._next_in_cell,
         )
-        if phi.shape[0] < self._min_active:  # remember under-covered states for `discover`
-            self._recent.remember(phi, state)
-        return phi
 
     # -----------------------------------------------------------------------------------------
     # discovery (Ratitch & Precup's dynamic allocation)
@@ -263,13 +258,19 @@ class SparseDistributedMemory(Representation):
     def discover(
         self, active: np.ndarray, td_error: float, state: np.ndarray | None = None
     ) -> Expansion | None:
-        """Allocate prototypes around the updated state if it activates fewer than N_min."""
+        """Allocate prototypes around the updated state if it activates fewer than N_min.
+
+        ``state`` is the s whose φ(s) = ``active`` the learner just updated; it is required.
+        """
         check_is_set_up(self, "discover")
+        if state is None:
+            raise InvalidParameterError(
+                f"{type(self).__name__}.discover needs the updated state s to allocate "
+                f"prototypes around it; got state=None. Pass discover(active, td_error, state=s)."
+            )
         if active.shape[0] >= self._min_active or self.num_features_ >= self._max_features:
             return None
-        state = self._recent.find(active)
-        if state is None:
-            return None
+        state = self.check_state(state)
         current = self.active_features(state)  # the memory may have grown since φ was made
         missing = min(self._min_active - current.shape[0], self._max_features - self.num_features_)
         if missing <= 0:

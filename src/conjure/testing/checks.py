@@ -22,6 +22,11 @@ from conjure.core.errors import InvalidParameterError, NotSetUpError
 from conjure.core.interfaces import Agent, Domain, DomainSpec, Policy, Representation, Transition
 from conjure.core.params import Configurable
 from conjure.core.seeding import make_rng
+from conjure.planners.base import Planner
+from conjure.testing.planner_checks import (
+    check_planner_matches_closed_form,
+    check_planner_policy_is_greedy,
+)
 
 __all__ = [
     "applicable_checks",
@@ -378,6 +383,7 @@ _CHECKS: dict[type, tuple[Check, ...]] = {
         check_representation_state_round_trip,
     ),
     Policy: (check_policy_probabilities,),
+    Planner: (check_planner_matches_closed_form, check_planner_policy_is_greedy),
     Agent: (
         check_not_set_up_raises,
         check_actions_in_space,

@@ -1,0 +1,279 @@
+"""Shared numerical kernels of the planners: sparse policy evaluation, φ matrices, sampling."""
+
+from __future__ import annotations
+
+import warnings
+from collections.abc import Callable
+from typing import Any
+
+import numba
+import numpy as np
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+
+from conjure.core.interfaces import DomainSpec, Representation
+from conjure.core.linalg import row_matrix
+from conjure.models.generative import GenerativeModel
+from conjure.models.steady_state import steady_state_distribution
+from conjure.models.tabular import TabularModel
+
+#: Above this many states policy evaluation is iterative (BiCGSTAB) rather than a sparse LU.
+DIRECT_SOLVE_LIMIT = 200_000
+
+
+def evaluate_policy(
+    model: TabularModel,
+    policy: np.ndarray,
+    *,
+    method: str = "auto",
+    initial: np.ndarray | None = None,
+    max_sweeps: int = 10_000,
+    tolerance: float = 1e-10,
+) -> np.ndarray:
+    """V^π = (I − γP^π)⁻¹R^π over the non-terminal states (Eq. 2.8), sparse; V(terminal) = 0.
+
+    ``method`` is ``direct`` (sparse LU), ``iterative`` (BiCGSTAB) or ``auto`` (direct up to
+    `DIRECT_SOLVE_LIMIT` states). If the system is singular (an improper policy with γ = 1),
+    the value is estimated by ``max_sweeps`` Bellman sweeps of the fixed policy instead.
+    """
+    n = model.num_states
+    live = np.flatnonzero(~model.is_terminal)
+    p_pi = model.policy_matrix(policy)[live][:, live]
+    r_pi = model.policy_rewards(policy)[live]
+    system = sp.identity(live.size, format="csc") - model.discount * sp.csc_matrix(p_pi)
+    values = np.zeros(n)
+    if method == "auto":
+        method = "direct" if n <= DIRECT_SOLVE_LIMIT else "iterative"
+    solution = None
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        if method == "direct":
+            try:
+                solution = spla.splu(system).solve(r_pi)
+            except RuntimeError:  # exactly singular
+                solution = None
+        else:
+            x0 = None if initial is None else initial[live]
+            solution, info = spla.bicgstab(system, r_pi, x0=x0, rtol=1e-10, maxiter=5000)
+            if info != 0:
+                solution = None
+    if solution is None or not np.all(np.isfinite(solution)):
+        current = np.zeros(live.size) if initial is None else initial[live].copy()
+        p_csr = sp.csr_matrix(p_pi)
+        for _ in range(max_sweeps):
+            following = r_pi + model.discount * (p_csr @ current)
+            if np.abs(following - current).max(initial=0.0) < tolerance:
+                current = following
+                break
+            current = following
+        solution = current
+    values[live] = solution
+    return values
+
+
+def greedy_policy(q_by_action: np.ndarray, previous: np.ndarray | None = None) -> np.ndarray:
+    """Argmax over actions of Q given as (|A|, |S|); ties keep the previous action (no cycling)."""
+    best = q_by_action.argmax(axis=0)
+    if previous is not None:
+        states = np.arange(q_by_action.shape[1])
+        top = q_by_action[best, states]
+        keep = q_by_action[previous, states] >= top - 1e-12 * np.maximum(1.0, np.abs(top))
+        best = np.where(keep, previous, best)
+    return best.astype(np.int64)
+
+
+def encode_states(representation: Representation, states: np.ndarray) -> sp.csr_matrix:
+    """Return Φ with one row φ(s)ᵀ per state (binary or dense features), sparse."""
+    n = representation.num_features_
+    if representation.is_binary:
+        rows = [representation.active_features(np.asarray(s, dtype=np.float64)) for s in states]
+        lengths = np.fromiter((r.shape[0] for r in rows), dtype=np.int64, count=len(rows))
+        indptr = np.concatenate([[0], np.cumsum(lengths)])
+        indices = np.concatenate(rows) if rows else np.zeros(0, dtype=np.int64)
+        return row_matrix(indices, indptr, n)
+    dense = np.array([representation.feature_values(np.asarray(s, float)) for s in states])
+    return sp.csr_matrix(dense.reshape(len(states), n))
+
+
+def action_features(phi: sp.csr_matrix, actions: np.ndarray, num_actions: int) -> sp.csr_matrix:
+    """Return Φ̄ rows φ(s_i, a_i): φ(s_i) moved to action a_i's slot (Eq. 2.11, column a·n + f)."""
+    n = phi.shape[1]
+    phi = sp.csr_matrix(phi)
+    return row_matrix(
+        phi.indices, phi.indptr, n * num_actions, phi.data, np.asarray(actions, dtype=np.int64) * n
+    )
+
+
+def block_features(phi: sp.csr_matrix, num_actions: int) -> sp.csr_matrix:
+    """Φ̄ for every (a, s), action-major rows ``a·|S| + s`` (Eq. 2.11 for all pairs)."""
+    return sp.csr_matrix(sp.block_diag([phi] * num_actions, format="csr"))
+
+
+def q_from_weights(phi: sp.csr_matrix, weights: np.ndarray) -> np.ndarray:
+    """Q(s_i, ·) = φ(s_i)ᵀθ for every row, shape (L, |A|); ``weights`` is (n, |A|)."""
+    return np.asarray(phi @ weights)
+
+
+def policy_weighting(
+    model: TabularModel, policy: np.ndarray, epsilon: float, weighting: str
+) -> tuple[np.ndarray, np.ndarray]:
+    """Return d(s) and the π^ε(a|s) table used for D and D̄ (Eq. 2.14, Choice in Alg. 3-4).
+
+    d is the steady state of π^ε's chain where termination restarts from the start
+    distribution (``steady_state``), or uniform over non-terminal states (``uniform``).
+    """
+    n, num_actions = model.num_states, model.num_actions
+    action_probs = np.full((n, num_actions), epsilon / num_actions)
+    action_probs[np.arange(n), policy] += 1.0 - epsilon
+    if weighting == "uniform":
+        d = (~model.is_terminal).astype(np.float64)
+    else:
+        chain = sp.csr_matrix((n, n))
+        for a in range(num_actions):
+            chain = chain + sp.diags(action_probs[:, a]) @ model.transitions[a]
+        d = steady_state_distribution(model.restart_matrix(sp.csr_matrix(chain)))
+        d[model.is_terminal] = 0.0
+    total = d.sum()
+    return (d / total if total > 0 else d), action_probs
+
+
+def sample_trajectory(
+    sampler: GenerativeModel,
+    choose: Callable[[np.ndarray, np.random.Generator], int],
+    num_samples: int,
+    rng: np.random.Generator,
+    num_next: int = 1,
+) -> dict[str, Any]:
+    """Follow ``choose`` (π^ε) for ``num_samples`` steps, restarting at termination.
+
+    Every visited ⟨s_i, a_i⟩ also gets ``num_next`` independent draws s' ~ P(s_i, a_i); the
+    trajectory continues from the first. Returns lists ``states``, ``actions`` and arrays
+    ``next_states`` (L, num_next, d), ``rewards`` (L, num_next), ``terminated`` (L, num_next).
+    """
+    states, actions, nexts, rewards, terminals = [], [], [], [], []
+    state = sampler.sample_start(rng)
+    for _ in range(num_samples):
+        action = choose(state, rng)
+        draws = [sampler.sample(state, action, rng) for _ in range(num_next)]
+        states.append(state)
+        actions.append(action)
+        nexts.append([d[0] for d in draws])
+        rewards.append([d[1] for d in draws])
+        terminals.append([d[2] for d in draws])
+        state = sampler.sample_start(rng) if draws[0][2] else draws[0][0]
+    return {
+        "states": np.array(states),
+        "actions": np.array(actions, dtype=np.int64),
+        "next_states": np.array(nexts),
+        "rewards": np.array(rewards, dtype=np.float64),
+        "terminated": np.array(terminals, dtype=bool),
+    }
+
+
+def epsilon_greedy_chooser(
+    representation: Representation, weights: np.ndarray, epsilon: float, num_actions: int
+) -> Callable[[np.ndarray, np.random.Generator], int]:
+    """π^ε(s) of Eq. 2.27 from Q = θᵀφ(s) (ties to the lowest action)."""
+
+    def choose(state: np.ndarray, rng: np.random.Generator) -> int:
+        if rng.random() < epsilon:
+            return int(rng.integers(num_actions))
+        if representation.is_binary:
+            q = weights[representation.active_features(np.asarray(state, float))].sum(axis=0)
+        else:
+            q = representation.feature_values(np.asarray(state, float)) @ weights
+        return int(np.argmax(q))
+
+    return choose
+
+
+def setup_representation(
+    representation: Representation | None, spec: DomainSpec, seed: int
+) -> Representation:
+    """Clone and set up ``representation`` (default: `Tabular` with one feature per value)."""
+    if representation is None:
+        from conjure.representations.tabular import Tabular
+
+        representation = Tabular()
+    return representation.clone().setup(spec, seed)
+
+
+@numba.njit(cache=True)
+def q_avi_sweep(
+    weights: np.ndarray,
+    phi_indptr: np.ndarray,
+    phi_indices: np.ndarray,
+    phi_data: np.ndarray,
+    p_indptr: np.ndarray,
+    p_indices: np.ndarray,
+    p_data: np.ndarray,
+    rewards: np.ndarray,
+    is_terminal: np.ndarray,
+    discount: float,
+    step_size: float,
+) -> float:
+    """One sweep of Algorithm 7 over every (s, a), updating θ in place; returns max |δ|."""
+    num_actions, num_states = rewards.shape
+    largest = 0.0
+    for s in range(num_states):
+        if is_terminal[s]:
+            continue
+        for a in range(num_actions):
+            row = a * num_states + s
+            target = rewards[a, s]  # line 5: Q⁺(s, a)
+            for k in range(p_indptr[row], p_indptr[row + 1]):
+                s2 = p_indices[k]
+                if is_terminal[s2]:
+                    continue
+                best = -np.inf
+                for a2 in range(num_actions):
+                    q = 0.0
+                    for j in range(phi_indptr[s2], phi_indptr[s2 + 1]):
+                        q += weights[phi_indices[j], a2] * phi_data[j]
+                    best = max(best, q)
+                target += discount * p_data[k] * best
+            q_sa = 0.0
+            for j in range(phi_indptr[s], phi_indptr[s + 1]):
+                q_sa += weights[phi_indices[j], a] * phi_data[j]
+            delta = target - q_sa  # line 6: δ
+            for j in range(phi_indptr[s], phi_indptr[s + 1]):  # line 7: θ += αδφ(s, a)
+                weights[phi_indices[j], a] += step_size * delta * phi_data[j]
+            largest = max(largest, abs(delta))
+    return largest
+
+
+@numba.njit(cache=True)
+def bellman_sweep(
+    indptr: np.ndarray,
+    indices: np.ndarray,
+    data: np.ndarray,
+    rewards: np.ndarray,
+    values: np.ndarray,
+    new_values: np.ndarray,
+    is_terminal: np.ndarray,
+    discount: float,
+) -> float:
+    """One synchronous sweep of Eq. 2.10 over the state-major CSR P; writes ``new_values``.
+
+    Row ``s·|A| + a`` of the CSR is P^a_{s·}; ``rewards`` is (|S|, |A|). Returns
+    max_s |V_new(s) − V(s)| (Algorithm 2's checkpoint). V(terminal) stays 0.
+    """
+    num_states, num_actions = rewards.shape
+    largest = 0.0
+    for s in range(num_states):
+        best = -np.inf
+        for a in range(num_actions):
+            row = s * num_actions + a
+            total = 0.0
+            for k in range(indptr[row], indptr[row + 1]):
+                total += data[k] * values[indices[k]]
+            q = rewards[s, a] + discount * total
+            if q > best:
+                best = q
+        if is_terminal[s]:
+            best = 0.0
+        new_values[s] = best
+        change = abs(best - values[s])
+        if change > largest:
+            largest = change
+    return largest
