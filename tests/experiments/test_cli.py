@@ -8,6 +8,7 @@ import pytest
 from click.testing import CliRunner
 
 from conjure.experiments.cli import main
+from conjure.experiments.results import read_run
 
 TINY = textwrap.dedent(
     """\
@@ -72,9 +73,12 @@ def test_run_then_plot(config_file, tmp_path):
     assert result.exit_code == 0, result.output
     assert (out / "results.parquet").is_file() and (out / "summary.csv").is_file()
     assert (out / "learning_curve.png").is_file()
-    assert (out / "runs" / "q" / "seed_1" / "curve.csv").is_file()
-    assert not (out / "runs" / "q" / "seed_2").exists()  # --seeds 2 overrides the file's 3
-    assert "step_size: 0.25" in (out / "runs" / "q" / "seed_0" / "config.resolved.yaml").read_text()
+    runs = [read_run(p)["config"] for p in (out / "runs").glob("*.json")]
+    assert sorted((r["label"], r["seed"]) for r in runs if r["label"] == "q") == [
+        ("q", 0),
+        ("q", 1),
+    ]  # --seeds 2 overrides the file's 3
+    assert all(r["agent"]["params"]["step_size"] == 0.25 for r in runs if r["label"] == "q")
     assert "sarsa" in result.output and "final return" in result.output
 
     again = runner.invoke(
@@ -147,7 +151,7 @@ def test_failed_runs_give_exit_code_1(tmp_path, monkeypatch):
     )
     assert result.exit_code == 1, result.output
     assert "broken/seed_0" in result.output and "fake setup failure" in result.output
-    assert (tmp_path / "o" / "runs" / "broken" / "seed_0" / "error.txt").is_file()
+    assert len(list((tmp_path / "o" / "errors").glob("*.txt"))) == 1
     assert (tmp_path / "o" / "learning_curve.png").is_file()
 
 

@@ -4,15 +4,12 @@ from __future__ import annotations
 
 import pandas as pd
 import pytest
-import yaml
 from test_loop import FakeAgent, FakeWalk
 
 from conjure.experiments import registry
 from conjure.experiments.config import resolve_run
 from conjure.experiments.parallel import run_experiment
-from conjure.experiments.results import (
-    run_dir,
-)
+from conjure.experiments.results import error_path, read_run, run_id, run_path
 from conjure.experiments.run import TIMING_COLUMNS, run_config
 
 
@@ -34,14 +31,17 @@ def fake_config(**agents):
     }
 
 
+def path_of(out, config, label, seed):
+    return run_path(out, run_id(resolve_run(config, label, seed)))
+
+
 def test_experiment_writes_every_file(fakes, tmp_path):
-    outcome = run_experiment(fake_config(), tmp_path, max_workers=1, progress=False)
+    config = fake_config()
+    outcome = run_experiment(config, tmp_path, max_workers=1, progress=False)
     assert outcome.errors == {} and outcome.num_skipped == 0
     for label in ("slow", "fast"):
         for seed in (0, 1):
-            directory = run_dir(tmp_path, label, seed)
-            assert (directory / "curve.csv").is_file()
-            stored = yaml.safe_load((directory / "config.resolved.yaml").read_text())
+            stored = read_run(path_of(tmp_path, config, label, seed))["config"]
             assert stored["agent"]["params"]["diverge_at"] is None  # defaults filled in
             assert stored["seed"] == seed and stored["label"] == label
     assert (tmp_path / "config.resolved.yaml").is_file()
@@ -59,7 +59,7 @@ def test_experiment_writes_every_file(fakes, tmp_path):
 def test_experiment_curve_equals_a_single_run(fakes, tmp_path):
     config = fake_config()
     run_experiment(config, tmp_path, max_workers=1, progress=False)
-    stored = pd.read_csv(run_dir(tmp_path, "fast", 1) / "curve.csv")
+    stored = read_run(path_of(tmp_path, config, "fast", 1))["curve"]
     direct = run_config(config, agent_name="fast", seed=1).curve
     pd.testing.assert_frame_equal(
         stored.drop(columns=list(TIMING_COLUMNS)), direct.drop(columns=list(TIMING_COLUMNS))
@@ -69,16 +69,16 @@ def test_experiment_curve_equals_a_single_run(fakes, tmp_path):
 def test_resume_skips_finished_runs_and_reruns_missing_ones(fakes, tmp_path):
     config = fake_config()
     run_experiment(config, tmp_path, max_workers=1, progress=False)
-    kept = run_dir(tmp_path, "slow", 0) / "curve.csv"
+    kept = path_of(tmp_path, config, "slow", 0)
     before = kept.stat().st_mtime_ns
-    (run_dir(tmp_path, "fast", 1) / "curve.csv").unlink()
-    stale = run_dir(tmp_path, "fast", 1) / ".curve.csv.tmp-999"
+    path_of(tmp_path, config, "fast", 1).unlink()
+    stale = kept.parent / ".x.json.tmp-host-999-abc"
     stale.write_text("half a file")
 
     outcome = run_experiment(config, tmp_path, max_workers=1, progress=False)
     assert outcome.num_skipped == 3
     assert kept.stat().st_mtime_ns == before
-    assert (run_dir(tmp_path, "fast", 1) / "curve.csv").is_file()
+    assert path_of(tmp_path, config, "fast", 1).is_file()
     assert not stale.exists()
     assert len(outcome.results) == 4 * 5
 
@@ -88,20 +88,25 @@ def test_changed_config_reruns(fakes, tmp_path):
     changed = fake_config(slow={"step_size": 0.2}, fast={"step_size": 0.9})
     outcome = run_experiment(changed, tmp_path, max_workers=1, progress=False)
     assert outcome.num_skipped == 2  # only the unchanged label is reused
-    stored = yaml.safe_load((run_dir(tmp_path, "slow", 0) / "config.resolved.yaml").read_text())
+    stored = read_run(path_of(tmp_path, changed, "slow", 0))["config"]
     assert stored["agent"]["params"]["step_size"] == 0.2
 
 
 def test_a_failing_run_records_error_and_others_finish(fakes, tmp_path):
     config = fake_config(good={}, broken={"fail_in_setup": True}, wild={"diverge_at": 120})
     outcome = run_experiment(config, tmp_path, max_workers=1, progress=False)
-    assert set(outcome.errors) == {("broken", 0), ("broken", 1), ("wild", 0), ("wild", 1)}
-    error_text = (run_dir(tmp_path, "broken", 0) / "error.txt").read_text()
+    ids = {
+        (label, seed): run_id(resolve_run(config, label, seed))
+        for label in ("broken", "wild")
+        for seed in (0, 1)
+    }
+    assert set(outcome.errors) == set(ids.values())
+    error_text = error_path(tmp_path, ids["broken", 0]).read_text()
     assert "Traceback" in error_text and "fake setup failure" in error_text
-    assert not (run_dir(tmp_path, "broken", 0) / "curve.csv").exists()
-    partial = pd.read_csv(run_dir(tmp_path, "wild", 0) / "curve.partial.csv")
+    assert not path_of(tmp_path, config, "broken", 0).exists()
+    partial = pd.read_csv(error_path(tmp_path, ids["wild", 0]).with_suffix(".partial.csv"))
     assert partial["learning_steps"].tolist() == [0, 50, 100]
-    assert "step size" in (run_dir(tmp_path, "wild", 0) / "error.txt").read_text()
+    assert "step size" in error_path(tmp_path, ids["wild", 0]).read_text()
     assert set(outcome.results["label"]) == {"good"}
     # A rerun retries the failed runs only.
     again = run_experiment(config, tmp_path, max_workers=1, progress=False)
@@ -131,11 +136,10 @@ def test_process_pool_matches_in_process_runs(tmp_path):
     assert outcome.errors == {}
     for label in ("q", "sarsa"):
         for seed in (0, 1):
-            stored = pd.read_csv(run_dir(tmp_path, label, seed) / "curve.csv")
+            stored = read_run(path_of(tmp_path, config, label, seed))["curve"]
             direct = run_config(config, agent_name=label, seed=seed).curve
             pd.testing.assert_frame_equal(
                 stored.drop(columns=list(TIMING_COLUMNS)),
                 direct.drop(columns=list(TIMING_COLUMNS)),
             )
-    stored_spec = yaml.safe_load((run_dir(tmp_path, "q", 1) / "config.resolved.yaml").read_text())
-    assert stored_spec == resolve_run(config, "q", 1)
+    assert read_run(path_of(tmp_path, config, "q", 1))["config"] == resolve_run(config, "q", 1)

@@ -6,12 +6,16 @@ import math
 
 import pandas as pd
 import pytest
-import yaml
 
 from conjure.experiments.results import (
     flatten_params,
     load_results,
-    run_dir,
+    read_run,
+    remove_stale_temporaries,
+    run_id,
+    run_path,
+    save_run,
+    save_run_error,
     summarize,
     t_confidence,
     write_atomic,
@@ -44,10 +48,26 @@ def test_flatten_params_and_mixed_columns(tmp_path):
     )
     assert flat == {"agent": "A", "agent.x": "B", "agent.x.y": 1}
     for label, step in (("a", 0.1), ("b", {"kind": "ConstantStepSize", "params": {"alpha_0": 1}})):
-        directory = run_dir(tmp_path, label, 0)
-        write_atomic(directory / "curve.csv", "learning_steps,return\n0,1.0\n")
-        spec = {"agent": {"kind": "SARSA", "params": {"step_size": step}}}
-        write_atomic(directory / "config.resolved.yaml", yaml.safe_dump(spec))
+        spec = {
+            "label": label,
+            "seed": 0,
+            "agent": {"kind": "SARSA", "params": {"step_size": step}},
+        }
+        save_run(tmp_path, spec, {"learning_steps": [0], "return": [1.0]}, {"run_seconds": 2.0})
     table = load_results(tmp_path)
-    assert len(table) == 2
+    assert len(table) == 2 and table["run_seconds"].tolist() == [2.0, 2.0]
     table.to_parquet(tmp_path / "t.parquet")  # mixed parameter types still serialise
+
+
+def test_run_files_are_named_by_hash_and_written_atomically(tmp_path):
+    spec = {"label": "a", "seed": 3, "agent": {"kind": "SARSA", "params": {}}}
+    save_run_error(tmp_path, spec, "Traceback: boom", {"learning_steps": [0]})
+    path = save_run(tmp_path, spec, {"learning_steps": [0, 5], "return": [0.0, 1.0]})
+    assert path == run_path(tmp_path, run_id(spec))
+    record = read_run(path)
+    assert record["config"] == spec and record["curve"]["return"].tolist() == [0.0, 1.0]
+    assert not list((tmp_path / "errors").iterdir())  # a success clears the old error
+    (tmp_path / "runs" / ".x.json.tmp-h-1-ab").write_text("half")
+    assert remove_stale_temporaries(tmp_path) == 1
+    write_atomic(tmp_path / "f.txt", "x")
+    assert [p.name for p in tmp_path.iterdir() if p.name.startswith(".")] == []

@@ -7,7 +7,7 @@ from typing import Any
 import numpy as np
 
 from conjure.agents import _kernels
-from conjure.agents.base import STEP_SIZE, LinearTDAgent, make_schedule
+from conjure.agents.linear_td import STEP_SIZE, LinearTDAgent, make_schedule
 from conjure.core.interfaces import (
     DomainSpec,
     Expansion,

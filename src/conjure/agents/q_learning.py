@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from conjure.agents.base import LinearTDAgent
+from conjure.agents.linear_td import LinearTDAgent
 from conjure.core.interfaces import Policy, Representation, Transition
 from conjure.core.schedules import StepSizeSchedule
 

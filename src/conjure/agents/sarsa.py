@@ -7,7 +7,7 @@ from typing import Any
 import numpy as np
 
 from conjure.agents import _kernels
-from conjure.agents.base import LinearTDAgent
+from conjure.agents.linear_td import LinearTDAgent
 from conjure.core.interfaces import DomainSpec, Expansion, Policy, Representation, Transition
 from conjure.core.params import Interval, Options
 from conjure.core.schedules import StepSizeSchedule

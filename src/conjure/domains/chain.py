@@ -10,7 +10,7 @@ from gymnasium import spaces
 from conjure.core.interfaces import Domain, DomainSpec
 from conjure.core.params import Constraint, Interval, Options
 from conjure.models.enumerate import enumerate_model
-from conjure.models.tabular import TabularModel
+from conjure.models.tabular_model import TabularModel
 
 __all__ = ["ChainMDP"]
 

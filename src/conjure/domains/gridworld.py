@@ -13,7 +13,7 @@ from gymnasium import spaces
 from conjure.core.errors import InvalidParameterError
 from conjure.core.interfaces import Domain, DomainSpec
 from conjure.core.params import Constraint, InstanceOf, Interval, did_you_mean
-from conjure.models.tabular import TabularModel
+from conjure.models.tabular_model import TabularModel
 
 __all__ = ["GridWorld", "check_grid", "load_map", "open_grid", "shipped_maps"]
 

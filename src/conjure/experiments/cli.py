@@ -126,3 +126,17 @@ def plot_command(results_dir: Path, metric: str) -> None:
     from conjure.experiments.plots import plot_results_dir
 
     click.echo(f"Wrote {plot_results_dir(results_dir, metric=metric)}")
+
+
+def _register_commands() -> None:
+    """Add the sweep, tune, report and solve commands, which live beside their machinery."""
+    from conjure.experiments.report import report_command
+    from conjure.experiments.solve import solve_command
+    from conjure.experiments.sweep import sweep_command
+    from conjure.experiments.tune import tune_command
+
+    for command in (sweep_command, tune_command, report_command, solve_command):
+        main.add_command(command)
+
+
+_register_commands()

@@ -1,28 +1,35 @@
-"""Run every (agent label, seed) pair of an experiment, in parallel, resumably.
+"""Run many resolved runs resumably on an executor: experiments and sweeps share this path.
 
-`run_experiment` resolves the config, skips runs already finished under ``out_dir`` (same
-resolved-config hash), runs the rest in a process pool, writes each run's files as soon as it
-finishes, then combines them into ``results.parquet`` and ``summary.csv`` (see
-`conjure.experiments.results`) and prints a summary table.
+`execute_runs` is the one execution path. It skips runs whose result file already exists
+(`conjure.experiments.results`: ``runs/<run_id>.json``, the id being the hash of the run's
+resolved config), warms numba's on-disk cache once in this process, maps the rest over an
+`~conjure.experiments.executors.Executor`, and writes each run's file (or its error file) the
+moment the run comes back, with a live count of runs done, failed and remaining and an ETA.
+`run_sweep` expands a sweep (and, with ``selection``, reruns each method's best setting on
+fresh seeds); `run_experiment` runs an experiment, the sweep with one domain and no grid.
 
 Notes
 -----
-- Choice: workers start with the "forkserver" method (or "spawn" where unavailable), never
-  "fork": a forked numba or BLAS runtime can deadlock. Before starting them, the parent runs
-  one tiny run per agent so numba compiles once and workers load the compiled code from its
-  on-disk cache.
-- Choice: ``max_workers=1`` runs everything in the calling process, with no pool (simplest to
-  debug; components registered only in this process work too).
-- Choice: a failed run writes ``error.txt`` (with the traceback) and does not stop the others;
-  a rerun retries it.
+- Choice: the driver, not the worker, writes result files: workers need no shared file system
+  (a Dask or Ray node may have its own disk), and there is a single writer per folder. Killing
+  the driver loses only the runs in flight; killing a worker reruns its run.
+- Choice: a failed run (any exception, or a worker that died more than ``max_retries`` times)
+  writes ``errors/<run_id>.txt`` and does not stop the others; a rerun of the command retries
+  it. A diverged run also keeps the curve it recorded (``errors/<run_id>.partial.csv``).
+- Choice: before workers on this machine start, one tiny run per distinct component structure
+  (the tree of kinds) compiles the numba kernels once and fills their on-disk cache; workers
+  then load compiled code instead of compiling it again.
 """
 
 from __future__ import annotations
 
-import concurrent.futures as cf
-import multiprocessing
+import functools
+import math
 import os
+import socket
+import time
 import traceback
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -31,7 +38,6 @@ import pandas as pd
 from rich.console import Console
 from rich.progress import (
     BarColumn,
-    MofNCompleteColumn,
     Progress,
     TextColumn,
     TimeElapsedColumn,
@@ -40,92 +46,367 @@ from rich.progress import (
 from rich.table import Table
 
 from conjure.core.errors import DivergenceError
-from conjure.experiments.config import (
-    ExperimentConfig,
-    dump_yaml,
-    parse_config,
-    resolve,
-    resolve_run,
-)
+from conjure.experiments.config import ExperimentConfig, dump_yaml
+from conjure.experiments.executors import Executor, LocalExecutor, TaskFailure
 from conjure.experiments.results import (
     RESOLVED_FILE,
+    error_path,
     is_run_done,
     load_results,
     remove_stale_temporaries,
-    run_dir,
+    run_id,
     save_run,
     save_run_error,
     summarize,
     write_atomic,
     write_results,
+    write_run_ids,
 )
 from conjure.experiments.run import run_resolved
 
-__all__ = ["ExperimentResult", "print_summary", "run_experiment"]
+__all__ = [
+    "ExperimentResult",
+    "RunsReport",
+    "execute_runs",
+    "prepare_executor",
+    "print_summary",
+    "run_experiment",
+    "run_sweep",
+    "warm_up",
+]
 
 _WARMUP_STEPS = 50
+RunFunction = Callable[[dict[str, Any]], Any]
+
+
+@dataclass
+class RunsReport:
+    """What `execute_runs` did.
+
+    Attributes
+    ----------
+    run_ids : list of str
+        Every requested run's id, in request order (duplicates removed).
+    num_skipped : int
+        Runs found finished and not rerun.
+    errors : dict
+        ``run_id -> one-line message`` for the runs that failed this time.
+    """
+
+    run_ids: list[str]
+    num_skipped: int = 0
+    errors: dict[str, str] = field(default_factory=dict)
 
 
 @dataclass
 class ExperimentResult:
-    """What `run_experiment` produced.
+    """What `run_experiment` or `run_sweep` produced.
 
     Attributes
     ----------
     out_dir : Path
-        The experiment folder.
+        The results folder.
     results : pandas.DataFrame
         Every finished run's curve (``results.parquet``).
     summary : pandas.DataFrame
-        Per label: final mean ``metric`` ± 95% CI, features, steps/s (``summary.csv``).
+        Per method: final mean ``metric`` ± 95% CI, features, steps/s (``summary.csv``).
     errors : dict
-        ``(label, seed) -> one-line message`` for the runs that failed this time.
+        ``run_id -> one-line message`` for the runs that failed this time.
     num_skipped : int
         Runs found finished and not rerun.
     metric : str
         The learning-curve column the summary reports.
+    runs : list of dict
+        Every run's resolved config.
+    selection : pandas.DataFrame or None
+        With a sweep's ``selection``: each method's best setting (``selection.csv``).
+    selected : ExperimentResult or None
+        With a sweep's ``selection``: the best settings rerun on fresh seeds (``selected/``).
     """
 
     out_dir: Path
     results: pd.DataFrame
     summary: pd.DataFrame
-    errors: dict[tuple[str, int], str] = field(default_factory=dict)
+    errors: dict[str, str] = field(default_factory=dict)
     num_skipped: int = 0
     metric: str = "return"
+    runs: list[dict[str, Any]] = field(default_factory=list, repr=False)
+    selection: pd.DataFrame | None = None
+    selected: ExperimentResult | None = None
 
 
-def _execute(run_spec: dict[str, Any], directory: str) -> tuple[str, int, str | None]:
-    """Run one resolved run and write its files; return (label, seed, error or None)."""
-    label, seed = run_spec["label"], run_spec["seed"]
+def _run_task(run_spec: dict[str, Any], run_fn: RunFunction = run_resolved) -> dict[str, Any]:
+    """Run one resolved run on a worker; return its curve or its error as plain data."""
+    started = time.perf_counter()
+    meta = {"host": socket.gethostname(), "pid": os.getpid()}
     try:
-        result = run_resolved(run_spec)
-    except Exception as exc:  # recorded, reported, not fatal to other runs
+        result = run_fn(run_spec)
+    except Exception as exc:  # recorded and reported, never fatal to other runs
         partial = getattr(exc, "partial_result", None) if isinstance(exc, DivergenceError) else None
-        save_run_error(directory, run_spec, traceback.format_exc(), partial)
-        message = f"{type(exc).__name__}: {exc}".splitlines()[0]
-        return label, seed, message
-    result.config = run_spec
-    save_run(result, directory)
-    return label, seed, None
+        return {
+            "curve": None,
+            "error": traceback.format_exc(),
+            "message": f"{type(exc).__name__}: {exc}".splitlines()[0],
+            "partial": None if partial is None else partial.curve.to_dict(orient="list"),
+            "meta": meta,
+        }
+    meta["run_seconds"] = time.perf_counter() - started
+    return {"curve": result.curve.to_dict(orient="list"), "error": None, "meta": meta}
 
 
-def _warm_up(runs: list[dict[str, Any]]) -> None:
-    """Compile (and cache) numba code in this process with one tiny run per agent label."""
-    seen: set[str] = set()
+def _structure(spec: Any) -> Any:
+    """The tree of component kinds in a config (what numba compiles for)."""
+    if isinstance(spec, Mapping):
+        if "kind" in spec:
+            params = spec.get("params") or {}
+            return (spec["kind"], tuple((k, _structure(v)) for k, v in sorted(params.items())))
+        return tuple((k, _structure(v)) for k, v in sorted(spec.items()))
+    return None
+
+
+def warm_up(runs: Sequence[Mapping[str, Any]], run_fn: RunFunction = run_resolved) -> int:
+    """Compile (and cache) numba code here with one tiny run per component structure.
+
+    Returns the number of warm-up runs (errors are ignored: the real run records them).
+    """
+    seen: set[Any] = set()
     for spec in runs:
-        if spec["label"] in seen:
+        key = (_structure(spec.get("domain")), _structure(spec.get("agent")))
+        if key in seen:
             continue
-        seen.add(spec["label"])
+        seen.add(key)
         tiny = {**spec, "budget_steps": _WARMUP_STEPS, "num_policy_checks": 1, "eval_episodes": 1}
         try:
-            run_resolved(tiny)
-        except Exception:  # the real run records the error
+            run_fn(tiny)
+        except Exception:
             continue
+    return len(seen)
 
 
-def _pool_context() -> multiprocessing.context.BaseContext:
-    methods = multiprocessing.get_all_start_methods()
-    return multiprocessing.get_context("forkserver" if "forkserver" in methods else "spawn")
+def _describe(spec: Mapping[str, Any]) -> str:
+    parts = [str(spec.get(k)) for k in ("domain_label", "label") if k in spec]
+    setting = spec.get("setting")
+    if setting:
+        parts.append(",".join(f"{k.rsplit('.', 1)[-1]}={v}" for k, v in setting.items()))
+    return "/".join(parts) + f"/seed_{spec.get('seed')}"
+
+
+def execute_runs(
+    runs: Sequence[dict[str, Any]],
+    out_dir: str | Path,
+    *,
+    executor: Executor | None = None,
+    run_fn: RunFunction = run_resolved,
+    progress: bool = True,
+    console: Console | None = None,
+    description: str = "runs",
+) -> RunsReport:
+    """Run every not-yet-finished run of ``runs``, writing ``OUT/runs/<run_id>.json`` for each.
+
+    Parameters
+    ----------
+    runs : sequence of dict
+        Resolved run configs (`conjure.experiments.sweep.expand_sweep`, `resolve_run`).
+    out_dir : str or Path
+        The results folder (created if needed).
+    executor : Executor or None
+        Where to run; default a `LocalExecutor` with one worker per CPU. Started here if it is
+        not yet (and then shut down here).
+    run_fn : callable, default `run_resolved`
+        Runs one resolved config and returns a `Result`; must be importable by the workers. A
+        function that registers your own components before calling `run_resolved` makes them
+        available on every worker.
+    progress : bool, default True
+        Show the live progress bar (done, failed, remaining, ETA).
+    console : rich.console.Console or None
+        Where to print.
+    description : str, default "runs"
+        The progress bar's title.
+
+    Returns
+    -------
+    RunsReport
+    """
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    remove_stale_temporaries(out_dir)
+    by_id: dict[str, dict[str, Any]] = {}
+    for spec in runs:
+        by_id.setdefault(run_id(spec), spec)
+    todo = [(i, spec) for i, spec in by_id.items() if not is_run_done(out_dir, spec)]
+    report = RunsReport(list(by_id), num_skipped=len(by_id) - len(todo))
+    if not todo:
+        return report
+    executor = executor or LocalExecutor()
+    owns = not executor.is_started
+    console = console or Console()
+    if owns:
+        prepare_executor(executor, [spec for _, spec in todo], run_fn)
+    counts = {"done": 0, "failed": 0, "remaining": len(todo)}
+    with Progress(
+        TextColumn("[bold]{task.description}"),
+        BarColumn(),
+        TextColumn(
+            "{task.fields[done]} done · [red]{task.fields[failed]} failed[/red] · "
+            "{task.fields[remaining]} remaining"
+            + (f" · {report.num_skipped} reused" if report.num_skipped else "")
+        ),
+        TimeElapsedColumn(),
+        TextColumn("ETA"),
+        TimeRemainingColumn(),
+        console=console,
+        disable=not progress,
+    ) as bar:
+        task = bar.add_task(description, total=len(todo), **counts)
+        try:
+            task_fn = functools.partial(_run_task, run_fn=run_fn)
+            for index, outcome in executor.map_unordered(task_fn, [s for _, s in todo]):
+                identifier, spec = todo[index]
+                message = _record(out_dir, spec, outcome)
+                counts["remaining"] -= 1
+                if message is None:
+                    counts["done"] += 1
+                else:
+                    counts["failed"] += 1
+                    report.errors[identifier] = message
+                    bar.console.print(f"[red]run {_describe(spec)} failed:[/red] {message}")
+                bar.update(task, advance=1, **counts)
+        finally:
+            if owns:
+                executor.shutdown()
+    return report
+
+
+def prepare_executor(
+    executor: Executor, todo: Sequence[dict[str, Any]], run_fn: RunFunction
+) -> None:
+    """Warm numba's cache with ``todo``'s structures if workers are local processes; start it."""
+    if todo and executor.is_local and min(executor.num_workers, len(todo)) > 1:
+        warm_up(todo, run_fn)
+    executor.start()
+
+
+def _record(out_dir: Path, spec: dict[str, Any], outcome: Any) -> str | None:
+    """Write a run's result or error file; return the error message or ``None``."""
+    if isinstance(outcome, TaskFailure):
+        save_run_error(out_dir, spec, outcome.traceback)
+        return outcome.message
+    if outcome["error"] is not None:
+        save_run_error(out_dir, spec, outcome["error"], outcome["partial"])
+        return outcome["message"]
+    save_run(out_dir, spec, outcome["curve"], outcome["meta"])
+    return None
+
+
+def _finish(
+    out_dir: Path,
+    runs: list[dict[str, Any]],
+    report: RunsReport,
+    metric: str,
+    progress: bool,
+    console: Console,
+) -> ExperimentResult:
+    write_run_ids(out_dir, report.run_ids)
+    results = load_results(out_dir, report.run_ids)
+    summary = summarize(results, metric=metric)
+    write_results(out_dir, results, summary)
+    outcome = ExperimentResult(
+        out_dir, results, summary, report.errors, report.num_skipped, metric, runs
+    )
+    if progress:
+        print_summary(outcome, console)
+    return outcome
+
+
+def run_sweep(
+    sweep: Any,
+    out_dir: str | Path,
+    *,
+    executor: Executor | None = None,
+    max_workers: int | None = None,
+    run_fn: RunFunction = run_resolved,
+    progress: bool = True,
+    console: Console | None = None,
+) -> ExperimentResult:
+    """Run every run of a sweep under ``out_dir``; with ``selection``, rerun the best settings.
+
+    Parameters
+    ----------
+    sweep : SweepConfig, ExperimentConfig or dict
+        The sweep (`conjure.experiments.sweep`).
+    out_dir : str or Path
+        The results folder; finished runs in it are reused. The fresh-seed rerun of the
+        selected settings goes to ``out_dir/selected``, the choice to ``selection.csv``.
+    executor : Executor or None
+        Default a `LocalExecutor` with ``max_workers`` (else the sweep's, else the CPU count).
+    max_workers : int or None
+        See ``executor``.
+    run_fn : callable, default `run_resolved`
+        See `execute_runs`.
+    progress : bool, default True
+        Show progress and print the summary tables.
+    console : rich.console.Console or None
+        Where to print.
+
+    Returns
+    -------
+    ExperimentResult
+    """
+    from conjure.experiments.selection import fresh_seeds, select_best, selected_runs
+    from conjure.experiments.sweep import expand_sweep, parse_sweep, resolve_sweep
+
+    sweep = parse_sweep(sweep)
+    out_dir = Path(out_dir)
+    console = console or Console()
+    executor = executor or LocalExecutor(max_workers=max_workers or sweep.max_workers)
+    owns = not executor.is_started
+    runs = expand_sweep(sweep)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    write_atomic(out_dir / RESOLVED_FILE, dump_yaml(resolve_sweep(sweep)))
+    try:
+        if owns:
+            prepare_executor(executor, [s for s in runs if not is_run_done(out_dir, s)], run_fn)
+        report = execute_runs(
+            runs,
+            out_dir,
+            executor=executor,
+            run_fn=run_fn,
+            progress=progress,
+            console=console,
+            description=sweep.name,
+        )
+        outcome = _finish(out_dir, runs, report, sweep.metric, progress, console)
+        if sweep.selection is None or outcome.results.empty:
+            return outcome
+        choice = sweep.selection
+        best = select_best(
+            outcome.results, metric=sweep.metric, criterion=choice.criterion, mode=choice.mode
+        )
+        write_atomic(out_dir / "selection.csv", best.to_csv(index=False))
+        if progress:
+            console.print(
+                f"Best setting per method by {choice.criterion} of {sweep.metric} "
+                f"({choice.mode}): see {out_dir / 'selection.csv'}"
+            )
+        seeds = fresh_seeds(sweep.seed_list(), choice.fresh_seeds)
+        final_runs = selected_runs(runs, best, seeds)
+        selected_dir = out_dir / "selected"
+        final = execute_runs(
+            final_runs,
+            selected_dir,
+            executor=executor,
+            run_fn=run_fn,
+            progress=progress,
+            console=console,
+            description=f"{sweep.name}: best settings, fresh seeds",
+        )
+        outcome.selection = best
+        outcome.selected = _finish(selected_dir, final_runs, final, sweep.metric, progress, console)
+        outcome.errors.update(outcome.selected.errors)
+        return outcome
+    finally:
+        if owns:
+            executor.shutdown()
 
 
 def run_experiment(
@@ -134,135 +415,70 @@ def run_experiment(
     max_workers: int | None = None,
     progress: bool = True,
     console: Console | None = None,
+    executor: Executor | None = None,
 ) -> ExperimentResult:
-    """Run every (agent label, seed) pair of ``config`` and write results under ``out_dir``.
+    """Run every (agent label, seed) pair of an experiment under ``out_dir``: a one-domain sweep.
 
     Parameters
     ----------
     config : ExperimentConfig or dict
         The experiment.
     out_dir : str or Path
-        The experiment folder (created if needed; finished runs in it are skipped).
+        The results folder (created if needed; finished runs in it are skipped).
     max_workers : int or None
-        Worker processes; default ``config.max_workers``, else the CPU count (never more than
-        the runs to do). 1 runs in this process.
+        Worker processes; default ``config.max_workers``, else the CPU count. 1 runs in this
+        process.
     progress : bool, default True
         Show a progress bar and print the summary table.
     console : rich.console.Console or None
         Where to print (default: standard output).
+    executor : Executor or None
+        Where to run (default a `LocalExecutor`).
 
     Returns
     -------
     ExperimentResult
     """
-    config = parse_config(config)
-    out_dir = Path(out_dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
-    remove_stale_temporaries(out_dir)
-    resolved = resolve(config)
-    write_atomic(out_dir / RESOLVED_FILE, dump_yaml(resolved))
-    console = console or Console()
+    from conjure.experiments.config import parse_config
 
-    all_runs = [
-        resolve_run(config, label, seed) for label in config.agents for seed in resolved["seeds"]
-    ]
-    todo = [
-        spec
-        for spec in all_runs
-        if not is_run_done(run_dir(out_dir, spec["label"], spec["seed"]), spec)
-    ]
-    num_skipped = len(all_runs) - len(todo)
-    workers = max_workers or config.max_workers or os.cpu_count() or 1
-    workers = max(1, min(workers, len(todo)))
-    errors: dict[tuple[str, int], str] = {}
-
-    with Progress(
-        TextColumn("[bold]{task.description}"),
-        BarColumn(),
-        MofNCompleteColumn(),
-        TextColumn("runs"),
-        TimeElapsedColumn(),
-        TextColumn("ETA"),
-        TimeRemainingColumn(),
+    experiment = parse_config(config)
+    return run_sweep(
+        experiment,
+        out_dir,
+        executor=executor,
+        max_workers=max_workers,
+        progress=progress,
         console=console,
-        disable=not progress,
-    ) as bar:
-        task = bar.add_task(config.name, total=len(all_runs), completed=num_skipped)
-
-        def finished(label: str, seed: int, error: str | None) -> None:
-            if error is not None:
-                errors[(label, seed)] = error
-                bar.console.print(f"[red]run {label}/seed_{seed} failed:[/red] {error}")
-            bar.advance(task)
-
-        if workers == 1:
-            for spec in todo:
-                directory = run_dir(out_dir, spec["label"], spec["seed"])
-                finished(*_execute(spec, str(directory)))
-        elif todo:
-            _warm_up(todo)
-            with cf.ProcessPoolExecutor(workers, mp_context=_pool_context()) as pool:
-                futures = {
-                    pool.submit(
-                        _execute, spec, str(run_dir(out_dir, spec["label"], spec["seed"]))
-                    ): spec
-                    for spec in todo
-                }
-                try:
-                    for future in cf.as_completed(futures):
-                        spec = futures[future]
-                        try:
-                            finished(*future.result())
-                        except Exception as exc:  # e.g. a killed worker
-                            directory = run_dir(out_dir, spec["label"], spec["seed"])
-                            save_run_error(
-                                directory, spec, "".join(traceback.format_exception(exc))
-                            )
-                            finished(spec["label"], spec["seed"], f"{type(exc).__name__}: {exc}")
-                except BaseException:
-                    pool.shutdown(wait=False, cancel_futures=True)
-                    raise
-
-    finished_runs = [(spec["label"], spec["seed"]) for spec in all_runs]
-    results = load_results(out_dir, finished_runs)
-    summary = summarize(results, metric=config.metric)
-    write_results(out_dir, results, summary)
-    outcome = ExperimentResult(out_dir, results, summary, errors, num_skipped, config.metric)
-    if progress:
-        print_summary(outcome, console)
-    return outcome
+    )
 
 
 def print_summary(outcome: ExperimentResult, console: Console | None = None) -> None:
-    """Print the per-label summary table (final metric ± 95% CI, features, steps/s)."""
+    """Print the per-method summary table (final metric ± 95% CI, features, steps/s)."""
     console = console or Console()
     metric = outcome.metric
+    summary = outcome.summary
+    keys = [c for c in ("domain_label", "label", "setting") if c in summary.columns]
     table = Table(title=f"{outcome.out_dir}: final policy check, mean over seeds")
-    for name, justify in (
-        ("label", "left"),
-        ("seeds", "right"),
-        (f"final {metric.replace('_', ' ')} ± 95% CI", "right"),
-        ("features", "right"),
-        ("steps/s", "right"),
-    ):
-        table.add_column(name, justify=justify)  # type: ignore[arg-type]
-    for row in outcome.summary.to_dict("records"):
+    for name in keys:
+        table.add_column(name.replace("_", " "), justify="left")
+    for name in ("seeds", f"final {metric.replace('_', ' ')} ± 95% CI", "features", "steps/s"):
+        table.add_column(name, justify="right")
+    for row in summary.to_dict("records"):
         half = row[f"final_{metric}_ci95"]
         ci = "" if pd.isna(half) else f" ± {half:.4g}"
+        rate = row["mean_steps_per_second"]
         table.add_row(
-            str(row["label"]),
+            *(str(row[k]) for k in keys),
             str(row["num_seeds"]),
             f"{row[f'final_{metric}_mean']:.4g}{ci}",
             f"{row['final_num_features']:,.0f}",
-            "n/a"
-            if pd.isna(row["mean_steps_per_second"])
-            else f"{row['mean_steps_per_second']:,.0f}",
+            "n/a" if pd.isna(rate) or math.isinf(rate) else f"{rate:,.0f}",
         )
     console.print(table)
     if outcome.num_skipped:
         console.print(f"{outcome.num_skipped} finished run(s) were reused (not rerun).")
-    for (label, seed), message in outcome.errors.items():
+    for identifier, message in outcome.errors.items():
         console.print(
-            f"[red]failed:[/red] {label}/seed_{seed}: {message} "
-            f"(see {run_dir(outcome.out_dir, label, seed) / 'error.txt'})"
+            f"[red]failed:[/red] run {identifier}: {message} "
+            f"(see {error_path(outcome.out_dir, identifier)})"
         )

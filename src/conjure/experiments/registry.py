@@ -32,7 +32,18 @@ from conjure.domains import (
     PersistentSurveillance,
     RescueMission,
 )
-from conjure.planners import QAPI, VAPI, PolicyIteration, ValueIteration
+from conjure.planners import (
+    QAPI,
+    QAVI,
+    VAPI,
+    FittedValueIteration,
+    PolicyIteration,
+    SampledQAPI1,
+    SampledQAPI2,
+    SampledQAVI,
+    TrajectoryQAPI,
+    ValueIteration,
+)
 from conjure.policies import EpsilonGreedy, Gibbs
 from conjure.representations import (
     RBF,
@@ -94,8 +105,14 @@ AGENTS: dict[str, type[Configurable]] = {
     "SARSA": SARSA,
 }
 PLANNERS: dict[str, type[Configurable]] = {
+    "FittedValueIteration": FittedValueIteration,
     "PolicyIteration": PolicyIteration,
     "QAPI": QAPI,
+    "QAVI": QAVI,
+    "SampledQAPI1": SampledQAPI1,
+    "SampledQAPI2": SampledQAPI2,
+    "SampledQAVI": SampledQAVI,
+    "TrajectoryQAPI": TrajectoryQAPI,
     "VAPI": VAPI,
     "ValueIteration": ValueIteration,
 }

@@ -1,80 +1,118 @@
-"""Experiment results on disk: one folder per run, a combined table and a summary.
+"""Experiment and sweep results on disk: one file per run, named by its config hash.
 
-Layout of an experiment folder::
+Layout of a results folder (an experiment or a sweep)::
 
-    OUT/config.resolved.yaml                 the experiment, every default filled in
-    OUT/runs/<label>/seed_<k>/config.resolved.yaml
-    OUT/runs/<label>/seed_<k>/curve.csv      written last: its presence marks a finished run
-    OUT/runs/<label>/seed_<k>/error.txt      the traceback of a failed run
-    OUT/results.parquet                      label, seed, curve columns, agent parameters
-    OUT/summary.csv                          per label: final return ± 95% CI, features, steps/s
+    OUT/config.resolved.yaml        the experiment or sweep, every default filled in
+    OUT/run_ids.txt                 the ids of the runs the last command asked for
+    OUT/runs/<run_id>.json          one finished run: its resolved config and its curve
+    OUT/errors/<run_id>.txt         the traceback of a failed run (its config at the top)
+    OUT/errors/<run_id>.partial.csv the curve a diverged run recorded before it stopped
+    OUT/results.parquet             every finished run: one row per policy check
+    OUT/summary.csv                 per method: final metric ± 95% CI, features, steps/s
 
-Every file is written atomically (temporary file, fsync, ``os.replace``), so killing an
-experiment loses no finished run and never leaves a half-written file under its real name.
+A run's id is `run_id` (the `config_hash` of its resolved config), so a run is finished if and
+only if ``runs/<run_id>.json`` exists: resume needs no other bookkeeping, a changed config
+gets a new id, and no run can be stored twice. Every file is written atomically (temporary
+file, fsync, ``os.replace``, fsync of the folder), so killing the process at any moment loses
+no finished run and never leaves a half-written file under its real name.
 """
 
 from __future__ import annotations
 
+import json
 import math
 import os
-from collections.abc import Iterable, Mapping
+import socket
+import uuid
+from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pandas as pd
-import yaml
 from scipy import stats
 
 from conjure.core.errors import InvalidParameterError
 from conjure.experiments.config import config_hash, dump_yaml
-from conjure.experiments.run import Result
 
 __all__ = [
-    "CURVE_FILE",
-    "ERROR_FILE",
-    "PARTIAL_CURVE_FILE",
+    "ERRORS_DIR",
+    "GROUP_COLUMNS",
     "RESOLVED_FILE",
     "RESULTS_FILE",
+    "RUNS_DIR",
+    "RUN_IDS_FILE",
     "SUMMARY_FILE",
+    "describe_setting",
+    "error_path",
+    "final_rows",
     "flatten_params",
+    "group_columns",
     "is_run_done",
     "load_results",
+    "read_run",
+    "read_run_ids",
     "remove_stale_temporaries",
-    "run_dir",
+    "run_id",
+    "run_path",
     "save_run",
     "save_run_error",
     "summarize",
     "t_confidence",
     "write_atomic",
     "write_results",
+    "write_run_ids",
 ]
 
-CURVE_FILE = "curve.csv"
-PARTIAL_CURVE_FILE = "curve.partial.csv"
-ERROR_FILE = "error.txt"
+RUNS_DIR = "runs"
+ERRORS_DIR = "errors"
 RESOLVED_FILE = "config.resolved.yaml"
+RUN_IDS_FILE = "run_ids.txt"
 RESULTS_FILE = "results.parquet"
 SUMMARY_FILE = "summary.csv"
+#: The run-config keys that identify a method's setting, in grouping order (when present).
+GROUP_COLUMNS = ("domain_label", "label", "setting")
 _TEMP_MARK = ".tmp-"
 
 
 def write_atomic(path: str | Path, data: str | bytes) -> Path:
-    """Write ``data`` to ``path`` via a fsynced temporary file and ``os.replace``."""
+    """Write ``data`` to ``path`` via a fsynced temporary file and ``os.replace``.
+
+    The temporary name is unique per host, process and call, so concurrent writers (several
+    drivers, or nodes sharing a file system) never collide; the last complete write wins.
+    """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    temp = path.with_name(f".{path.name}{_TEMP_MARK}{os.getpid()}")
+    unique = f"{socket.gethostname()}-{os.getpid()}-{uuid.uuid4().hex[:8]}"
+    temp = path.with_name(f".{path.name}{_TEMP_MARK}{unique}")
     payload = data.encode() if isinstance(data, str) else data
-    with open(temp, "wb") as handle:
-        handle.write(payload)
-        handle.flush()
-        os.fsync(handle.fileno())
-    os.replace(temp, path)
+    try:
+        with open(temp, "wb") as handle:
+            handle.write(payload)
+            handle.flush()
+            os.fsync(handle.fileno())
+        os.replace(temp, path)
+    finally:
+        temp.unlink(missing_ok=True)
+    _fsync_dir(path.parent)
     return path
 
 
+def _fsync_dir(directory: Path) -> None:
+    try:
+        fd = os.open(directory, os.O_RDONLY)
+    except OSError:  # e.g. platforms without directory handles
+        return
+    try:
+        os.fsync(fd)
+    except OSError:
+        pass
+    finally:
+        os.close(fd)
+
+
 def remove_stale_temporaries(out_dir: str | Path) -> int:
-    """Delete temporary files a killed experiment left behind; return how many."""
+    """Delete temporary files a killed process left behind; return how many."""
     removed = 0
     for temp in Path(out_dir).rglob(f".*{_TEMP_MARK}*"):
         temp.unlink(missing_ok=True)
@@ -82,48 +120,111 @@ def remove_stale_temporaries(out_dir: str | Path) -> int:
     return removed
 
 
-def run_dir(out_dir: str | Path, label: str, seed: int) -> Path:
-    """Return the folder of run (``label``, ``seed``)."""
-    return Path(out_dir) / "runs" / label / f"seed_{seed}"
+def run_id(run_spec: Mapping[str, Any]) -> str:
+    """Return the id of a run: the `config_hash` of its resolved config."""
+    return config_hash(dict(run_spec))
 
 
-def is_run_done(directory: str | Path, run_spec: Mapping[str, Any]) -> bool:
-    """Whether ``directory`` holds a finished run of exactly ``run_spec`` (same config hash)."""
-    directory = Path(directory)
-    curve, resolved = directory / CURVE_FILE, directory / RESOLVED_FILE
-    if not (curve.is_file() and resolved.is_file()):
+def run_path(out_dir: str | Path, identifier: str) -> Path:
+    """Return the result file of run ``identifier``: ``OUT/runs/<id>.json``."""
+    return Path(out_dir) / RUNS_DIR / f"{identifier}.json"
+
+
+def error_path(out_dir: str | Path, identifier: str) -> Path:
+    """Return the error file of run ``identifier``: ``OUT/errors/<id>.txt``."""
+    return Path(out_dir) / ERRORS_DIR / f"{identifier}.txt"
+
+
+def read_run(path: str | Path) -> dict[str, Any]:
+    """Read a run file: ``{"run_id", "config", "curve" (DataFrame), "meta"}``.
+
+    Raises
+    ------
+    InvalidParameterError
+        If the file is not a complete run record.
+    """
+    path = Path(path)
+    try:
+        record = json.loads(path.read_text())
+        curve = pd.DataFrame(record["curve"])
+        return {
+            "run_id": record["run_id"],
+            "config": record["config"],
+            "curve": curve,
+            "meta": record.get("meta", {}),
+        }
+    except (OSError, ValueError, KeyError, TypeError) as exc:
+        raise InvalidParameterError(f"{str(path)!r} is not a run record: {exc}.") from None
+
+
+def is_run_done(out_dir: str | Path, run_spec: Mapping[str, Any]) -> bool:
+    """Whether ``out_dir`` holds the finished run of exactly ``run_spec``."""
+    identifier = run_id(run_spec)
+    path = run_path(out_dir, identifier)
+    if not path.is_file():
         return False
     try:
-        stored = yaml.safe_load(resolved.read_text())
-    except yaml.YAMLError:
+        record = read_run(path)
+    except InvalidParameterError:  # cannot happen with atomic writes; rerun to be safe
         return False
-    return isinstance(stored, dict) and config_hash(stored) == config_hash(dict(run_spec))
+    return run_id(record["config"]) == identifier
 
 
-def save_run(result: Result, directory: str | Path) -> Path:
-    """Write a finished run: its resolved config, then its curve (the 'finished' mark)."""
-    directory = Path(directory)
-    if result.config is not None:
-        write_atomic(directory / RESOLVED_FILE, dump_yaml(result.config))
-    write_atomic(directory / CURVE_FILE, result.curve.to_csv(index=False))
-    for stale in (ERROR_FILE, PARTIAL_CURVE_FILE):
-        (directory / stale).unlink(missing_ok=True)
-    return directory
+def save_run(
+    out_dir: str | Path,
+    run_spec: Mapping[str, Any],
+    curve: pd.DataFrame | Mapping[str, Sequence[Any]],
+    meta: Mapping[str, Any] | None = None,
+) -> Path:
+    """Write a finished run to ``OUT/runs/<run_id>.json`` and clear its old error files."""
+    identifier = run_id(run_spec)
+    columns = curve.to_dict(orient="list") if isinstance(curve, pd.DataFrame) else dict(curve)
+    record = {
+        "run_id": identifier,
+        "config": dict(run_spec),
+        "curve": columns,
+        "meta": dict(meta or {}),
+    }
+    path = write_atomic(run_path(out_dir, identifier), json.dumps(record, default=_jsonable))
+    error = error_path(out_dir, identifier)
+    error.unlink(missing_ok=True)
+    error.with_suffix(".partial.csv").unlink(missing_ok=True)
+    return path
+
+
+def _jsonable(value: Any) -> Any:
+    if isinstance(value, np.generic):
+        return value.item()
+    return str(value)
 
 
 def save_run_error(
-    directory: str | Path,
+    out_dir: str | Path,
     run_spec: Mapping[str, Any],
     traceback_text: str,
-    partial: Result | None = None,
+    partial: pd.DataFrame | Mapping[str, Sequence[Any]] | None = None,
 ) -> Path:
-    """Record a failed run: its config, ``error.txt`` and any partial curve."""
-    directory = Path(directory)
-    write_atomic(directory / RESOLVED_FILE, dump_yaml(dict(run_spec)))
+    """Record a failed run: ``OUT/errors/<run_id>.txt`` (config, then traceback) and any partial curve."""  # noqa: E501
+    identifier = run_id(run_spec)
+    path = error_path(out_dir, identifier)
     if partial is not None:
-        write_atomic(directory / PARTIAL_CURVE_FILE, partial.curve.to_csv(index=False))
-    (directory / CURVE_FILE).unlink(missing_ok=True)
-    return write_atomic(directory / ERROR_FILE, traceback_text)
+        frame = partial if isinstance(partial, pd.DataFrame) else pd.DataFrame(dict(partial))
+        write_atomic(path.with_suffix(".partial.csv"), frame.to_csv(index=False))
+    header = "".join(f"# {line}\n" for line in dump_yaml(dict(run_spec)).splitlines())
+    return write_atomic(path, f"# run {identifier}\n{header}\n{traceback_text}")
+
+
+def write_run_ids(out_dir: str | Path, identifiers: Iterable[str]) -> Path:
+    """Record which runs the current experiment or sweep consists of (``run_ids.txt``)."""
+    return write_atomic(Path(out_dir) / RUN_IDS_FILE, "".join(f"{i}\n" for i in identifiers))
+
+
+def read_run_ids(out_dir: str | Path) -> list[str] | None:
+    """Return the ids in ``run_ids.txt``, or ``None`` if the folder has none."""
+    path = Path(out_dir) / RUN_IDS_FILE
+    if not path.is_file():
+        return None
+    return [line.strip() for line in path.read_text().splitlines() if line.strip()]
 
 
 def flatten_params(spec: Mapping[str, Any], prefix: str) -> dict[str, Any]:
@@ -145,6 +246,22 @@ def flatten_params(spec: Mapping[str, Any], prefix: str) -> dict[str, Any]:
     return flat
 
 
+def describe_setting(setting: Mapping[str, Any] | None) -> str:
+    """Return a short text for a grid setting: ``"step_size.alpha_0=0.1, ..."``."""
+    if not setting:
+        return ""
+    parts = []
+    for path, value in setting.items():
+        keys = path.split(".")
+        if keys[0] in ("agents", "domains") and len(keys) > 2:
+            keys = keys[2:]
+        elif keys[0] == "domain":
+            keys = keys[1:]
+        short = ".".join(k for k in keys if k != "params")
+        parts.append(f"{short}={value}")
+    return ", ".join(parts)
+
+
 def _normalize_column(column: pd.Series) -> pd.Series:
     values = [v for v in column if v is not None and not (isinstance(v, float) and math.isnan(v))]
     if all(isinstance(v, (bool, np.bool_)) for v in values) and values:
@@ -154,49 +271,68 @@ def _normalize_column(column: pd.Series) -> pd.Series:
     return column.map(lambda v: None if v is None else str(v)).astype("string")
 
 
-def load_results(
-    out_dir: str | Path, runs: Iterable[tuple[str, int]] | None = None
-) -> pd.DataFrame:
-    """Combine finished runs into one table: label, seed, curve columns, agent parameters.
+def load_results(out_dir: str | Path, run_ids: Iterable[str] | None = None) -> pd.DataFrame:
+    """Combine finished runs into one table, one row per policy check.
+
+    Columns: ``run_id``, ``label``, ``seed`` (and ``domain_label`` and ``setting`` for sweep
+    runs), the curve columns, ``run_seconds``, then the flattened agent and domain parameters
+    (``agent.step_size``, ``domain.length``, ...).
 
     Parameters
     ----------
     out_dir : str or Path
-        The experiment folder.
-    runs : iterable of (label, seed), optional
-        Which runs to read; default every finished run under ``out_dir/runs``.
+        The results folder.
+    run_ids : iterable of str, optional
+        Which runs to read (missing ones are skipped); default the ids in ``run_ids.txt``, or
+        every run file if there is none.
     """
     out_dir = Path(out_dir)
-    if runs is None:
-        found = sorted(out_dir.glob(f"runs/*/seed_*/{CURVE_FILE}"))
-        runs = [(p.parent.parent.name, int(p.parent.name.removeprefix("seed_"))) for p in found]
+    if run_ids is None:
+        run_ids = read_run_ids(out_dir)
+    if run_ids is None:
+        paths = sorted((out_dir / RUNS_DIR).glob("*.json"))
+    else:
+        paths = [run_path(out_dir, i) for i in dict.fromkeys(run_ids)]
     frames, param_rows = [], []
-    for label, seed in runs:
-        directory = run_dir(out_dir, label, seed)
-        if not (directory / CURVE_FILE).is_file():
+    for path in paths:
+        if not path.is_file():
             continue
-        curve = pd.read_csv(directory / CURVE_FILE)
-        curve.insert(0, "seed", int(seed))
-        curve.insert(0, "label", label)
-        resolved_path = directory / RESOLVED_FILE
+        record = read_run(path)
+        config, curve = record["config"], record["curve"]
+        leading: dict[str, Any] = {"run_id": record["run_id"]}
+        if "domain_label" in config:
+            leading["domain_label"] = config["domain_label"]
+        leading["label"] = config.get("label", "agent")
+        if "setting" in config:
+            leading["setting"] = describe_setting(config["setting"])
+        leading["seed"] = int(config.get("seed", -1))
+        for position, (name, value) in enumerate(leading.items()):
+            curve.insert(position, name, value)
+        curve["run_seconds"] = float(record["meta"].get("run_seconds", math.nan))
         params: dict[str, Any] = {}
-        if resolved_path.is_file():
-            resolved = yaml.safe_load(resolved_path.read_text()) or {}
-            if isinstance(resolved.get("agent"), Mapping):
-                params = flatten_params(resolved["agent"], "agent")
+        for key in ("agent", "domain"):
+            if isinstance(config.get(key), Mapping):
+                params.update(flatten_params(config[key], key))
         frames.append(curve)
         param_rows.append((len(curve), params))
     if not frames:
-        return pd.DataFrame(columns=["label", "seed"])
+        return pd.DataFrame(columns=["run_id", "label", "seed"])
     keys: list[str] = []
     for _, params in param_rows:
         keys.extend(k for k in params if k not in keys)
     columns = {key: [params.get(key) for n, params in param_rows for _ in range(n)] for key in keys}
     table = pd.concat(frames, ignore_index=True)
+    if "setting" in table.columns:
+        table["setting"] = table["setting"].fillna("")
     extra = pd.DataFrame(columns, index=table.index)
     for key in keys:
         extra[key] = _normalize_column(extra[key])
     return pd.concat([table, extra], axis=1)
+
+
+def group_columns(results: pd.DataFrame) -> list[str]:
+    """The columns that name a method's setting in ``results`` (`GROUP_COLUMNS` present)."""
+    return [c for c in GROUP_COLUMNS if c in results.columns]
 
 
 def t_confidence(values: Iterable[float], level: float = 0.95) -> tuple[float, float]:
@@ -219,10 +355,30 @@ def t_confidence(values: Iterable[float], level: float = 0.95) -> tuple[float, f
     return mean, float(stats.t.ppf(0.5 + level / 2, array.size - 1)) * sem
 
 
-def summarize(results: pd.DataFrame, metric: str = "return") -> pd.DataFrame:
-    """Per label, the final policy check over seeds: mean ``metric`` ± 95% t half-width, etc."""
+def final_rows(results: pd.DataFrame) -> pd.DataFrame:
+    """Return each run's last policy check (its largest ``learning_steps``)."""
+    key = "run_id" if "run_id" in results.columns else ["label", "seed"]
+    return results.loc[results.groupby(key, sort=False)["learning_steps"].idxmax()]
+
+
+def summarize(
+    results: pd.DataFrame, metric: str = "return", by: Sequence[str] | None = None
+) -> pd.DataFrame:
+    """Per method, the final policy check over seeds: mean ``metric`` ± 95% t half-width, etc.
+
+    Parameters
+    ----------
+    results : pandas.DataFrame
+        `load_results`'s table.
+    metric : str, default "return"
+        The curve column to summarise.
+    by : sequence of str, optional
+        The grouping columns; default `group_columns` (``label``, plus ``domain_label`` and
+        ``setting`` for sweeps).
+    """
+    by = list(by) if by is not None else group_columns(results) or ["label"]
     columns = [
-        "label",
+        *by,
         "num_seeds",
         f"final_{metric}_mean",
         f"final_{metric}_ci95",
@@ -236,12 +392,12 @@ def summarize(results: pd.DataFrame, metric: str = "return") -> pd.DataFrame:
             f"Unknown metric {metric!r}; the results have columns {', '.join(results.columns)}."
         )
     rows = []
-    for label, group in results.groupby("label", sort=False):
-        finals = group.loc[group.groupby("seed")["learning_steps"].idxmax()]
+    for name, finals in final_rows(results).groupby(by, sort=False):
+        keys = name if isinstance(name, tuple) else (name,)
         mean, half = t_confidence(finals[metric])
         rows.append(
             (
-                label,
+                *keys,
                 len(finals),
                 mean,
                 half,

@@ -3,7 +3,7 @@
 from conjure.models.enumerate import enumerate_model
 from conjure.models.generative import DomainSampler, GenerativeModel, ModelSampler, generative_model
 from conjure.models.steady_state import steady_state_distribution
-from conjure.models.tabular import TabularModel
+from conjure.models.tabular_model import TabularModel
 
 __all__ = [
     "DomainSampler",

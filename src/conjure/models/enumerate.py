@@ -9,7 +9,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from conjure.core.errors import IncompatibleComponentsError, InvalidParameterError
-from conjure.models.tabular import TabularModel
+from conjure.models.tabular_model import TabularModel
 
 __all__ = ["enumerate_model"]
 

@@ -15,7 +15,7 @@ import numpy as np
 
 from conjure.core.errors import IncompatibleComponentsError
 from conjure.core.interfaces import Domain, DomainSpec
-from conjure.models.tabular import TabularModel
+from conjure.models.tabular_model import TabularModel
 
 __all__ = ["DomainSampler", "GenerativeModel", "ModelSampler", "generative_model"]
 

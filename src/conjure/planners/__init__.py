@@ -1,9 +1,28 @@
-"""Planners: dynamic programming and approximate DP on models (Algorithms 1-4)."""
+"""Planners: dynamic programming and approximate DP on models (Algorithms 1-9, 13)."""
 
 from conjure.planners.base import Plan, PlanAgent, Planner
+from conjure.planners.fitted_vi import FittedValueIteration
 from conjure.planners.policy_iteration import PolicyIteration
 from conjure.planners.q_api import QAPI
+from conjure.planners.q_avi import QAVI
+from conjure.planners.sampled_q_api import SampledQAPI1, SampledQAPI2
+from conjure.planners.sampled_q_avi import SampledQAVI
+from conjure.planners.trajectory_q_api import TrajectoryQAPI
 from conjure.planners.v_api import VAPI
 from conjure.planners.value_iteration import ValueIteration
 
-__all__ = ["QAPI", "VAPI", "Plan", "PlanAgent", "Planner", "PolicyIteration", "ValueIteration"]
+__all__ = [
+    "QAPI",
+    "QAVI",
+    "VAPI",
+    "FittedValueIteration",
+    "Plan",
+    "PlanAgent",
+    "Planner",
+    "PolicyIteration",
+    "SampledQAPI1",
+    "SampledQAPI2",
+    "SampledQAVI",
+    "TrajectoryQAPI",
+    "ValueIteration",
+]

@@ -15,7 +15,8 @@ from conjure.core.interfaces import DomainSpec, Representation
 from conjure.core.linalg import row_matrix
 from conjure.models.generative import GenerativeModel
 from conjure.models.steady_state import steady_state_distribution
-from conjure.models.tabular import TabularModel
+from conjure.models.tabular_model import TabularModel
+from conjure.planners.base import Plan
 
 #: Above this many states policy evaluation is iterative (BiCGSTAB) rather than a sparse LU.
 DIRECT_SOLVE_LIMIT = 200_000
@@ -143,15 +144,21 @@ def sample_trajectory(
     num_samples: int,
     rng: np.random.Generator,
     num_next: int = 1,
+    max_episode_steps: int | None = None,
 ) -> dict[str, Any]:
     """Follow ``choose`` (π^ε) for ``num_samples`` steps, restarting at termination.
+
+    The trajectory also restarts after ``max_episode_steps`` steps of one episode (default:
+    the sampler's ``spec.max_episode_steps``), so that samples cover more than one region.
 
     Every visited ⟨s_i, a_i⟩ also gets ``num_next`` independent draws s' ~ P(s_i, a_i); the
     trajectory continues from the first. Returns lists ``states``, ``actions`` and arrays
     ``next_states`` (L, num_next, d), ``rewards`` (L, num_next), ``terminated`` (L, num_next).
     """
     states, actions, nexts, rewards, terminals = [], [], [], [], []
+    cap = int(sampler.spec.max_episode_steps if max_episode_steps is None else max_episode_steps)
     state = sampler.sample_start(rng)
+    steps = 0
     for _ in range(num_samples):
         action = choose(state, rng)
         draws = [sampler.sample(state, action, rng) for _ in range(num_next)]
@@ -160,7 +167,11 @@ def sample_trajectory(
         nexts.append([d[0] for d in draws])
         rewards.append([d[1] for d in draws])
         terminals.append([d[2] for d in draws])
-        state = sampler.sample_start(rng) if draws[0][2] else draws[0][0]
+        steps += 1
+        if draws[0][2] or steps >= cap:
+            state, steps = sampler.sample_start(rng), 0
+        else:
+            state = draws[0][0]
     return {
         "states": np.array(states),
         "actions": np.array(actions, dtype=np.int64),
@@ -277,3 +288,133 @@ def bellman_sweep(
         if change > largest:
             largest = change
     return largest
+
+
+# ------------------------------------------------------ the sampled planners (Alg 5-9, 13)
+
+
+def initial_weights(rng: np.random.Generator, num_features: int, num_actions: int) -> np.ndarray:
+    """θ₀ of line 1 ("Random()"): U(−10⁻⁶, 10⁻⁶), small enough only to break argmax ties."""
+    return rng.uniform(-1e-6, 1e-6, size=(num_features, num_actions))
+
+
+def encode_samples(representation: Representation, batch: dict[str, Any]) -> dict[str, Any]:
+    """Encode a `sample_trajectory` batch: Φ̃ (L × n) and the successors' Φ (L·L₂ × n).
+
+    Rows of terminal successors are emptied, so every Q(s', ·) read from them is 0.
+    """
+    num_samples, num_next = batch["rewards"].shape
+    phi = encode_states(representation, batch["states"])
+    flat_next = batch["next_states"].reshape(num_samples * num_next, -1)
+    live = (~batch["terminated"].reshape(-1)).astype(np.float64)
+    phi_next = sp.csr_matrix(sp.diags(live) @ encode_states(representation, flat_next))
+    phi_next.eliminate_zeros()
+    return {
+        "phi": phi,
+        "phi_next": phi_next,
+        "actions": batch["actions"],
+        "rewards": batch["rewards"],
+        "num_next": num_next,
+    }
+
+
+def greedy_next_features(
+    phi_next: sp.csr_matrix, weights: np.ndarray, num_next: int
+) -> sp.csr_matrix:
+    """φ(s'_j, π(s'_j)) averaged over the L₂ draws of each sample (Eq. 2.28), in Φ̄ columns.
+
+    π(s') = argmax_a φ(s')ᵀθ_a is computed on demand (Algorithm 6); terminal rows stay empty.
+    """
+    num_actions = weights.shape[1]
+    chosen = np.asarray(phi_next @ weights).argmax(axis=1)
+    rows = action_features(phi_next, chosen, num_actions)
+    num_samples = rows.shape[0] // num_next
+    averaging = sp.kron(sp.identity(num_samples, format="csr"), np.full((1, num_next), 1.0))
+    return sp.csr_matrix(averaging @ rows) / num_next
+
+
+def sampled_backups(data: dict[str, Any], weights: np.ndarray, discount: float) -> np.ndarray:
+    """Q⁺(s_i, a_i) = (1/L₂) Σ_j [r_ij + γ max_a' Q(s'_ij, a')] (Algorithms 8-9, line 6)."""
+    num_samples, num_next = data["rewards"].shape
+    best = np.asarray(data["phi_next"] @ weights).max(axis=1).reshape(num_samples, num_next)
+    return (data["rewards"] + discount * best).mean(axis=1)
+
+
+@numba.njit(cache=True)
+def sampled_q_avi_pass(
+    weights: np.ndarray,
+    phi_indptr: np.ndarray,
+    phi_indices: np.ndarray,
+    phi_data: np.ndarray,
+    actions: np.ndarray,
+    next_indptr: np.ndarray,
+    next_indices: np.ndarray,
+    next_data: np.ndarray,
+    rewards: np.ndarray,
+    discount: float,
+    step_size: float,
+) -> float:
+    """One pass of Algorithm 8 over the L₁ samples in order, θ updated in place; max |δ|."""
+    num_samples, num_next = rewards.shape
+    num_actions = weights.shape[1]
+    largest = 0.0
+    for i in range(num_samples):
+        a = actions[i]
+        target = 0.0
+        for j in range(num_next):  # line 6: Q⁺ from L₂ draws s' ~ P(s_i, a_i)
+            row = i * num_next + j
+            best = 0.0
+            if next_indptr[row + 1] > next_indptr[row]:
+                best = -np.inf
+                for a2 in range(num_actions):
+                    q = 0.0
+                    for k in range(next_indptr[row], next_indptr[row + 1]):
+                        q += weights[next_indices[k], a2] * next_data[k]
+                    best = max(best, q)
+            target += rewards[i, j] + discount * best
+        target /= num_next
+        q_sa = 0.0
+        for k in range(phi_indptr[i], phi_indptr[i + 1]):
+            q_sa += weights[phi_indices[k], a] * phi_data[k]
+        delta = target - q_sa  # line 7: δ
+        for k in range(phi_indptr[i], phi_indptr[i + 1]):  # line 8: θ += αδφ(s, a)
+            weights[phi_indices[k], a] += step_size * delta * phi_data[k]
+        largest = max(largest, abs(delta))
+    return largest
+
+
+def state_features(model: TabularModel, representation: Representation) -> sp.csr_matrix:
+    """Φ over the model's states with terminal rows emptied (Q(terminal, ·) = 0)."""
+    phi = sp.csr_matrix(
+        sp.diags((~model.is_terminal).astype(np.float64))
+        @ encode_states(representation, model.states)
+    )
+    phi.eliminate_zeros()
+    return phi
+
+
+def linear_plan(
+    spec: DomainSpec,
+    model: TabularModel | None,
+    representation: Representation,
+    weights: np.ndarray,
+    iterations: int,
+    history: list[float],
+) -> Plan:
+    """A `Plan` from θ (n × |A|); with a model, also the greedy π and Q over its states."""
+    policy = q_values = None
+    if model is not None:
+        q_values = q_from_weights(state_features(model, representation), weights)
+        policy = q_values.argmax(axis=1).astype(np.int64)
+    return Plan(
+        planner="",
+        spec=spec,
+        iterations=iterations,
+        wall_time_s=0.0,
+        model=model,
+        policy=policy,
+        q_values=q_values,
+        representation=representation,
+        weights=weights,
+        history=history,
+    )

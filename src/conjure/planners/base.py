@@ -19,7 +19,7 @@ from conjure.core.errors import IncompatibleComponentsError, InvalidParameterErr
 from conjure.core.interfaces import Agent, Domain, DomainSpec, Representation, check_is_set_up
 from conjure.core.params import Configurable, InstanceOf
 from conjure.models.generative import GenerativeModel, generative_model
-from conjure.models.tabular import TabularModel
+from conjure.models.tabular_model import TabularModel
 
 __all__ = ["Plan", "PlanAgent", "Planner"]
 

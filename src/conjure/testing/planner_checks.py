@@ -13,7 +13,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from conjure.core.interfaces import DomainSpec
-from conjure.models.tabular import TabularModel
+from conjure.models.tabular_model import TabularModel
 
 __all__ = [
     "PLANNER_CHECKS",

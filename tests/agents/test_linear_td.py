@@ -2,7 +2,7 @@ import numpy as np
 import pytest
 
 from conjure.agents import SARSA
-from conjure.agents.base import make_schedule
+from conjure.agents.linear_td import make_schedule
 from conjure.core import ConstantStepSize, EpisodicDecay, Expansion, InvalidParameterError
 from conjure.domains import ChainMDP
 from conjure.representations import Tabular

@@ -1,0 +1,320 @@
+"""``conjure report DIR``: a sweep's table (Parquet) and a markdown report with PNG figures.
+
+The report holds, per domain: learning curves per method (mean over seeds with a 95%
+Student-t band), the number of features over learning (as Figs. 4-4 and 4-9 of Geramifard
+(2012)), a final-performance table (mean with a 95% t-interval, and the interquartile mean
+(IQM) with a 95% stratified-bootstrap interval), and wall time and learning steps per second
+per method. With a grid selection it adds the chosen settings and the report of their
+fresh-seed rerun (``selected/report.md``).
+
+Notes
+-----
+- Choice: the IQM is the mean of the middle 50% of runs (`scipy.stats.trim_mean` with 0.25),
+  robust to a few outlying seeds; its interval is the percentile interval of a bootstrap
+  that resamples runs with replacement within each stratum (task) separately, as Agarwal et
+  al. (2021) recommend. In a per-domain table there is one stratum; `iqm_interval` takes
+  several. Implemented with numpy and scipy (no dependency on rliable).
+- Choice: a method is an agent label plus its grid setting, so every grid point is one line.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import Any
+
+import click
+import numpy as np
+import pandas as pd
+import yaml
+from scipy import stats
+
+from conjure.core.errors import InvalidParameterError
+from conjure.experiments.plots import plot_learning_curves
+from conjure.experiments.results import (
+    ERRORS_DIR,
+    RESOLVED_FILE,
+    RESULTS_FILE,
+    RUNS_DIR,
+    final_rows,
+    load_results,
+    t_confidence,
+    write_atomic,
+)
+
+__all__ = [
+    "collect",
+    "iqm",
+    "iqm_interval",
+    "report_command",
+    "stratified_bootstrap",
+    "write_report",
+]
+
+REPORT_FILE = "report.md"
+
+
+def iqm(values: Sequence[float] | np.ndarray) -> float:
+    """Return the interquartile mean: the mean of the middle 50% of ``values``.
+
+    Examples
+    --------
+    >>> iqm([0.0, 1.0, 2.0, 3.0, 100.0, 4.0, 5.0, 6.0])
+    3.5
+    """
+    array = np.asarray(values, dtype=np.float64)
+    array = array[np.isfinite(array)]
+    return float(stats.trim_mean(array, 0.25)) if array.size else math.nan
+
+
+def stratified_bootstrap(
+    strata: Sequence[Sequence[float]],
+    statistic: Callable[[np.ndarray], float] = iqm,
+    *,
+    num_resamples: int = 2000,
+    level: float = 0.95,
+    seed: int = 0,
+) -> tuple[float, float, float]:
+    """Return ``statistic`` of the pooled runs and its percentile bootstrap interval.
+
+    Each resample draws, within every stratum (task) separately, as many runs as it has, with
+    replacement, then pools them.
+
+    Parameters
+    ----------
+    strata : sequence of sequences of float
+        One score per run, grouped by stratum.
+    statistic : callable, default `iqm`
+        Maps a 1-D array to a number.
+    num_resamples : int, default 2000
+        Bootstrap resamples.
+    level : float, default 0.95
+        The interval's coverage.
+    seed : int, default 0
+        Of the resampling generator.
+
+    Returns
+    -------
+    tuple of float
+        ``(point, low, high)``; the interval is NaN for fewer than two runs.
+
+    Examples
+    --------
+    >>> point, low, high = stratified_bootstrap([[1.0, 2.0, 3.0, 4.0]], num_resamples=200)
+    >>> point, low <= point <= high
+    (2.5, True)
+    """
+    arrays = [np.asarray(s, dtype=np.float64) for s in strata]
+    arrays = [a[np.isfinite(a)] for a in arrays if a.size]
+    pooled = np.concatenate(arrays) if arrays else np.empty(0)
+    point = float(statistic(pooled)) if pooled.size else math.nan
+    if pooled.size < 2:
+        return point, math.nan, math.nan
+    rng = np.random.default_rng(seed)
+    draws = np.empty(num_resamples)
+    for r in range(num_resamples):
+        sample = [a[rng.integers(a.size, size=a.size)] for a in arrays if a.size]
+        draws[r] = statistic(np.concatenate(sample))
+    tail = (1.0 - level) / 2
+    low, high = np.quantile(draws, [tail, 1.0 - tail])
+    return point, float(low), float(high)
+
+
+def iqm_interval(strata: Sequence[Sequence[float]], **kwargs: Any) -> tuple[float, float, float]:
+    """Return the IQM of the pooled runs with its stratified-bootstrap interval."""
+    return stratified_bootstrap(strata, iqm, **kwargs)
+
+
+def collect(results_dir: str | Path) -> pd.DataFrame:
+    """Combine the runs of ``results_dir`` into ``results.parquet`` and return the table."""
+    results_dir = Path(results_dir)
+    if not (results_dir / RUNS_DIR).is_dir():
+        raise InvalidParameterError(
+            f"No runs in {str(results_dir)!r}; run `conjure sweep CONFIG --out "
+            f"{results_dir}` (or `conjure run`) first."
+        )
+    table = load_results(results_dir)
+    write_atomic(results_dir / RESULTS_FILE, table.to_parquet(index=False))
+    return table
+
+
+def _method_names(results: pd.DataFrame) -> pd.Series:
+    if "setting" not in results.columns:
+        return results["label"].astype(str)
+    setting = results["setting"].fillna("").astype(str)
+    return results["label"].astype(str) + np.where(setting != "", " [" + setting + "]", "")
+
+
+def _markdown_table(frame: pd.DataFrame) -> str:
+    header = "| " + " | ".join(str(c) for c in frame.columns) + " |"
+    rule = "|" + "|".join("---" for _ in frame.columns) + "|"
+    body = ["| " + " | ".join(str(v) for v in row) + " |" for row in frame.itertuples(False)]
+    return "\n".join([header, rule, *body])
+
+
+def _number(value: float) -> str:
+    return "n/a" if value is None or not math.isfinite(value) else f"{value:.4g}"
+
+
+def _rate(value: float) -> str:
+    return "n/a" if not math.isfinite(value) else f"{value:,.0f}"
+
+
+def _final_table(finals: pd.DataFrame, metric: str) -> pd.DataFrame:
+    rows = []
+    for method, group in finals.groupby("method", sort=False):
+        values = group[metric].to_numpy(dtype=float)
+        mean, half = t_confidence(values)
+        point, low, high = iqm_interval([values])
+        rows.append(
+            {
+                "method": method,
+                "runs": len(values),
+                f"mean {metric} ± 95% t": f"{_number(mean)} ± {_number(half)}",
+                f"IQM {metric} [95% bootstrap]": f"{_number(point)} [{_number(low)}, "
+                f"{_number(high)}]",
+                "final features": _number(float(group["num_features"].mean())),
+            }
+        )
+    return pd.DataFrame(rows)
+
+
+def _timing_table(finals: pd.DataFrame) -> pd.DataFrame:
+    rows = []
+    for method, group in finals.groupby("method", sort=False):
+        rows.append(
+            {
+                "method": method,
+                "runs": len(group),
+                "run wall time (s)": _number(float(np.nanmean(group["run_seconds"]))),
+                "learning wall time (s)": _number(float(group["wall_time_s"].mean())),
+                "learning steps/s": _rate(
+                    float(np.nanmean(group["steps_per_second"].to_numpy(dtype=float)))
+                ),
+            }
+        )
+    return pd.DataFrame(rows)
+
+
+def _file_name(text: str) -> str:
+    return "".join(c if c.isalnum() or c in "-_." else "_" for c in text)
+
+
+def write_report(
+    results_dir: str | Path, *, metric: str | None = None, out_dir: str | Path | None = None
+) -> Path:
+    """Write ``report.md`` and its figures for the sweep or experiment in ``results_dir``.
+
+    Parameters
+    ----------
+    results_dir : str or Path
+        A folder written by `conjure.experiments.parallel.run_sweep` (or ``run_experiment``).
+    metric : str or None
+        The curve column reported; default the sweep's ``metric``, else ``return``.
+    out_dir : str or Path or None
+        Where to write the report and figures (default ``results_dir``).
+
+    Returns
+    -------
+    Path
+        The markdown report.
+    """
+    results_dir = Path(results_dir)
+    out_dir = Path(out_dir) if out_dir is not None else results_dir
+    figures = out_dir / "figures"
+    resolved: dict[str, Any] = {}
+    if (results_dir / RESOLVED_FILE).is_file():
+        resolved = yaml.safe_load((results_dir / RESOLVED_FILE).read_text()) or {}
+    metric = metric or resolved.get("metric") or "return"
+    results = collect(results_dir)
+    if results.empty:
+        raise InvalidParameterError(f"No finished runs in {str(results_dir)!r} to report.")
+    if metric not in results.columns:
+        raise InvalidParameterError(
+            f"Unknown metric {metric!r}; the results have columns {', '.join(results.columns)}."
+        )
+    results = results.assign(method=_method_names(results))
+    name = resolved.get("name", results_dir.name)
+    errors = sorted((results_dir / ERRORS_DIR).glob("*.txt"))
+    lines = [
+        f"# Report: {name}",
+        "",
+        f"{results['run_id'].nunique()} finished runs, {len(errors)} failed "
+        f"(tracebacks in `{ERRORS_DIR}/`); seeds per method shown as `n`. Curves are means "
+        "over seeds with 95% Student-t bands; the final performance is the last policy check.",
+        "",
+    ]
+    domains = (
+        list(results.groupby("domain_label", sort=False))
+        if "domain_label" in results.columns
+        else [(None, results)]
+    )
+    for domain, frame in domains:
+        tag = "" if domain is None else f"_{_file_name(str(domain))}"
+        if domain is not None:
+            lines += [f"## Domain {domain}", ""]
+        curve = plot_learning_curves(
+            frame.assign(label=frame["method"]),
+            figures / f"learning_curve{tag}.png",
+            metric=metric,
+            title=f"{name}{'' if domain is None else f' / {domain}'}",
+        )
+        features = plot_learning_curves(
+            frame.assign(label=frame["method"]),
+            figures / f"features{tag}.png",
+            metric="num_features",
+            title=f"{name}: features{'' if domain is None else f' / {domain}'}",
+        )
+        finals = final_rows(frame)
+        lines += [
+            f"![learning curves]({curve.relative_to(out_dir).as_posix()})",
+            "",
+            f"![feature counts]({features.relative_to(out_dir).as_posix()})",
+            "",
+            "Final performance:",
+            "",
+            _markdown_table(_final_table(finals, metric)),
+            "",
+            "Wall time and speed (per run; learning time excludes policy checks):",
+            "",
+            _markdown_table(_timing_table(finals)),
+            "",
+        ]
+    selection = results_dir / "selection.csv"
+    if selection.is_file():
+        lines += [
+            "## Selected settings",
+            "",
+            _markdown_table(pd.read_csv(selection, keep_default_na=False)),
+            "",
+        ]
+        selected = results_dir / "selected"
+        if (selected / RUNS_DIR).is_dir():
+            sub = write_report(selected, metric=metric)
+            lines += [
+                f"Rerun on fresh seeds: [{sub.relative_to(results_dir).as_posix()}]"
+                f"({sub.relative_to(results_dir).as_posix()}).",
+                "",
+            ]
+    if errors:
+        lines += ["## Failed runs", ""]
+        lines += [f"- `{ERRORS_DIR}/{path.name}`" for path in errors]
+        lines.append("")
+    return write_atomic(out_dir / REPORT_FILE, "\n".join(lines))
+
+
+@click.command("report")
+@click.argument("results_dir", type=click.Path(file_okay=False, path_type=Path))
+@click.option("--metric", default=None, help="Curve column to report (default the sweep's).")
+@click.option(
+    "--out",
+    "out_dir",
+    type=click.Path(file_okay=False, path_type=Path),
+    default=None,
+    help="Where to write report.md and figures/ (default RESULTS_DIR).",
+)
+def report_command(results_dir: Path, metric: str | None, out_dir: Path | None) -> None:
+    """Collect the runs in RESULTS_DIR into results.parquet and write report.md with figures."""
+    path = write_report(results_dir, metric=metric, out_dir=out_dir)
+    click.echo(f"Wrote {path} and {Path(results_dir) / RESULTS_FILE}")

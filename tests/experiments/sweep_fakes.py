@@ -1,0 +1,110 @@
+"""Fakes for the sweep, executor and tuning tests, importable by worker processes.
+
+`run_with_fakes` registers the fake components (in whichever process runs it) and runs a
+resolved config; pass it as ``run_fn``. For Ray (whose workers do not share the test's
+``sys.path``), `pickle_fakes_by_value` makes cloudpickle ship these modules by value.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import time
+from pathlib import Path
+from typing import Any
+
+import pytest
+from test_loop import FakeAgent, FakeWalk
+
+from conjure.experiments import registry
+from conjure.experiments.run import run_resolved
+
+
+class SlowWalk(FakeWalk):
+    """FakeWalk that sleeps ``sleep_s`` per step (to have runs in flight when killed)."""
+
+    def __init__(self, *, length: int = 5, max_episode_steps: int = 50, sleep_s: float = 0.0):
+        super().__init__(length=length, max_episode_steps=max_episode_steps)
+        self.sleep_s = sleep_s
+
+    def step(self, action: int):
+        if self.sleep_s:
+            time.sleep(self.sleep_s)
+        return super().step(action)
+
+
+class KillerAgent(FakeAgent):
+    """FakeAgent that SIGKILLs its own process once (first setup, marked by a file).
+
+    Never in process ``spare_pid`` (the test process).
+    """
+
+    def __init__(
+        self, *, step_size: float = 0.5, kill_marker: str | None = None, spare_pid: int = 0
+    ):
+        super().__init__(step_size=step_size)
+        self.kill_marker = kill_marker
+        self.spare_pid = spare_pid
+
+    def setup(self, spec, seed):
+        if self.kill_marker and os.getpid() != self.spare_pid:
+            marker = Path(self.kill_marker)
+            if not marker.exists():
+                marker.write_text(str(os.getpid()))
+                os.kill(os.getpid(), signal.SIGKILL)
+        return super().setup(spec, seed)
+
+
+def kill_self(_: Any) -> None:
+    os.kill(os.getpid(), signal.SIGKILL)
+
+
+def register_fakes() -> None:
+    registry.AGENTS.setdefault("FakeAgent", FakeAgent)
+    registry.AGENTS.setdefault("KillerAgent", KillerAgent)
+    registry.DOMAINS.setdefault("FakeWalk", FakeWalk)
+    registry.DOMAINS.setdefault("SlowWalk", SlowWalk)
+
+
+def run_with_fakes(spec: dict[str, Any]):
+    register_fakes()
+    return run_resolved(spec)
+
+
+def pickle_fakes_by_value() -> None:
+    import cloudpickle
+    import sweep_fakes
+    import test_loop
+
+    cloudpickle.register_pickle_by_value(test_loop)
+    cloudpickle.register_pickle_by_value(sweep_fakes)
+
+
+def fake_sweep(**overrides: Any) -> dict[str, Any]:
+    sweep = {
+        "name": "fake_sweep",
+        "domains": {
+            "short": {"kind": "FakeWalk", "params": {"length": 4, "max_episode_steps": 12}},
+            "long": {"kind": "FakeWalk", "params": {"length": 6, "max_episode_steps": 12}},
+        },
+        "agents": {
+            "a": {"kind": "FakeAgent", "params": {"step_size": 0.5}},
+            "b": {"kind": "FakeAgent", "params": {}},
+        },
+        "grid": {"agents.a.params.step_size": [0.1, 0.9]},
+        "budget_steps": 60,
+        "num_policy_checks": 3,
+        "seeds": 2,
+    }
+    sweep.update(overrides)
+    return sweep
+
+
+@pytest.fixture
+def isolated_fakes(monkeypatch):
+    """Register the fakes in copies of the registries (restored after the test)."""
+    monkeypatch.setattr(registry, "AGENTS", dict(registry.AGENTS))
+    monkeypatch.setattr(registry, "DOMAINS", dict(registry.DOMAINS))
+    layers = {**registry.LAYERS, "agent": registry.AGENTS, "domain": registry.DOMAINS}
+    monkeypatch.setattr(registry, "LAYERS", layers)
+    register_fakes()

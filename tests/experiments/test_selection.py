@@ -1,0 +1,65 @@
+"""Tests of grid selection: scores, the best setting per method, the fresh-seed rerun."""
+
+from __future__ import annotations
+
+import math
+
+import pandas as pd
+import pytest
+from sweep_fakes import fake_sweep, isolated_fakes, run_with_fakes
+
+from conjure.core.errors import InvalidParameterError
+from conjure.experiments.parallel import run_sweep
+from conjure.experiments.selection import fresh_seeds, score_runs, select_best
+
+pytestmark = pytest.mark.usefixtures(isolated_fakes.__name__)
+
+
+def frame(rows):
+    return pd.DataFrame(
+        rows, columns=["run_id", "label", "setting", "seed", "learning_steps", "return"]
+    )
+
+
+def test_scores_and_eligibility():
+    results = frame(
+        [
+            ("r1", "m", "x=1", 0, 0, 0.0),
+            ("r1", "m", "x=1", 0, 10, 4.0),
+            ("r2", "m", "x=1", 1, 0, 0.0),
+            ("r2", "m", "x=1", 1, 10, 2.0),
+            ("r3", "m", "x=2", 0, 0, 3.0),  # best area and final, but one seed only
+            ("r3", "m", "x=2", 0, 10, 9.0),
+        ]
+    )
+    assert score_runs(results, criterion="auc").to_dict() == {"r1": 2.0, "r2": 1.0, "r3": 6.0}
+    assert score_runs(results, criterion="final").to_dict() == {"r1": 4.0, "r2": 2.0, "r3": 9.0}
+    best = select_best(results, criterion="final")
+    row = best.iloc[0]
+    assert row["setting"] == "x=1" and row["score_mean"] == 3.0 and row["num_settings"] == "1/2"
+    assert select_best(results, mode="min").iloc[0]["setting"] == "x=1"
+    with pytest.raises(InvalidParameterError, match="criterion"):
+        score_runs(results, criterion="area")
+    assert math.isnan(select_best(results.query("run_id == 'r3'")).iloc[0]["score_ci95"])
+
+
+def test_fresh_seeds():
+    assert fresh_seeds([0, 1, 2], 2) == [3, 4]
+    assert fresh_seeds([0, 1], [10, 11]) == [10, 11]
+    with pytest.raises(InvalidParameterError, match="must not repeat"):
+        fresh_seeds([0, 1], [1, 2])
+
+
+def test_sweep_selects_best_setting_and_reruns_it_on_fresh_seeds(tmp_path):
+    sweep = fake_sweep(
+        grid={"agents.a.params.greedy_action": [0, 1]},  # 0 never reaches the goal
+        selection={"criterion": "final", "fresh_seeds": 3},
+    )
+    outcome = run_sweep(sweep, tmp_path, max_workers=1, run_fn=run_with_fakes, progress=False)
+    best = pd.read_csv(tmp_path / "selection.csv", keep_default_na=False)
+    a_rows = best[best["label"] == "a"]
+    assert set(a_rows["setting"]) == {"greedy_action=1"} and len(best) == 4
+    selected = outcome.selected.results
+    assert set(selected["seed"]) == {2, 3, 4}  # after the grid's seeds 0, 1
+    assert set(selected.loc[selected["label"] == "a", "setting"]) == {"greedy_action=1"}
+    assert selected["run_id"].nunique() == 4 * 3
