@@ -88,9 +88,10 @@ def test_trial_of_a_killed_process_is_failed_and_retried(tmp_path):
                 with sqlite3.connect(database) as db:
                     try:
                         beats = db.execute("select count(*) from trial_heartbeats").fetchone()[0]
+                        params = db.execute("select count(*) from trial_params").fetchone()[0]
                     except sqlite3.OperationalError:
-                        beats = 0
-                if beats:
+                        beats = params = 0
+                if beats and params:  # the trial is running and has drawn its parameters
                     break
             time.sleep(0.1)
         driver.send_signal(signal.SIGKILL)
