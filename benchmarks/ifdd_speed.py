@@ -11,8 +11,8 @@ compilation excluded), each the median of ``repeats`` runs:
    initial features (k_0 = 8), once with about 100 and once with about 10,000 discovered
    features: ``max_features`` caps the count and a small threshold reaches the cap quickly;
    timing starts once the cap is reached (relevances keep being tracked).
-2. Learning steps per second of SARSA + OnlineIFDD (20 buckets per dimension, ξ = 0.5) on
-   InvertedPendulum, the thesis's setting of Section 4.1.4.
+2. Learning steps per second of SARSA + OnlineIFDD on InvertedPendulum (20 buckets per
+   dimension, ξ = 0.5), BlocksWorld and Persistent Surveillance (the examples/ settings).
 3. Microseconds of one `discover` call that adds exactly one feature (a fresh pair), with and
    without the learner's `grow_weights`, against a call that adds nothing.
 """
@@ -28,10 +28,10 @@ from rich.console import Console
 from rich.table import Table
 
 from conjure.agents import SARSA
-from conjure.domains import InvertedPendulum
+from conjure.domains import BlocksWorld, InvertedPendulum, PersistentSurveillance
 from conjure.experiments.loop import LearningLoop
 from conjure.policies import EpsilonGreedy
-from conjure.representations import IndependentDiscretization, TileCoding
+from conjure.representations import BinaryIndicators, IndependentDiscretization, TileCoding
 from conjure.representations.online_ifdd import OnlineIFDD
 from conjure.representations.weights import grow_weights
 
@@ -59,12 +59,12 @@ def per_step_at(num_discovered: int, steps: int, repeats: int) -> tuple[float, i
     return statistics.median(times), agent.representation_.num_features_
 
 
-def pendulum_rate(steps: int, repeats: int) -> tuple[float, int]:
+def domain_rate(make_domain, representation, steps: int, repeats: int) -> tuple[float, int]:
+    """Median learning steps/s of SARSA + ``representation`` on fresh copies of a domain."""
     rates, features = [], 0
     for repeat in range(repeats + 1):
-        domain = InvertedPendulum()
-        rep = OnlineIFDD(base=IndependentDiscretization(num_buckets=20), discovery_threshold=0.5)
-        agent = sarsa(rep)
+        domain = make_domain()
+        agent = sarsa(representation.clone())
         agent.setup(domain.domain_spec, seed=repeat)
         loop = LearningLoop(domain, agent, seed=repeat)
         start = time.perf_counter()
@@ -73,6 +73,28 @@ def pendulum_rate(steps: int, repeats: int) -> tuple[float, int]:
             rates.append(steps / (time.perf_counter() - start))
             features = agent.representation_.num_features_
     return statistics.median(rates), features
+
+
+#: The issue-3 workloads, with the thresholds of the examples/ configs.
+DOMAIN_WORKLOADS = (
+    (
+        "InvertedPendulum, 20 buckets/dim, iFDD xi = 0.5",
+        InvertedPendulum,
+        OnlineIFDD(base=IndependentDiscretization(num_buckets=20), discovery_threshold=0.5),
+    ),
+    (
+        "BlocksWorld, On(.,.) indicators, iFDD+ xi = 0.05 (RLPy: about 2,100/s)",
+        BlocksWorld,
+        OnlineIFDD(base=BinaryIndicators(), discovery_threshold=0.05, relevance="ifdd_plus"),
+    ),
+    (
+        "PersistentSurveillance, indicators, iFDD+ xi = 200",
+        PersistentSurveillance,
+        OnlineIFDD(
+            base=IndependentDiscretization(), discovery_threshold=200.0, relevance="ifdd_plus"
+        ),
+    ),
+)
 
 
 def discovery_cost(num: int, repeats: int) -> tuple[float, float, float]:
@@ -128,13 +150,14 @@ def main() -> None:
     table.add_row("ratio (target <= 1.5)", "", f"{high / low:.2f}")
     console.print(table)
 
-    rate, features = pendulum_rate(5 * args.steps, args.repeats)
-    table = Table(title="SARSA + OnlineIFDD (20 buckets/dim, xi = 0.5), InvertedPendulum")
-    table.add_column("steps", justify="right")
+    table = Table(title=f"SARSA + OnlineIFDD learning speed ({5 * args.steps:,} steps per run)")
+    table.add_column("workload")
     table.add_column("steps/s", justify="right")
     table.add_column("us/step", justify="right")
     table.add_column("final features", justify="right")
-    table.add_row(f"{5 * args.steps:,}", f"{rate:,.0f}", f"{1e6 / rate:.2f}", f"{features}")
+    for name, make_domain, representation in DOMAIN_WORKLOADS:
+        rate, features = domain_rate(make_domain, representation, 5 * args.steps, args.repeats)
+        table.add_row(name, f"{rate:,.0f}", f"{1e6 / rate:.2f}", f"{features:,}")
     console.print(table)
 
     alone, with_weights, idle = discovery_cost(5_000, args.repeats)
