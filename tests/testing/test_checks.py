@@ -61,3 +61,17 @@ def test_expected_failures_skip_only_the_named_check():
 
 def test_a_correct_component_passes_everything():
     check_component(Tabular(num_buckets=3))
+
+
+def test_a_model_that_disagrees_with_the_simulator_is_caught():
+    from conjure.domains import GridWorld
+
+    class WrongModel(GridWorld):
+        """Section 5.1: simulates noise 0.3 but claims a noise-free model."""
+
+        def model(self):
+            return GridWorld(map_name=self.map_name, noise=0.0).model()
+
+    checks.check_model_matches_simulation(GridWorld(map_name="4x5", noise=0.3))
+    with pytest.raises(AssertionError, match="differ from the model"):
+        checks.check_model_matches_simulation(WrongModel(map_name="4x5", noise=0.3))

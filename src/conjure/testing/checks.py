@@ -220,6 +220,37 @@ def check_pickle_round_trip(domain: Domain) -> None:
     )
 
 
+def check_model_matches_simulation(domain: Domain) -> None:
+    """If the domain has a ``model()``: it is valid and sampled transitions match P.
+
+    Rows of P sum to one, R is finite and terminal states absorb (`TabularModel.check`); then,
+    for a few non-terminal states and every action, 2,000 simulated steps from that state
+    (through the domain's ``set_state``) land on each successor with the model's probability
+    (absolute tolerance 0.05).
+    """
+    model = domain.model()
+    if model is None:
+        return
+    model.check()
+    if not hasattr(domain, "set_state"):
+        return
+    twin = domain.clone()
+    twin.reset(seed=21)
+    live = np.flatnonzero(~model.is_terminal)
+    for state_index in live[:: max(1, live.size // 4)][:4]:
+        for action in range(model.num_actions):
+            counts = np.zeros(model.num_states)
+            for _ in range(2000):
+                twin.set_state(model.states[state_index])
+                next_state = twin.step(action)[0]
+                counts[model.state_index(next_state)] += 1
+            expected = model.transitions[action][state_index].toarray().ravel()
+            assert np.allclose(counts / 2000, expected, atol=0.05), (
+                f"{type(domain).__name__}: from state {model.states[state_index].tolist()} "
+                f"action {action}, simulated successor frequencies differ from the model's P."
+            )
+
+
 # ------------------------------------------------------------------------------ representations
 
 
@@ -375,7 +406,12 @@ _CHECKS: dict[type, tuple[Check, ...]] = {
         check_bad_params_raise,
         check_global_rng_untouched,
     ),
-    Domain: (check_gymnasium_env, check_seeded_rollout, check_pickle_round_trip),
+    Domain: (
+        check_gymnasium_env,
+        check_seeded_rollout,
+        check_pickle_round_trip,
+        check_model_matches_simulation,
+    ),
     Representation: (
         check_features_valid,
         check_wrong_state_shape_raises,
