@@ -16,7 +16,7 @@ from conjure.core.linalg import row_matrix
 from conjure.models.generative import GenerativeModel
 from conjure.models.steady_state import steady_state_distribution
 from conjure.models.tabular_model import TabularModel
-from conjure.planners.base import Plan
+from conjure.planners.base import Iterations, Plan
 
 #: Above this many states policy evaluation is iterative (BiCGSTAB) rather than a sparse LU.
 DIRECT_SOLVE_LIMIT = 200_000
@@ -83,6 +83,12 @@ def greedy_policy(q_by_action: np.ndarray, previous: np.ndarray | None = None) -
     return best.astype(np.int64)
 
 
+def improve_policy(q_by_action: np.ndarray, policy: np.ndarray) -> tuple[np.ndarray, int]:
+    """π⁺(s) = argmax_a Q(s, a) (Eq. 2.9, ties keep π) and how many states changed action."""
+    improved = greedy_policy(q_by_action, policy)
+    return improved, int(np.count_nonzero(improved != policy))
+
+
 def encode_states(representation: Representation, states: np.ndarray) -> sp.csr_matrix:
     """Return Φ with one row φ(s)ᵀ per state (binary or dense features), sparse."""
     n = representation.num_features_
@@ -103,6 +109,11 @@ def action_features(phi: sp.csr_matrix, actions: np.ndarray, num_actions: int) -
     return row_matrix(
         phi.indices, phi.indptr, n * num_actions, phi.data, np.asarray(actions, dtype=np.int64) * n
     )
+
+
+def weights_by_action(theta: np.ndarray, num_actions: int) -> np.ndarray:
+    """θ̄ of length n|A| (Eq. 2.11's column a·n + f) as an (n, |A|) view, one column per action."""
+    return theta.reshape(num_actions, -1).T
 
 
 def block_features(phi: sp.csr_matrix, num_actions: int) -> sp.csr_matrix:
@@ -209,6 +220,51 @@ def setup_representation(
     return representation.clone().setup(spec, seed)
 
 
+@numba.njit(cache=True, inline="always")
+def _row_q(
+    weights: np.ndarray,
+    indptr: np.ndarray,
+    indices: np.ndarray,
+    data: np.ndarray,
+    row: int,
+    action: int,
+) -> float:
+    """Q(s, a) = φ(s)ᵀθ_a for the CSR row of s."""
+    q = 0.0
+    for k in range(indptr[row], indptr[row + 1]):
+        q += weights[indices[k], action] * data[k]
+    return q
+
+
+@numba.njit(cache=True, inline="always")
+def _row_max_q(
+    weights: np.ndarray, indptr: np.ndarray, indices: np.ndarray, data: np.ndarray, row: int
+) -> float:
+    """max_a Q(s, a) for the CSR row of s."""
+    best = -np.inf
+    for a in range(weights.shape[1]):
+        best = max(best, _row_q(weights, indptr, indices, data, row, a))
+    return best
+
+
+@numba.njit(cache=True, inline="always")
+def _gradient_step(
+    weights: np.ndarray,
+    indptr: np.ndarray,
+    indices: np.ndarray,
+    data: np.ndarray,
+    row: int,
+    action: int,
+    target: float,
+    step_size: float,
+) -> float:
+    """θ_a ← θ_a + αδφ(s) with δ = target − Q(s, a) (Eq. 2.30); returns |δ|."""
+    delta = target - _row_q(weights, indptr, indices, data, row, action)
+    for k in range(indptr[row], indptr[row + 1]):
+        weights[indices[k], action] += step_size * delta * data[k]
+    return abs(delta)
+
+
 @numba.njit(cache=True)
 def q_avi_sweep(
     weights: np.ndarray,
@@ -236,20 +292,12 @@ def q_avi_sweep(
                 s2 = p_indices[k]
                 if is_terminal[s2]:
                     continue
-                best = -np.inf
-                for a2 in range(num_actions):
-                    q = 0.0
-                    for j in range(phi_indptr[s2], phi_indptr[s2 + 1]):
-                        q += weights[phi_indices[j], a2] * phi_data[j]
-                    best = max(best, q)
+                best = _row_max_q(weights, phi_indptr, phi_indices, phi_data, s2)
                 target += discount * p_data[k] * best
-            q_sa = 0.0
-            for j in range(phi_indptr[s], phi_indptr[s + 1]):
-                q_sa += weights[phi_indices[j], a] * phi_data[j]
-            delta = target - q_sa  # line 6: δ
-            for j in range(phi_indptr[s], phi_indptr[s + 1]):  # line 7: θ += αδφ(s, a)
-                weights[phi_indices[j], a] += step_size * delta * phi_data[j]
-            largest = max(largest, abs(delta))
+            change = _gradient_step(  # lines 6-7: δ, θ += αδφ(s, a)
+                weights, phi_indptr, phi_indices, phi_data, s, a, target, step_size
+            )
+            largest = max(largest, change)
     return largest
 
 
@@ -299,7 +347,7 @@ def initial_weights(rng: np.random.Generator, num_features: int, num_actions: in
 
 
 def encode_samples(representation: Representation, batch: dict[str, Any]) -> dict[str, Any]:
-    """Encode a `sample_trajectory` batch: Φ̃ (L × n) and the successors' Φ (L·L₂ × n).
+    """Return ``batch`` with Φ̃ (L × n, ``phi``) and the successors' Φ (L·L₂ × n, ``phi_next``).
 
     Rows of terminal successors are emptied, so every Q(s', ·) read from them is 0.
     """
@@ -309,13 +357,7 @@ def encode_samples(representation: Representation, batch: dict[str, Any]) -> dic
     live = (~batch["terminated"].reshape(-1)).astype(np.float64)
     phi_next = sp.csr_matrix(sp.diags(live) @ encode_states(representation, flat_next))
     phi_next.eliminate_zeros()
-    return {
-        "phi": phi,
-        "phi_next": phi_next,
-        "actions": batch["actions"],
-        "rewards": batch["rewards"],
-        "num_next": num_next,
-    }
+    return {**batch, "phi": phi, "phi_next": phi_next, "num_next": num_next}
 
 
 def greedy_next_features(
@@ -356,30 +398,20 @@ def sampled_q_avi_pass(
 ) -> float:
     """One pass of Algorithm 8 over the L₁ samples in order, θ updated in place; max |δ|."""
     num_samples, num_next = rewards.shape
-    num_actions = weights.shape[1]
     largest = 0.0
     for i in range(num_samples):
-        a = actions[i]
         target = 0.0
         for j in range(num_next):  # line 6: Q⁺ from L₂ draws s' ~ P(s_i, a_i)
             row = i * num_next + j
-            best = 0.0
+            best = 0.0  # a terminal s' (empty row) has max_a' Q = 0
             if next_indptr[row + 1] > next_indptr[row]:
-                best = -np.inf
-                for a2 in range(num_actions):
-                    q = 0.0
-                    for k in range(next_indptr[row], next_indptr[row + 1]):
-                        q += weights[next_indices[k], a2] * next_data[k]
-                    best = max(best, q)
+                best = _row_max_q(weights, next_indptr, next_indices, next_data, row)
             target += rewards[i, j] + discount * best
         target /= num_next
-        q_sa = 0.0
-        for k in range(phi_indptr[i], phi_indptr[i + 1]):
-            q_sa += weights[phi_indices[k], a] * phi_data[k]
-        delta = target - q_sa  # line 7: δ
-        for k in range(phi_indptr[i], phi_indptr[i + 1]):  # line 8: θ += αδφ(s, a)
-            weights[phi_indices[k], a] += step_size * delta * phi_data[k]
-        largest = max(largest, abs(delta))
+        change = _gradient_step(  # lines 7-8: δ, θ += αδφ(s, a)
+            weights, phi_indptr, phi_indices, phi_data, i, actions[i], target, step_size
+        )
+        largest = max(largest, change)
     return largest
 
 
@@ -398,23 +430,18 @@ def linear_plan(
     model: TabularModel | None,
     representation: Representation,
     weights: np.ndarray,
-    iterations: int,
-    history: list[float],
+    loop: Iterations,
 ) -> Plan:
     """A `Plan` from θ (n × |A|); with a model, also the greedy π and Q over its states."""
     policy = q_values = None
     if model is not None:
         q_values = q_from_weights(state_features(model, representation), weights)
         policy = q_values.argmax(axis=1).astype(np.int64)
-    return Plan(
-        planner="",
-        spec=spec,
-        iterations=iterations,
-        wall_time_s=0.0,
+    return loop.plan(
+        spec,
         model=model,
         policy=policy,
         q_values=q_values,
         representation=representation,
         weights=weights,
-        history=history,
     )

@@ -9,6 +9,7 @@ it into an `Agent` the experiment loop can evaluate.
 from __future__ import annotations
 
 import time
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -183,6 +184,54 @@ class PlanAgent(Agent):
     @classmethod
     def restore(cls, path: str | Path) -> PlanAgent:
         raise IncompatibleComponentsError("PlanAgent cannot be restored; re-run the planner.")
+
+
+class Iterations:
+    """A planner's main loop: counts its iterations and records their convergence trace.
+
+    Every planner of Section 2.2 loops "while time left" or until π stops changing; the
+    count becomes `Plan.iterations` and one recorded number per iteration `Plan.history`.
+
+    Parameters
+    ----------
+    max_iterations : int
+        Cap on the loop, at least 1.
+
+    Examples
+    --------
+    >>> loop = Iterations(10)
+    >>> for _ in loop:
+    ...     if loop.record(1.0 / loop.count) < 0.3:
+    ...         break
+    >>> loop.count, loop.history
+    (4, [1.0, 0.5, 0.3333333333333333, 0.25])
+    """
+
+    def __init__(self, max_iterations: int):
+        self.max_iterations = max_iterations
+        self.count = 0
+        self.history: list[float] = []
+
+    def __iter__(self) -> Iterator[int]:
+        for iteration in range(1, self.max_iterations + 1):
+            self.count = iteration
+            yield iteration
+
+    def record(self, change: float) -> float:
+        """Append ``change`` (max |Δ|, policy changes, ...) to the trace and return it."""
+        self.history.append(float(change))
+        return self.history[-1]
+
+    def plan(self, spec: DomainSpec, **results: Any) -> Plan:
+        """Return the `Plan` of this loop (``Planner.plan`` fills its name and wall time)."""
+        return Plan(
+            planner="",
+            spec=spec,
+            iterations=self.count,
+            wall_time_s=0.0,
+            history=self.history,
+            **results,
+        )
 
 
 class Planner(Configurable):

@@ -4,15 +4,14 @@ from __future__ import annotations
 
 from typing import Any
 
-import numpy as np
 import scipy.sparse as sp
 
 from conjure.core.interfaces import Representation
 from conjure.core.linalg import solve_regularized
 from conjure.core.params import InstanceOf, Interval
-from conjure.core.seeding import make_rng
 from conjure.planners import _kernels
-from conjure.planners.base import Plan, Planner
+from conjure.planners._sampling import Sampling, weight_change
+from conjure.planners.base import Iterations, Plan, Planner
 
 __all__ = ["FittedValueIteration"]
 
@@ -109,32 +108,23 @@ class FittedValueIteration(Planner):
         self.seed = seed
 
     def _plan(self, source: Any) -> Plan:
-        sampler, model = self._generative(source)
-        spec = sampler.spec
-        num_actions = spec.num_actions
-        rng = make_rng(self.seed)
-        rep = _kernels.setup_representation(self.representation, spec, self.seed)
-        n = rep.num_features_
-        weights = _kernels.initial_weights(rng, n, num_actions)  # line 1
-        history: list[float] = []
-        iterations = 0
-        for iteration in range(1, self.max_iterations + 1):  # line 2: while time left
-            iterations = iteration
-            choose = _kernels.epsilon_greedy_chooser(rep, weights, float(self.epsilon), num_actions)
-            batch = _kernels.sample_trajectory(  # lines 3-5
-                sampler, choose, self.num_samples, rng, num_next=self.num_next_samples
+        sampling = Sampling(self, source)
+        num_actions = sampling.num_actions
+        weights = sampling.initial_weights()  # line 1
+        loop = Iterations(self.max_iterations)
+        for _ in loop:  # line 2: while time left
+            data = sampling.follow(  # lines 3-5
+                weights, self.epsilon, self.num_samples, self.num_next_samples
             )
-            data = _kernels.encode_samples(rep, batch)
-            targets = _kernels.sampled_backups(data, weights, spec.discount)  # line 6: Q⁺
+            targets = _kernels.sampled_backups(data, weights, sampling.spec.discount)  # line 6: Q⁺
             phi_bar = _kernels.action_features(data["phi"], data["actions"], num_actions)
             phi_t = sp.csr_matrix(phi_bar.T)
             gram = (phi_t @ phi_bar) / self.num_samples
             rhs = (phi_t @ targets) / self.num_samples
-            fitted = solve_regularized(gram, rhs, float(self.regularization))  # line 7, Eq. 2.31
-            fitted = fitted.reshape(num_actions, n).T
-            change = float(np.abs(fitted - weights).max(initial=0.0))
+            theta = solve_regularized(gram, rhs, float(self.regularization))  # line 7, Eq. 2.31
+            fitted = _kernels.weights_by_action(theta, num_actions)
+            change = weight_change(fitted, weights)
             weights = fitted
-            history.append(change)
-            if change < self.tolerance:
+            if loop.record(change) < self.tolerance:
                 break
-        return _kernels.linear_plan(spec, model, rep, weights, iterations, history)
+        return sampling.plan(weights, loop)

@@ -9,7 +9,7 @@ import numpy as np
 from conjure.core.params import Interval, Options
 from conjure.core.seeding import make_rng
 from conjure.planners import _kernels
-from conjure.planners.base import Plan, Planner
+from conjure.planners.base import Iterations, Plan, Planner
 
 __all__ = ["PolicyIteration"]
 
@@ -66,27 +66,18 @@ class PolicyIteration(Planner):
         rng = make_rng(self.seed)
         policy = rng.integers(model.num_actions, size=model.num_states)  # line 1
         values = np.zeros(model.num_states)
-        history: list[float] = []
-        iterations = 0
-        for iteration in range(1, self.max_iterations + 1):
-            iterations = iteration
+        loop = Iterations(self.max_iterations)
+        for _ in loop:
             values = _kernels.evaluate_policy(  # line 4
                 model, policy, method=self.evaluation, initial=values
             )
-            improved = _kernels.greedy_policy(model.backup(values), policy)  # lines 5-6
-            num_changed = int(np.count_nonzero(improved != policy))
-            history.append(float(num_changed))
-            policy = improved
-            if num_changed == 0:  # line 7
+            policy, num_changed = _kernels.improve_policy(model.backup(values), policy)  # 5-6
+            if loop.record(num_changed) == 0:  # line 7
                 break
-        return Plan(
-            planner="",
-            spec=model.domain_spec,
-            iterations=iterations,
-            wall_time_s=0.0,
+        return loop.plan(
+            model.domain_spec,
             model=model,
             policy=policy,
             values=values,
             q_values=model.q_values(values),
-            history=history,
         )

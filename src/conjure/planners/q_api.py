@@ -7,17 +7,15 @@ from typing import Any
 import numpy as np
 import scipy.sparse as sp
 
-from conjure.core.interfaces import Representation
-from conjure.core.linalg import solve_regularized
-from conjure.core.params import InstanceOf, Interval, Options
 from conjure.core.seeding import make_rng
 from conjure.planners import _kernels
-from conjure.planners.base import Plan, Planner
+from conjure.planners._api import ModelAPI
+from conjure.planners.base import Iterations, Plan
 
 __all__ = ["QAPI"]
 
 
-class QAPI(Planner):
+class QAPI(ModelAPI):
     """Approximate Q^π ≈ Φ̄θ̄ by BRM (Eq. 2.19) or LSTD (Eq. 2.20); π⁺(s) = argmax_a Q(s, a).
 
     Geramifard (2012), Algorithm 4.
@@ -60,35 +58,6 @@ class QAPI(Planner):
     ([2.989, 3.321, 3.69], [0, 0, 0])
     """
 
-    parameter_constraints = {
-        "representation": InstanceOf((Representation, type(None)), "a Representation or None"),
-        "evaluation": Options(("lstd", "brm")),
-        "epsilon": Interval(float, 0.0, 1.0),
-        "weighting": Options(("steady_state", "uniform")),
-        "regularization": Interval(float, 0.0, None),
-        "max_iterations": Interval(int, 1, None),
-        "seed": Interval(int, 0, None),
-    }
-
-    def __init__(
-        self,
-        *,
-        representation: Representation | None = None,
-        evaluation: str = "lstd",
-        epsilon: float = 0.1,
-        weighting: str = "uniform",
-        regularization: float = 1e-10,
-        max_iterations: int = 100,
-        seed: int = 0,
-    ):
-        self.representation = representation
-        self.evaluation = evaluation
-        self.epsilon = epsilon
-        self.weighting = weighting
-        self.regularization = regularization
-        self.max_iterations = max_iterations
-        self.seed = seed
-
     def _plan(self, source: Any) -> Plan:
         model = self._tabular(source)
         num_states, num_actions = model.num_states, model.num_actions
@@ -97,39 +66,25 @@ class QAPI(Planner):
             sp.diags((~model.is_terminal).astype(np.float64))
             @ _kernels.encode_states(rep, model.states)
         )
-        n = phi.shape[1]
         phi_bar = _kernels.block_features(phi, num_actions)  # Φ̄, (|A||S| × n|A|)
         r_bar = model.rewards_by_action.reshape(-1)  # R̄, action-major
         policy = make_rng(self.seed).integers(num_actions, size=num_states)
-        weights = np.zeros(n * num_actions)
-        history: list[float] = []
-        iterations = 0
-        for iteration in range(1, self.max_iterations + 1):
-            iterations = iteration
+        loop = Iterations(self.max_iterations)
+        for _ in loop:
             d, probs = _kernels.policy_weighting(model, policy, float(self.epsilon), self.weighting)
             d_bar = (probs * d[:, None]).T.reshape(-1)  # D̄(s, a), action-major
             phi_pi = _kernels.action_features(phi, policy, num_actions)  # φ(s', π(s'))
             p_phi = model.stacked_transitions @ phi_pi  # P̄Φ̄
-            residual = phi_bar - model.discount * p_phi
-            left = sp.csr_matrix((residual if self.evaluation == "brm" else phi_bar).T)
-            left = left @ sp.diags(d_bar)
-            weights = solve_regularized(left @ residual, left @ r_bar, self.regularization)
+            weights = self._solve(phi_bar, p_phi, r_bar, d_bar, model.discount)  # Eq. 2.19/2.20
             q = np.asarray(phi_bar @ weights).reshape(num_actions, num_states)  # Q = Φ̄θ̄
-            improved = _kernels.greedy_policy(q, policy)
-            num_changed = int(np.count_nonzero(improved != policy))
-            history.append(float(num_changed))
-            policy = improved
-            if num_changed == 0:
+            policy, num_changed = _kernels.improve_policy(q, policy)  # π⁺ = argmax_a Q
+            if loop.record(num_changed) == 0:
                 break
-        return Plan(
-            planner="",
-            spec=model.domain_spec,
-            iterations=iterations,
-            wall_time_s=0.0,
+        return loop.plan(
+            model.domain_spec,
             model=model,
             policy=policy,
             q_values=q.T.copy(),
             representation=rep,
-            weights=weights.reshape(num_actions, n).T.copy(),
-            history=history,
+            weights=_kernels.weights_by_action(weights, num_actions).copy(),
         )

@@ -10,7 +10,7 @@ from conjure.core.interfaces import Representation
 from conjure.core.params import InstanceOf, Interval
 from conjure.core.seeding import make_rng
 from conjure.planners import _kernels
-from conjure.planners.base import Plan, Planner
+from conjure.planners.base import Iterations, Plan, Planner
 
 __all__ = ["QAVI"]
 
@@ -97,10 +97,8 @@ class QAVI(Planner):
         weights = _kernels.initial_weights(
             make_rng(self.seed), rep.num_features_, model.num_actions
         )  # line 1
-        history: list[float] = []
-        iterations = 0
-        for iteration in range(1, self.max_iterations + 1):  # line 2: while time left
-            iterations = iteration
+        loop = Iterations(self.max_iterations)
+        for _ in loop:  # line 2: while time left
             change = _kernels.q_avi_sweep(  # lines 3-7 for every (s, a)
                 weights,
                 phi.indptr,
@@ -114,7 +112,6 @@ class QAVI(Planner):
                 model.discount,
                 float(self.step_size),
             )
-            history.append(float(change))
-            if change < self.tolerance:
+            if loop.record(change) < self.tolerance:
                 break
-        return _kernels.linear_plan(model.domain_spec, model, rep, weights, iterations, history)
+        return _kernels.linear_plan(model.domain_spec, model, rep, weights, loop)

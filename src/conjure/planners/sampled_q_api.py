@@ -8,12 +8,12 @@ import numpy as np
 import scipy.sparse as sp
 
 from conjure.core.interfaces import Representation
-from conjure.core.linalg import brm_system, lstd_system, solve_regularized
 from conjure.core.params import InstanceOf, Interval, Options
 from conjure.core.seeding import make_rng
 from conjure.models.generative import ModelSampler
 from conjure.planners import _kernels
-from conjure.planners.base import Plan, Planner
+from conjure.planners._sampling import Sampling, solve_q_weights
+from conjure.planners.base import Iterations, Plan, Planner
 
 __all__ = ["SampledQAPI1", "SampledQAPI2"]
 
@@ -26,20 +26,6 @@ _CONSTRAINTS = {
     "max_iterations": Interval(int, 1, None),
     "seed": Interval(int, 0, None),
 }
-
-
-def _solve(
-    evaluation: str,
-    phi_bar: sp.csr_matrix,
-    p_phi: sp.csr_matrix,
-    rewards: np.ndarray,
-    discount: float,
-    regularization: float,
-) -> np.ndarray:
-    """θ̄ = Ã⁻¹b̃ from Eqs. 2.23-2.24 (LSTD) or 2.25-2.26 (BRM), regularised."""
-    system = lstd_system if evaluation == "lstd" else brm_system
-    a, b = system(phi_bar, p_phi, rewards, discount)
-    return solve_regularized(a, b, regularization)
 
 
 class SampledQAPI1(Planner):
@@ -142,47 +128,37 @@ class SampledQAPI1(Planner):
         sampler = ModelSampler(model)
         rep = _kernels.setup_representation(self.representation, model.domain_spec, self.seed)
         phi = _kernels.state_features(model, rep)
-        n = phi.shape[1]
         stacked = model.stacked_transitions
         policy = rng.integers(num_actions, size=num_states)  # line 2
-        weights = np.zeros((n, num_actions))
+        weights = np.zeros((phi.shape[1], num_actions))
         q = np.zeros((num_states, num_actions))
-        history: list[float] = []
-        iterations = 0
-        for iteration in range(1, self.max_iterations + 1):  # line 4: while changed
-            iterations = iteration
+        loop = Iterations(self.max_iterations)
+        for _ in loop:  # line 4: while changed
             states, actions = self._sample_pairs(sampler, policy, rng)  # line 5
             phi_bar = _kernels.action_features(phi[states], actions, num_actions)  # Eq. 2.22
             phi_pi = _kernels.action_features(phi, policy, num_actions)  # φ(s', π(s'))
             p_phi = sp.csr_matrix(stacked[actions * num_states + states] @ phi_pi)  # Eq. 2.21
             rewards = model.rewards[states, actions]  # ρ(s_i, a_i)
-            theta = _solve(  # lines 6-7
+            weights = solve_q_weights(  # lines 6-7
                 self.evaluation,
                 phi_bar,
                 p_phi,
                 rewards,
                 model.discount,
-                float(self.regularization),
+                self.regularization,
+                num_actions,
             )
-            weights = theta.reshape(num_actions, n).T
             q = _kernels.q_from_weights(phi, weights)  # line 8: Q = Φ̄θ̄
-            improved = _kernels.greedy_policy(q.T, policy)  # lines 9-10
-            num_changed = int(np.count_nonzero(improved != policy))
-            history.append(float(num_changed))
-            policy = improved
-            if num_changed == 0:  # line 11: changed ← (π⁺ ≠ π)
+            policy, num_changed = _kernels.improve_policy(q.T, policy)  # lines 9-10
+            if loop.record(num_changed) == 0:  # line 11: changed ← (π⁺ ≠ π)
                 break
-        return Plan(
-            planner="",
-            spec=model.domain_spec,
-            iterations=iterations,
-            wall_time_s=0.0,
+        return loop.plan(
+            model.domain_spec,
             model=model,
             policy=policy,
             q_values=q,
             representation=rep,
             weights=weights,
-            history=history,
         )
 
 
@@ -271,23 +247,15 @@ class SampledQAPI2(Planner):
         self.seed = seed
 
     def _plan(self, source: Any) -> Plan:
-        sampler, model = self._generative(source)
-        spec = sampler.spec
-        num_actions = spec.num_actions
-        rng = make_rng(self.seed)
-        rep = _kernels.setup_representation(self.representation, spec, self.seed)
-        n = rep.num_features_
-        weights = _kernels.initial_weights(rng, n, num_actions)  # line 1
+        sampling = Sampling(self, source)
+        num_actions = sampling.num_actions
+        weights = sampling.initial_weights()  # line 1
         check_phi = None
-        history: list[float] = []
-        iterations = 0
-        for iteration in range(1, self.max_iterations + 1):  # line 2
-            iterations = iteration
-            choose = _kernels.epsilon_greedy_chooser(rep, weights, float(self.epsilon), num_actions)
-            batch = _kernels.sample_trajectory(  # lines 4-5
-                sampler, choose, self.num_samples, rng, num_next=self.num_next_samples
+        loop = Iterations(self.max_iterations)
+        for _ in loop:  # line 2
+            data = sampling.follow(  # lines 4-5
+                weights, self.epsilon, self.num_samples, self.num_next_samples
             )
-            data = _kernels.encode_samples(rep, batch)
             if check_phi is None:
                 check_phi = data["phi"]
             before = _kernels.q_from_weights(check_phi, weights).argmax(axis=1)
@@ -295,18 +263,16 @@ class SampledQAPI2(Planner):
             p_phi = _kernels.greedy_next_features(  # Eq. 2.28 with π on demand
                 data["phi_next"], weights, data["num_next"]
             )
-            theta = _solve(  # lines 6-7
+            weights = solve_q_weights(  # lines 6-7
                 self.evaluation,
                 phi_bar,
                 p_phi,
                 data["rewards"].mean(axis=1),
-                spec.discount,
-                float(self.regularization),
+                sampling.spec.discount,
+                self.regularization,
+                num_actions,
             )
-            weights = theta.reshape(num_actions, n).T
             after = _kernels.q_from_weights(check_phi, weights).argmax(axis=1)
-            num_changed = int(np.count_nonzero(after != before))
-            history.append(float(num_changed))
-            if num_changed == 0:
+            if loop.record(np.count_nonzero(after != before)) == 0:
                 break
-        return _kernels.linear_plan(spec, model, rep, weights, iterations, history)
+        return sampling.plan(weights, loop)

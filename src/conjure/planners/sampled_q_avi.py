@@ -8,9 +8,9 @@ import numpy as np
 
 from conjure.core.interfaces import Representation
 from conjure.core.params import InstanceOf, Interval
-from conjure.core.seeding import make_rng
 from conjure.planners import _kernels
-from conjure.planners.base import Plan, Planner
+from conjure.planners._sampling import Sampling
+from conjure.planners.base import Iterations, Plan, Planner
 
 __all__ = ["SampledQAVI"]
 
@@ -109,22 +109,13 @@ class SampledQAVI(Planner):
         self.seed = seed
 
     def _plan(self, source: Any) -> Plan:
-        sampler, model = self._generative(source)
-        spec = sampler.spec
-        rng = make_rng(self.seed)
-        rep = _kernels.setup_representation(self.representation, spec, self.seed)
-        weights = _kernels.initial_weights(rng, rep.num_features_, spec.num_actions)  # line 1
-        history: list[float] = []
-        iterations = 0
-        for iteration in range(1, self.max_iterations + 1):  # line 2: while time left
-            iterations = iteration
-            choose = _kernels.epsilon_greedy_chooser(
-                rep, weights, float(self.epsilon), spec.num_actions
+        sampling = Sampling(self, source)
+        weights = sampling.initial_weights()  # line 1
+        loop = Iterations(self.max_iterations)
+        for _ in loop:  # line 2: while time left
+            data = sampling.follow(  # lines 3 and 5
+                weights, self.epsilon, self.num_samples, self.num_next_samples
             )
-            batch = _kernels.sample_trajectory(  # lines 3 and 5
-                sampler, choose, self.num_samples, rng, num_next=self.num_next_samples
-            )
-            data = _kernels.encode_samples(rep, batch)
             phi, nxt = data["phi"], data["phi_next"]
             change = _kernels.sampled_q_avi_pass(  # lines 4-8
                 weights,
@@ -136,10 +127,9 @@ class SampledQAVI(Planner):
                 nxt.indices,
                 nxt.data,
                 np.ascontiguousarray(data["rewards"]),
-                spec.discount,
+                sampling.spec.discount,
                 float(self.step_size),
             )
-            history.append(float(change))
-            if change < self.tolerance:
+            if loop.record(change) < self.tolerance:
                 break
-        return _kernels.linear_plan(spec, model, rep, weights, iterations, history)
+        return sampling.plan(weights, loop)

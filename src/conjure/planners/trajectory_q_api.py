@@ -7,11 +7,10 @@ from typing import Any
 import numpy as np
 
 from conjure.core.interfaces import Representation
-from conjure.core.linalg import lstd_system, solve_regularized
 from conjure.core.params import InstanceOf, Interval
-from conjure.core.seeding import make_rng
 from conjure.planners import _kernels
-from conjure.planners.base import Plan, Planner
+from conjure.planners._sampling import Sampling, solve_q_weights, weight_change
+from conjure.planners.base import Iterations, Plan, Planner
 
 __all__ = ["TrajectoryQAPI"]
 
@@ -118,31 +117,27 @@ class TrajectoryQAPI(Planner):
         return next_actions
 
     def _plan(self, source: Any) -> Plan:
-        sampler, model = self._generative(source)
-        spec = sampler.spec
-        num_actions = spec.num_actions
-        rng = make_rng(self.seed)
-        rep = _kernels.setup_representation(self.representation, spec, self.seed)
-        n = rep.num_features_
-        weights = _kernels.initial_weights(rng, n, num_actions)  # line 1
-        history: list[float] = []
-        iterations = 0
-        for iteration in range(1, self.max_iterations + 1):  # line 2: while time left
-            iterations = iteration
-            choose = _kernels.epsilon_greedy_chooser(rep, weights, float(self.epsilon), num_actions)
-            batch = _kernels.sample_trajectory(sampler, choose, self.num_samples, rng)  # line 3
-            data = _kernels.encode_samples(rep, batch)
-            next_actions = self._next_actions(batch, choose, rng)
-            phi_bar = _kernels.action_features(data["phi"], batch["actions"], num_actions)
+        sampling = Sampling(self, source)
+        num_actions = sampling.num_actions
+        weights = sampling.initial_weights()  # line 1
+        loop = Iterations(self.max_iterations)
+        for _ in loop:  # line 2: while time left
+            data = sampling.follow(weights, self.epsilon, self.num_samples)  # line 3
+            choose = sampling.policy(weights, self.epsilon)  # the π^ε that drew the batch
+            next_actions = self._next_actions(data, choose, sampling.rng)
+            phi_bar = _kernels.action_features(data["phi"], data["actions"], num_actions)
             p_phi = _kernels.action_features(data["phi_next"], next_actions, num_actions)
-            a, b = lstd_system(  # line 4: Eqs. 2.34-2.36
-                phi_bar, p_phi, data["rewards"][:, 0], spec.discount
+            fitted = solve_q_weights(  # lines 4-5: Eqs. 2.34-2.36, θ̄ = Ã⁻¹b̃
+                "lstd",
+                phi_bar,
+                p_phi,
+                data["rewards"][:, 0],
+                sampling.spec.discount,
+                self.regularization,
+                num_actions,
             )
-            theta = solve_regularized(a, b, float(self.regularization))  # line 5
-            fitted = theta.reshape(num_actions, n).T
-            change = float(np.abs(fitted - weights).max(initial=0.0))
+            change = weight_change(fitted, weights)
             weights = fitted
-            history.append(change)
-            if change < self.tolerance:
+            if loop.record(change) < self.tolerance:
                 break
-        return _kernels.linear_plan(spec, model, rep, weights, iterations, history)
+        return sampling.plan(weights, loop)

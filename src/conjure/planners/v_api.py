@@ -7,17 +7,15 @@ from typing import Any
 import numpy as np
 import scipy.sparse as sp
 
-from conjure.core.interfaces import Representation
-from conjure.core.linalg import solve_regularized
-from conjure.core.params import InstanceOf, Interval, Options
 from conjure.core.seeding import make_rng
 from conjure.planners import _kernels
-from conjure.planners.base import Plan, Planner
+from conjure.planners._api import ModelAPI
+from conjure.planners.base import Iterations, Plan
 
 __all__ = ["VAPI"]
 
 
-class VAPI(Planner):
+class VAPI(ModelAPI):
     """Approximate V^π ≈ Φθ by BRM (Eq. 2.15) or LSTD (Eq. 2.17), then improve by Eq. 2.9.
 
     Geramifard (2012), Algorithm 3 (Section 2.5).
@@ -64,35 +62,6 @@ class VAPI(Planner):
     ([2.989, 3.321, 3.69], [0, 0, 0])
     """
 
-    parameter_constraints = {
-        "representation": InstanceOf((Representation, type(None)), "a Representation or None"),
-        "evaluation": Options(("lstd", "brm")),
-        "epsilon": Interval(float, 0.0, 1.0),
-        "weighting": Options(("steady_state", "uniform")),
-        "regularization": Interval(float, 0.0, None),
-        "max_iterations": Interval(int, 1, None),
-        "seed": Interval(int, 0, None),
-    }
-
-    def __init__(
-        self,
-        *,
-        representation: Representation | None = None,
-        evaluation: str = "lstd",
-        epsilon: float = 0.1,
-        weighting: str = "uniform",
-        regularization: float = 1e-10,
-        max_iterations: int = 100,
-        seed: int = 0,
-    ):
-        self.representation = representation
-        self.evaluation = evaluation
-        self.epsilon = epsilon
-        self.weighting = weighting
-        self.regularization = regularization
-        self.max_iterations = max_iterations
-        self.seed = seed
-
     def _plan(self, source: Any) -> Plan:
         model = self._tabular(source)
         rep = _kernels.setup_representation(self.representation, model.domain_spec, self.seed)
@@ -100,40 +69,23 @@ class VAPI(Planner):
         live = sp.diags((~model.is_terminal).astype(np.float64))
         phi_live = sp.csr_matrix(live @ phi)  # V(terminal) = 0
         policy = make_rng(self.seed).integers(model.num_actions, size=model.num_states)
-        weights = np.zeros(phi.shape[1])
-        history: list[float] = []
-        iterations = 0
-        for iteration in range(1, self.max_iterations + 1):
-            iterations = iteration
+        loop = Iterations(self.max_iterations)
+        for _ in loop:
             d, _ = _kernels.policy_weighting(model, policy, float(self.epsilon), self.weighting)
             p_phi = model.policy_matrix(policy) @ phi_live
-            residual = phi_live - model.discount * p_phi  # Φ − γPΦ
-            weighted = sp.diags(d)
             r_pi = model.policy_rewards(policy)
-            if self.evaluation == "brm":  # Eq. 2.15
-                left = sp.csr_matrix(residual.T) @ weighted
-            else:  # Eq. 2.17
-                left = sp.csr_matrix(phi_live.T) @ weighted
-            a = left @ residual
-            b = left @ r_pi
-            weights = solve_regularized(a, b, self.regularization)  # line 5
+            weights = self._solve(phi_live, p_phi, r_pi, d, model.discount)  # line 5
             values = np.asarray(phi_live @ weights).reshape(-1)  # line 6: V = Φθ
-            improved = _kernels.greedy_policy(model.backup(values), policy)  # lines 7-8
-            num_changed = int(np.count_nonzero(improved != policy))
-            history.append(float(num_changed))
-            policy = improved
-            if num_changed == 0:
+            q_by_action = model.backup(values)
+            policy, num_changed = _kernels.improve_policy(q_by_action, policy)  # lines 7-8
+            if loop.record(num_changed) == 0:
                 break
-        return Plan(
-            planner="",
-            spec=model.domain_spec,
-            iterations=iterations,
-            wall_time_s=0.0,
+        return loop.plan(
+            model.domain_spec,
             model=model,
             policy=policy,
             values=values,
             q_values=model.q_values(values),
             representation=rep,
             weights=weights,
-            history=history,
         )

@@ -8,7 +8,7 @@ import numpy as np
 
 from conjure.core.params import Interval
 from conjure.planners import _kernels
-from conjure.planners.base import Plan, Planner
+from conjure.planners.base import Iterations, Plan, Planner
 
 __all__ = ["ValueIteration"]
 
@@ -75,10 +75,8 @@ class ValueIteration(Planner):
         terminal = model.is_terminal
         values = np.where(terminal, 0.0, float(self.initial_value))
         spare = np.empty_like(values)
-        history: list[float] = []
-        iterations = 0
-        for iteration in range(1, self.max_iterations + 1):
-            iterations = iteration
+        loop = Iterations(self.max_iterations)
+        for _ in loop:
             # lines 3-7 for every state at once: V(s) ← max_a Σ P[R + γV] (Eq. 2.10)
             change = _kernels.bellman_sweep(
                 stacked.indptr,
@@ -91,18 +89,13 @@ class ValueIteration(Planner):
                 model.discount,
             )
             values, spare = spare, values
-            history.append(float(change))
-            if change < self.tolerance:  # the max-change checkpoint replacing line 8
+            if loop.record(change) < self.tolerance:  # the max-change checkpoint replacing line 8
                 break
         q = model.backup(values)
-        return Plan(
-            planner="",
-            spec=model.domain_spec,
-            iterations=iterations,
-            wall_time_s=0.0,
+        return loop.plan(
+            model.domain_spec,
             model=model,
             policy=q.argmax(axis=0).astype(np.int64),  # line 7: π(s)
             values=values,
             q_values=q.T,
-            history=history,
         )
