@@ -33,3 +33,11 @@ def test_cache_serves_learn_with_act_values():
     agent.act(state)
     assert agent._features(state) is agent._last[1]
     assert agent._features(np.array([1.0])) is not agent._last[1]  # identity, not equality
+
+
+def test_a_weight_table_too_large_for_memory_is_a_clear_error():
+    from conjure.core import IncompatibleComponentsError
+    from conjure.domains import BlocksWorld
+
+    with pytest.raises(IncompatibleComponentsError, match="18,432 GiB"):
+        SARSA(representation=Tabular()).setup(BlocksWorld().domain_spec, seed=0)

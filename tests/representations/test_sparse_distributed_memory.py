@@ -239,3 +239,12 @@ def test_common_checks_pass():
     check_component(SparseDistributedMemory())
     check_component(SparseDistributedMemory(activation_radius=[0.3, 0.2], min_active=2))
     check_component(SARSA(representation=SparseDistributedMemory(min_active=2)))
+
+
+def test_too_many_initial_prototypes_is_a_clear_error_not_a_memory_error():
+    from conjure.domains import BlocksWorld, PersistentSurveillance
+
+    with pytest.raises(InvalidParameterError, match="larger activation_radius"):
+        SparseDistributedMemory().setup(PersistentSurveillance().domain_spec, seed=0)
+    wide = SparseDistributedMemory(activation_radius=0.5).setup(BlocksWorld().domain_spec, seed=0)
+    assert wide.num_features_ == 1  # 36 dimensions, beyond numpy's 32-axis meshgrid

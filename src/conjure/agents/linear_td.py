@@ -63,6 +63,7 @@ class LinearTDAgent(Agent):
         self.policy_.validate_params()
         self.schedule_ = make_schedule(self.step_size)
         self.rng_ = make_rng(seeds["policy"])
+        check_weight_size(self.representation_, spec)
         self.weights_ = np.full(
             (self.representation_.num_features_, spec.num_actions),
             float(self.initial_weight),
@@ -241,6 +242,23 @@ class LinearTDAgent(Agent):
         self.rng_ = rng_from_state(state["rng"])
         self.weights_ = np.array(arrays["weights"], dtype=np.float64)
         self._forget_cache()
+
+
+#: The largest weight table a learner allocates (θ is n_features x |A| float64 numbers).
+MAX_WEIGHT_BYTES = 8 * 2**30
+
+
+def check_weight_size(representation: Representation, spec: DomainSpec) -> None:
+    """Raise a clear error instead of a numpy MemoryError when θ cannot fit in memory."""
+    num_bytes = 8 * representation.num_features_ * spec.num_actions
+    if num_bytes > MAX_WEIGHT_BYTES:
+        raise IncompatibleComponentsError(
+            f"{type(representation).__name__} gives {representation.num_features_:,} features "
+            f"on {spec.name!r}: θ would take {num_bytes / 2**30:,.0f} GiB for "
+            f"{spec.num_actions} actions (limit {MAX_WEIGHT_BYTES // 2**30} GiB). Use a "
+            f"representation that generalises (OnlineIFDD, TileCoding with memory_size) or "
+            f"fewer buckets."
+        )
 
 
 def make_schedule(step_size: float | StepSizeSchedule) -> StepSizeSchedule:

@@ -179,13 +179,21 @@ class SparseDistributedMemory(Representation):
                 continue
             n = int(np.ceil(1.0 / (2.0 * raw_radius[i]) - 1e-9))
             axes.append((np.arange(n) + 0.5) / n)
-        grid_points = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, d)
-        num_initial = grid_points.shape[0]
+        num_initial = int(np.prod([float(axis.shape[0]) for axis in axes]))
         if num_initial > self.max_features:
             raise InvalidParameterError(
                 f"`SparseDistributedMemory.max_features` must be at least the {num_initial} "
                 f"prototypes of the initial covering grid (activation_radius="
-                f"{self.activation_radius!r} on {spec.name!r}); got {self.max_features!r}."
+                f"{self.activation_radius!r} on {spec.name!r}); got {self.max_features!r}. "
+                f"A larger activation_radius needs fewer prototypes."
+            )
+        grid_points = np.zeros((1, 0))
+        for axis in axes:  # the row-major Cartesian product (no 32-dimension limit)
+            grid_points = np.hstack(
+                [
+                    np.repeat(grid_points, axis.shape[0], axis=0),
+                    np.tile(axis, grid_points.shape[0])[:, None],
+                ]
             )
 
         self._low = np.asarray(spec.low, dtype=np.float64).copy()
