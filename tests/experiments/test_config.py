@@ -216,3 +216,19 @@ def test_resolve_run_and_hash(config_file):
     assert config_hash(run_spec) != config_hash(resolve_run(config, "sarsa", 0))
     with pytest.raises(InvalidParameterError, match="Did you mean 'sarsa'"):
         resolve_run(config, "sarsaa", 0)
+
+
+def test_a_bad_agent_label_is_named_without_dumping_every_agent():
+    from conjure.core import InvalidParameterError
+    from conjure.experiments.config import parse_config
+
+    agent = {"kind": "SARSA", "params": {"representation": {"kind": "Tabular"}}}
+    config = {
+        "name": "x",
+        "domain": {"kind": "ChainMDP"},
+        "agents": {"fine": agent, "bad+label": agent},
+        "budget_steps": 10,
+    }
+    with pytest.raises(InvalidParameterError, match="'bad\\+label'") as error:
+        parse_config(config)
+    assert "'kind': 'SARSA'" not in str(error.value)

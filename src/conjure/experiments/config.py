@@ -204,7 +204,11 @@ def _format_validation_error(exc: ValidationError, source: str) -> str:
             messages.append(f"{where}: required field is missing.")
         else:
             message = error["msg"].removeprefix("Value error, ")
-            messages.append(f"{where}: {message}; got {error.get('input')!r}.")
+            got = repr(error.get("input"))
+            if " got " in message or len(got) > 120:  # the validator already named the value
+                messages.append(f"{where}: {message}.")
+            else:
+                messages.append(f"{where}: {message}; got {got}.")
     return f"{source}: " + " | ".join(messages)
 
 
