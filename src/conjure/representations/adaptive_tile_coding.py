@@ -203,7 +203,6 @@ class AdaptiveTileCoding(Representation):
         )
         self._patience = int(self.patience)
         self._max_features = int(self.max_features)
-        self._state_shape = (d,)
         self.spec_ = spec
         self.num_features_ = num_initial
         self.num_initial_features_ = num_initial
@@ -232,12 +231,7 @@ class AdaptiveTileCoding(Representation):
         except AttributeError:
             check_is_set_up(self, "active_features")
             raise
-        if not (
-            type(state) is np.ndarray
-            and state.dtype == np.float64
-            and state.shape == self._state_shape
-        ):
-            state = self.check_state(state)
+        state = self.check_state(state)
         return atc_leaf(state, node_dim, self._node_threshold, self._node_left, self._node_feature)
 
     # -----------------------------------------------------------------------------------------

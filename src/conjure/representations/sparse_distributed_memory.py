@@ -202,7 +202,6 @@ class SparseDistributedMemory(Representation):
         self._grid = _grid_layout(radius, is_flat)
         self._num_cells = int(np.prod(self._grid[:, 1])) if self._grid.shape[0] else 1
         self._seed_key = seed_key
-        self._state_shape = (d,)
         self._min_active = int(self.min_active)
         self._max_features = int(self.max_features)
         self._set_centers(grid_points, num_allocations=0)
@@ -243,12 +242,7 @@ class SparseDistributedMemory(Representation):
         except AttributeError:
             check_is_set_up(self, "active_features")
             raise
-        if not (
-            type(state) is np.ndarray
-            and state.dtype == np.float64
-            and state.shape == self._state_shape
-        ):
-            state = self.check_state(state)
+        state = self.check_state(state)
         return sdm_active(
             state,
             low,
