@@ -2,32 +2,17 @@ import numpy as np
 import pytest
 
 from conjure.agents import SARSA
-from conjure.core import DomainSpec, InvalidParameterError, NotSetUpError
+from conjure.core import InvalidParameterError, NotSetUpError
 from conjure.domains import InvertedPendulum
 from conjure.representations.adaptive_tile_coding import AdaptiveTileCoding
 from conjure.representations.weights import grow_weights
-from conjure.testing import check_component
+from conjure.testing import box_spec, check_component
 from conjure.testing.checks import _rollout
 
-
-def make_spec(low, high, is_discrete=None, name="box"):
-    if is_discrete is None:
-        is_discrete = [False] * len(low)
-    return DomainSpec(
-        name=name,
-        low=low,
-        high=high,
-        is_discrete=is_discrete,
-        num_actions=3,
-        discount=0.9,
-        max_episode_steps=10,
-    )
-
-
-LINE = make_spec([0.0], [1.0], name="line")
-SQUARE = make_spec([0.0, 0.0], [1.0, 1.0], name="square")
-PENDULUM = make_spec([-np.pi / 2, -2.0], [np.pi / 2, 2.0], name="pendulum")
-MIXED = make_spec([0.0, -1.0, 0.0], [1.0, 1.0, 3.0], is_discrete=[False, False, True])
+LINE = box_spec([0.0], [1.0], name="line")
+SQUARE = box_spec([0.0, 0.0], [1.0, 1.0], name="square")
+PENDULUM = box_spec([-np.pi / 2, -2.0], [np.pi / 2, 2.0], name="pendulum")
+MIXED = box_spec([0.0, -1.0, 0.0], [1.0, 1.0, 3.0], is_discrete=[False, False, True])
 
 
 def random_states(spec, num, seed=0, margin=0.2):
@@ -86,7 +71,7 @@ def test_initial_grid_is_row_major():
 
 
 def test_initial_grid_on_a_discrete_dimension_groups_integer_values():
-    spec = make_spec([0.0], [3.0], is_discrete=[True])
+    spec = box_spec([0.0], [3.0], is_discrete=[True])
     rep = AdaptiveTileCoding(initial_tiles_per_dim=2).setup(spec, seed=0)
     assert [int(rep.active_features(np.array([x]))[0]) for x in range(4)] == [0, 0, 1, 1]
     many = AdaptiveTileCoding(initial_tiles_per_dim=10).setup(spec, seed=0)
@@ -149,7 +134,7 @@ def test_split_children_are_split_again_with_fresh_statistics():
 
 
 def test_discrete_dimension_splits_between_integer_values():
-    spec = make_spec([0.0], [3.0], is_discrete=[True])
+    spec = box_spec([0.0], [3.0], is_discrete=[True])
     rep = AdaptiveTileCoding(patience=1).setup(spec, seed=0)
     feed(rep, [([0.0], 1.0), ([3.0], -1.0)])
     assert [int(rep.active_features(np.array([x]))[0]) for x in range(4)] == [0, 0, 1, 1]

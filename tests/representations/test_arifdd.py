@@ -2,35 +2,20 @@ import numpy as np
 import pytest
 
 from conjure.agents import SARSA
-from conjure.core import DomainSpec, InvalidParameterError, NotSetUpError
+from conjure.core import InvalidParameterError, NotSetUpError
 from conjure.domains import InvertedPendulum
 from conjure.representations import _ifdd_kernels as _k
 from conjure.representations.arifdd import ARiFDD
 from conjure.representations.independent_discretization import IndependentDiscretization
 from conjure.representations.online_ifdd import OnlineIFDD
 from conjure.representations.weights import grow_weights
-from conjure.testing import check_component
+from conjure.testing import box_spec, check_component
 from conjure.testing.checks import _rollout
 
-
-def make_spec(low, high, is_discrete=None, name="box"):
-    if is_discrete is None:
-        is_discrete = [False] * len(low)
-    return DomainSpec(
-        name=name,
-        low=low,
-        high=high,
-        is_discrete=is_discrete,
-        num_actions=3,
-        discount=0.9,
-        max_episode_steps=10,
-    )
-
-
-LINE = make_spec([0.0], [1.0], name="line")
-SQUARE = make_spec([0.0, 0.0], [1.0, 1.0], name="square")
-PENDULUM = make_spec([-np.pi / 2, -2.0], [np.pi / 2, 2.0], name="pendulum")
-MIXED = make_spec([0.0, -1.0, 0.0], [1.0, 1.0, 5.0], is_discrete=[False, False, True])
+LINE = box_spec([0.0], [1.0], name="line")
+SQUARE = box_spec([0.0, 0.0], [1.0, 1.0], name="square")
+PENDULUM = box_spec([-np.pi / 2, -2.0], [np.pi / 2, 2.0], name="pendulum")
+MIXED = box_spec([0.0, -1.0, 0.0], [1.0, 1.0, 5.0], is_discrete=[False, False, True])
 
 
 def random_states(spec, num, seed=0):
@@ -96,7 +81,7 @@ def test_initial_tiles_are_equal_intervals_numbered_by_dimension():
 
 
 def test_discrete_dimension_groups_integer_values():
-    spec = make_spec([0.0], [5.0], is_discrete=[True])
+    spec = box_spec([0.0], [5.0], is_discrete=[True])
     rep = ARiFDD(initial_tiles_per_dim=3).setup(spec, seed=0)
     assert [int(rep.active_features([x])[0]) for x in range(6)] == [0, 0, 1, 1, 2, 2]
     assert ARiFDD(initial_tiles_per_dim=50).setup(spec, seed=0).num_features_ == 6
@@ -173,7 +158,7 @@ def test_least_variance_tile_splits_at_its_weighted_mean():
 
 
 def test_variances_are_compared_relative_to_the_dimension_range():
-    spec = make_spec([0.0, 0.0], [10.0, 1.0])
+    spec = box_spec([0.0, 0.0], [10.0, 1.0])
     rep = ARiFDD(discovery_threshold=0.0, split_threshold=1.5).setup(spec, seed=0)
     step(rep, [5.0, 0.5], 1.0)
     # raw variances: dimension 0 = 1.0 (range 10), dimension 1 = 0.04 (range 1);
@@ -229,7 +214,7 @@ def test_split_threshold_infinity_recovers_online_ifdd():
 
 
 def test_coverage_floor_rejects_an_off_centre_split_and_accepts_the_midpoint():
-    spec = make_spec([0.0], [10.0])
+    spec = box_spec([0.0], [10.0])
     rep = ARiFDD(initial_tiles_per_dim=10, split_threshold=1.5).setup(spec, seed=0)
     # tile [0, 1): μ = 0.4 leaves a 0.4 < 10 / 20 half: rejected, no feature added
     assert feed(rep, [([0.3], 1.0), ([0.5], 1.0), ([0.4], 1.0)]) == []
@@ -265,7 +250,7 @@ def test_smaller_floor_allows_more_splits():
 
 
 def test_discrete_dimension_splits_between_values():
-    spec = make_spec([0.0], [5.0], is_discrete=[True])
+    spec = box_spec([0.0], [5.0], is_discrete=[True])
     rep = ARiFDD(split_threshold=1.5).setup(spec, seed=0)
     feed(rep, [([1.0], 1.0), ([2.0], 1.0)])  # μ = 1.5: split at ⌊1.5⌋ + 1/2 = 1.5
     assert [int(rep.active_features([x])[0]) for x in range(6)] == [1, 1, 2, 2, 2, 2]

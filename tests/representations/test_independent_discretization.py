@@ -1,26 +1,12 @@
 import numpy as np
 import pytest
 
-from conjure.core import DomainSpec, InvalidParameterError, NotSetUpError
+from conjure.core import InvalidParameterError, NotSetUpError
 from conjure.representations import IndependentDiscretization
+from conjure.testing import box_spec
 
-
-def make_spec(low, high, is_discrete=None, name="box"):
-    if is_discrete is None:
-        is_discrete = [False] * len(low)
-    return DomainSpec(
-        name=name,
-        low=low,
-        high=high,
-        is_discrete=is_discrete,
-        num_actions=3,
-        discount=0.9,
-        max_episode_steps=10,
-    )
-
-
-PENDULUM = make_spec([-np.pi / 2, -2.0], [np.pi / 2, 2.0], name="pendulum")
-MIXED = make_spec([0.0, -1.0, 0.0], [1.0, 1.0, 3.0], is_discrete=[False, False, True])
+PENDULUM = box_spec([-np.pi / 2, -2.0], [np.pi / 2, 2.0], name="pendulum")
+MIXED = box_spec([0.0, -1.0, 0.0], [1.0, 1.0, 3.0], is_discrete=[False, False, True])
 
 
 def random_states(spec, num, seed=0, margin=0.2):
@@ -49,7 +35,7 @@ def test_exactly_one_active_feature_per_dimension_block():
 
 
 def test_bucket_edges():
-    rep = IndependentDiscretization(num_buckets=4).setup(make_spec([0.0], [1.0]), seed=0)
+    rep = IndependentDiscretization(num_buckets=4).setup(box_spec([0.0], [1.0]), seed=0)
     expected = {-5.0: 0, 0.0: 0, 0.2499: 0, 0.25: 1, 0.4999: 1, 0.5: 2, 0.75: 3, 1.0: 3, 5.0: 3}
     for value, bucket in expected.items():
         assert rep.active_features(np.array([value])).tolist() == [bucket], value

@@ -2,29 +2,14 @@ import numpy as np
 import pytest
 
 from conjure.core import (
-    DomainSpec,
     IncompatibleComponentsError,
     InvalidParameterError,
     NotSetUpError,
 )
 from conjure.representations import RBF
+from conjure.testing import box_spec
 
-
-def make_spec(low, high, is_discrete=None, name="box"):
-    if is_discrete is None:
-        is_discrete = [False] * len(low)
-    return DomainSpec(
-        name=name,
-        low=low,
-        high=high,
-        is_discrete=is_discrete,
-        num_actions=3,
-        discount=0.9,
-        max_episode_steps=10,
-    )
-
-
-PENDULUM = make_spec([-np.pi / 2, -2.0], [np.pi / 2, 2.0], name="pendulum")
+PENDULUM = box_spec([-np.pi / 2, -2.0], [np.pi / 2, 2.0], name="pendulum")
 
 
 def random_states(spec, num, seed=0):
@@ -45,7 +30,7 @@ def test_lagoudakis_parr_grid_plus_bias():
 
 
 def test_grid_count_and_no_bias():
-    spec = make_spec([0.0, 0.0, 0.0], [1.0, 2.0, 3.0])
+    spec = box_spec([0.0, 0.0, 0.0], [1.0, 2.0, 3.0])
     rep = RBF(num_centers=[2, 3, 4], include_bias=False).setup(spec, seed=0)
     assert rep.num_features_ == 24
     assert len({tuple(c) for c in rep.centers_.tolist()}) == 24
@@ -61,7 +46,7 @@ def test_value_one_at_each_center():
 
 
 def test_formula():
-    spec = make_spec([0.0, 10.0], [2.0, 20.0])
+    spec = box_spec([0.0, 10.0], [2.0, 20.0])
     rep = RBF(num_centers=2, width=[0.25, 0.5], include_bias=False).setup(spec, seed=0)
     state = np.array([0.3, 13.0])
     sigma = np.array([0.5, 5.0])

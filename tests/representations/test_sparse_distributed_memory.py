@@ -2,33 +2,18 @@ import numpy as np
 import pytest
 
 from conjure.agents import SARSA
-from conjure.core import DomainSpec, InvalidParameterError, NotSetUpError
+from conjure.core import InvalidParameterError, NotSetUpError
 from conjure.domains import InvertedPendulum
 from conjure.representations.sparse_distributed_memory import SparseDistributedMemory
 from conjure.representations.weights import grow_weights
-from conjure.testing import check_component
+from conjure.testing import box_spec, check_component
 from conjure.testing.checks import _rollout
 
-
-def make_spec(low, high, is_discrete=None, name="box"):
-    if is_discrete is None:
-        is_discrete = [False] * len(low)
-    return DomainSpec(
-        name=name,
-        low=low,
-        high=high,
-        is_discrete=is_discrete,
-        num_actions=3,
-        discount=0.9,
-        max_episode_steps=10,
-    )
-
-
-LINE = make_spec([0.0], [1.0], name="line")
-WIDE_LINE = make_spec([-2.0], [2.0], name="wide")
-PENDULUM = make_spec([-np.pi / 2, -2.0], [np.pi / 2, 2.0], name="pendulum")
-CUBE = make_spec([0.0, -1.0, 0.0], [1.0, 1.0, 3.0], is_discrete=[False, False, True])
-SEVEN = make_spec([0.0] * 7, [1.0] * 6 + [0.0], name="seven")  # last dimension flat
+LINE = box_spec([0.0], [1.0], name="line")
+WIDE_LINE = box_spec([-2.0], [2.0], name="wide")
+PENDULUM = box_spec([-np.pi / 2, -2.0], [np.pi / 2, 2.0], name="pendulum")
+CUBE = box_spec([0.0, -1.0, 0.0], [1.0, 1.0, 3.0], is_discrete=[False, False, True])
+SEVEN = box_spec([0.0] * 7, [1.0] * 6 + [0.0], name="seven")  # last dimension flat
 
 
 def random_states(spec, num, seed=0, margin=0.2):

@@ -1,25 +1,11 @@
 import numpy as np
 import pytest
 
-from conjure.core import DomainSpec, InvalidParameterError, NotSetUpError
+from conjure.core import InvalidParameterError, NotSetUpError
 from conjure.representations import Tabular
+from conjure.testing import box_spec
 
-
-def make_spec(low, high, is_discrete=None, name="box"):
-    if is_discrete is None:
-        is_discrete = [False] * len(low)
-    return DomainSpec(
-        name=name,
-        low=low,
-        high=high,
-        is_discrete=is_discrete,
-        num_actions=2,
-        discount=0.9,
-        max_episode_steps=10,
-    )
-
-
-PENDULUM = make_spec([-np.pi / 2, -2.0], [np.pi / 2, 2.0], name="pendulum")
+PENDULUM = box_spec([-np.pi / 2, -2.0], [np.pi / 2, 2.0], name="pendulum")
 
 
 def random_states(spec, num, seed=0, margin=0.2):
@@ -49,7 +35,7 @@ def test_same_state_same_features():
 
 
 def test_grid_cells_biject_with_features():
-    spec = make_spec([0.0, -1.0], [4.0, 2.0])
+    spec = box_spec([0.0, -1.0], [4.0, 2.0])
     rep = Tabular(num_buckets=[4, 3]).setup(spec, seed=0)
     xs = np.linspace(0.0, 4.0, 161)
     ys = np.linspace(-1.0, 2.0, 121)
@@ -65,7 +51,7 @@ def test_grid_cells_biject_with_features():
 
 
 def test_discrete_dimensions_bucket_by_value():
-    spec = make_spec([0.0, 2.0], [1.0, 6.0], is_discrete=[False, True])
+    spec = box_spec([0.0, 2.0], [1.0, 6.0], is_discrete=[False, True])
     rep = Tabular(num_buckets=[2, 99]).setup(spec, seed=0)  # entry of a discrete dim ignored
     assert rep.num_features_ == 2 * 5
     features = {int(rep.active_features(np.array([0.2, v]))[0]) for v in range(2, 7)}
@@ -79,7 +65,7 @@ def test_discrete_dimensions_bucket_by_value():
 
 
 def test_out_of_bounds_states_are_clipped_into_edge_cells():
-    spec = make_spec([0.0], [1.0])
+    spec = box_spec([0.0], [1.0])
     rep = Tabular(num_buckets=4).setup(spec, seed=0)
     assert rep.active_features(np.array([-3.0])).tolist() == [0]
     assert rep.active_features(np.array([1.0])).tolist() == [3]
@@ -87,7 +73,7 @@ def test_out_of_bounds_states_are_clipped_into_edge_cells():
 
 
 def test_lists_and_int_states_are_accepted():
-    rep = Tabular(num_buckets=4).setup(make_spec([0.0, 0.0], [4.0, 4.0]), seed=0)
+    rep = Tabular(num_buckets=4).setup(box_spec([0.0, 0.0], [4.0, 4.0]), seed=0)
     assert (
         rep.active_features([1, 2]).tolist() == rep.active_features(np.array([1.0, 2.0])).tolist()
     )

@@ -1,27 +1,13 @@
 import numpy as np
 import pytest
 
-from conjure.core import DomainSpec, InvalidParameterError, NotSetUpError
+from conjure.core import InvalidParameterError, NotSetUpError
 from conjure.representations import TileCoding
+from conjure.testing import box_spec
 
-
-def make_spec(low, high, is_discrete=None, name="box"):
-    if is_discrete is None:
-        is_discrete = [False] * len(low)
-    return DomainSpec(
-        name=name,
-        low=low,
-        high=high,
-        is_discrete=is_discrete,
-        num_actions=3,
-        discount=0.9,
-        max_episode_steps=10,
-    )
-
-
-PENDULUM = make_spec([-np.pi / 2, -2.0], [np.pi / 2, 2.0], name="pendulum")
-LINE = make_spec([0.0], [1.0], name="line")
-CUBE = make_spec([0.0, -1.0, 0.0], [1.0, 1.0, 3.0], is_discrete=[False, False, True])
+PENDULUM = box_spec([-np.pi / 2, -2.0], [np.pi / 2, 2.0], name="pendulum")
+LINE = box_spec([0.0], [1.0], name="line")
+CUBE = box_spec([0.0, -1.0, 0.0], [1.0, 1.0, 3.0], is_discrete=[False, False, True])
 
 
 def random_states(spec, num, seed=0, margin=0.2):
@@ -73,7 +59,7 @@ def test_hand_checked_one_dimensional_case():
 
 def test_asymmetric_offsets_in_two_dimensions():
     # tiling t shifts dim 0 by t/T and dim 1 by 3t/T tile widths (mod one tile)
-    spec = make_spec([0.0, 0.0], [1.0, 1.0])
+    spec = box_spec([0.0, 0.0], [1.0, 1.0])
     rep = TileCoding(num_tilings=4, tiles_per_dim=1).setup(spec, seed=0)
     # each tiling has 2 x 2 tiles; a state just above 1 - 1/4 of a tile in dim 1 moves to
     # the upper tile in tilings whose dim-1 shift (3t mod 4)/4 is >= 1/4
@@ -103,7 +89,7 @@ def test_locality():
 
 
 def test_discrete_dimension_one_tile_per_value():
-    spec = make_spec([0.0, 0.0], [1.0, 3.0], is_discrete=[False, True])
+    spec = box_spec([0.0, 0.0], [1.0, 3.0], is_discrete=[False, True])
     rep = TileCoding(num_tilings=4, tiles_per_dim=[2, 100]).setup(spec, seed=0)
     assert rep.num_features_ == 4 * 3 * 4
     for x in np.linspace(0, 1, 7):
@@ -279,7 +265,7 @@ def test_out_of_range_group_message_names_value():
 
 
 def test_too_many_tiles_is_refused():
-    spec = make_spec([0.0] * 20, [1.0] * 20)
+    spec = box_spec([0.0] * 20, [1.0] * 20)
     with pytest.raises(InvalidParameterError, match="dimension_groups"):
         TileCoding(tiles_per_dim=10).setup(spec, seed=0)
 

@@ -30,6 +30,7 @@ from conjure.testing.planner_checks import (
 
 __all__ = [
     "applicable_checks",
+    "box_spec",
     "check_component",
     "sample_states",
 ]
@@ -47,6 +48,31 @@ def sample_states(spec: DomainSpec, num_states: int, seed: int = 0) -> np.ndarra
     states = rng.uniform(spec.low, spec.high, size=(num_states, spec.num_dims))
     states[:, spec.is_discrete] = np.round(states[:, spec.is_discrete])
     return states
+
+
+def box_spec(
+    low: list[float],
+    high: list[float],
+    is_discrete: list[bool] | None = None,
+    name: str = "box",
+    num_actions: int = 3,
+) -> DomainSpec:
+    """A `DomainSpec` over the box [low, high] (continuous unless ``is_discrete`` says), γ 0.9.
+
+    Examples
+    --------
+    >>> box_spec([0.0, -1.0], [1.0, 1.0]).num_dims
+    2
+    """
+    return DomainSpec(
+        name=name,
+        low=low,
+        high=high,
+        is_discrete=[False] * len(low) if is_discrete is None else is_discrete,
+        num_actions=num_actions,
+        discount=0.9,
+        max_episode_steps=10,
+    )
 
 
 def _check_spec() -> DomainSpec:
