@@ -9,10 +9,10 @@ from typing import Any
 import numpy as np
 import scipy.sparse as sp
 
-from conjure.agents.lstd import LSTD, encode_batch
+from conjure.agents.lstd import LSTD
 from conjure.core.errors import IncompatibleComponentsError, InvalidParameterError
 from conjure.core.interfaces import DomainSpec, Representation, Transition, check_is_set_up
-from conjure.core.linalg import lstd_system, solve_regularized
+from conjure.core.linalg import feature_matrix, lstd_system, solve_regularized
 from conjure.core.params import Configurable, InstanceOf, Interval, Options
 from conjure.core.seeding import make_rng
 
@@ -212,9 +212,9 @@ class FDLSTD(Configurable):
         rng = make_rng(self.seed)
         live = np.array([not t.terminated for t in transitions], dtype=np.float64)
         rewards = np.array([t.reward for t in transitions], dtype=np.float64)
-        phi0 = encode_batch(rep, [t.state for t in transitions])
+        phi0 = feature_matrix(rep, [t.state for t in transitions])
         phi0_next = sp.csr_matrix(
-            sp.diags(live) @ encode_batch(rep, [t.next_state for t in transitions])
+            sp.diags(live) @ feature_matrix(rep, [t.next_state for t in transitions])
         )
         phi0_next.eliminate_zeros()
         self.features_ = [(f,) for f in range(rep.num_features_)]
@@ -340,7 +340,7 @@ class FDLSTD(Configurable):
     def encode(self, states: Sequence[np.ndarray]) -> sp.csr_matrix:
         """Φ over the current features χ (initial features and conjunctions) for ``states``."""
         check_is_set_up(self, "encode")
-        phi0 = encode_batch(self.representation_, states)
+        phi0 = feature_matrix(self.representation_, states)
         columns = _columns(phi0)
         for members in self.features_[phi0.shape[1] :]:
             active = columns[members[0]]

@@ -11,7 +11,6 @@ import numpy as np
 import scipy.sparse as sp
 
 from conjure.agents import persistence
-from conjure.agents.lstd import encode_batch
 from conjure.core.errors import IncompatibleComponentsError
 from conjure.core.interfaces import (
     Agent,
@@ -21,7 +20,7 @@ from conjure.core.interfaces import (
     Transition,
     check_is_set_up,
 )
-from conjure.core.linalg import lstd_system, row_matrix, solve_regularized
+from conjure.core.linalg import feature_matrix, lstd_system, row_matrix, solve_regularized
 from conjure.core.params import InstanceOf, Interval
 from conjure.core.seeding import make_rng, rng_from_state, rng_state, split_seed
 from conjure.policies import EpsilonGreedy, greedy_action
@@ -181,8 +180,8 @@ class LSPI(Agent):
     def _encode(self, transitions: Sequence[Transition]) -> dict[str, Any]:
         rep = self.representation_
         return {
-            "phi": encode_batch(rep, [t.state for t in transitions]),
-            "phi_next": encode_batch(rep, [t.next_state for t in transitions]),
+            "phi": feature_matrix(rep, [t.state for t in transitions]),
+            "phi_next": feature_matrix(rep, [t.next_state for t in transitions]),
             "actions": np.array([t.action for t in transitions], dtype=np.int64),
             "next_actions": np.array([t.next_action for t in transitions], dtype=np.int64),
             "rewards": np.array([t.reward for t in transitions], dtype=np.float64),

@@ -9,23 +9,10 @@ import numpy as np
 import scipy.sparse as sp
 
 from conjure.core.interfaces import DomainSpec, Representation, Transition, check_is_set_up
-from conjure.core.linalg import lstd_system, row_matrix, solve_regularized
+from conjure.core.linalg import feature_matrix, lstd_system, solve_regularized
 from conjure.core.params import Configurable, InstanceOf, Interval
 
-__all__ = ["LSTD", "encode_batch"]
-
-
-def encode_batch(representation: Representation, states: Sequence[np.ndarray]) -> sp.csr_matrix:
-    """Return the sparse Φ̃ whose row i is φ(s_i)ᵀ (binary or dense features)."""
-    n = representation.num_features_
-    if representation.is_binary:
-        rows = [representation.active_features(np.asarray(s, dtype=np.float64)) for s in states]
-        lengths = np.fromiter((r.shape[0] for r in rows), dtype=np.int64, count=len(rows))
-        indptr = np.concatenate([[0], np.cumsum(lengths)])
-        indices = np.concatenate(rows) if rows else np.zeros(0, dtype=np.int64)
-        return row_matrix(indices, indptr, n)
-    dense = np.array([representation.feature_values(np.asarray(s, float)) for s in states])
-    return sp.csr_matrix(dense.reshape(len(states), n))
+__all__ = ["LSTD"]
 
 
 class LSTD(Configurable):
@@ -97,9 +84,9 @@ class LSTD(Configurable):
         check_is_set_up(self, "fit")
         started = time.perf_counter()
         rep = self.representation_
-        phi = encode_batch(rep, [t.state for t in transitions])
+        phi = feature_matrix(rep, [t.state for t in transitions])
         live = np.array([not t.terminated for t in transitions], dtype=np.float64)
-        phi_next = sp.diags(live) @ encode_batch(rep, [t.next_state for t in transitions])
+        phi_next = sp.diags(live) @ feature_matrix(rep, [t.next_state for t in transitions])
         rewards = np.array([t.reward for t in transitions], dtype=np.float64)
         self.a_, self.b_ = lstd_system(phi, sp.csr_matrix(phi_next), rewards, self.spec_.discount)
         self.weights_ = solve_regularized(self.a_, self.b_, float(self.regularization))
@@ -115,4 +102,4 @@ class LSTD(Configurable):
     def values(self, states: Sequence[np.ndarray]) -> np.ndarray:
         """V of every state in ``states``."""
         check_is_set_up(self, "values")
-        return np.asarray(encode_batch(self.representation_, states) @ self.weights_).reshape(-1)
+        return np.asarray(feature_matrix(self.representation_, states) @ self.weights_).reshape(-1)

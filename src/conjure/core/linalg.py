@@ -18,9 +18,13 @@ Notes
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
+
+from conjure.core.interfaces import Representation
 
 __all__ = [
     "DENSE_SOLVE_LIMIT",
@@ -71,6 +75,19 @@ def row_matrix(
     matrix = sp.csr_matrix((data, indices, indptr), shape=(num_rows, int(num_columns)))
     matrix.sum_duplicates()
     return matrix
+
+
+def feature_matrix(representation: Representation, states: Sequence[np.ndarray]) -> sp.csr_matrix:
+    """Return the sparse Φ̃ whose row i is φ(s_i)ᵀ (binary or dense features; Eq. 2.10)."""
+    n = representation.num_features_
+    if representation.is_binary:
+        rows = [representation.active_features(np.asarray(s, dtype=np.float64)) for s in states]
+        lengths = np.fromiter((r.shape[0] for r in rows), dtype=np.int64, count=len(rows))
+        indptr = np.concatenate([[0], np.cumsum(lengths)])
+        indices = np.concatenate(rows) if rows else np.zeros(0, dtype=np.int64)
+        return row_matrix(indices, indptr, n)
+    dense = np.array([representation.feature_values(np.asarray(s, float)) for s in states])
+    return sp.csr_matrix(dense.reshape(len(states), n))
 
 
 def lstd_system(

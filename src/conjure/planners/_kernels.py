@@ -12,7 +12,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from conjure.core.interfaces import DomainSpec, Representation
-from conjure.core.linalg import row_matrix
+from conjure.core.linalg import feature_matrix, row_matrix
 from conjure.models.generative import GenerativeModel
 from conjure.models.steady_state import steady_state_distribution
 from conjure.models.tabular_model import TabularModel
@@ -87,19 +87,6 @@ def improve_policy(q_by_action: np.ndarray, policy: np.ndarray) -> tuple[np.ndar
     """π⁺(s) = argmax_a Q(s, a) (Eq. 2.9, ties keep π) and how many states changed action."""
     improved = greedy_policy(q_by_action, policy)
     return improved, int(np.count_nonzero(improved != policy))
-
-
-def encode_states(representation: Representation, states: np.ndarray) -> sp.csr_matrix:
-    """Return Φ with one row φ(s)ᵀ per state (binary or dense features), sparse."""
-    n = representation.num_features_
-    if representation.is_binary:
-        rows = [representation.active_features(np.asarray(s, dtype=np.float64)) for s in states]
-        lengths = np.fromiter((r.shape[0] for r in rows), dtype=np.int64, count=len(rows))
-        indptr = np.concatenate([[0], np.cumsum(lengths)])
-        indices = np.concatenate(rows) if rows else np.zeros(0, dtype=np.int64)
-        return row_matrix(indices, indptr, n)
-    dense = np.array([representation.feature_values(np.asarray(s, float)) for s in states])
-    return sp.csr_matrix(dense.reshape(len(states), n))
 
 
 def action_features(phi: sp.csr_matrix, actions: np.ndarray, num_actions: int) -> sp.csr_matrix:
@@ -352,10 +339,10 @@ def encode_samples(representation: Representation, batch: dict[str, Any]) -> dic
     Rows of terminal successors are emptied, so every Q(s', ·) read from them is 0.
     """
     num_samples, num_next = batch["rewards"].shape
-    phi = encode_states(representation, batch["states"])
+    phi = feature_matrix(representation, batch["states"])
     flat_next = batch["next_states"].reshape(num_samples * num_next, -1)
     live = (~batch["terminated"].reshape(-1)).astype(np.float64)
-    phi_next = sp.csr_matrix(sp.diags(live) @ encode_states(representation, flat_next))
+    phi_next = sp.csr_matrix(sp.diags(live) @ feature_matrix(representation, flat_next))
     phi_next.eliminate_zeros()
     return {**batch, "phi": phi, "phi_next": phi_next, "num_next": num_next}
 
@@ -419,7 +406,7 @@ def state_features(model: TabularModel, representation: Representation) -> sp.cs
     """Φ over the model's states with terminal rows emptied (Q(terminal, ·) = 0)."""
     phi = sp.csr_matrix(
         sp.diags((~model.is_terminal).astype(np.float64))
-        @ encode_states(representation, model.states)
+        @ feature_matrix(representation, model.states)
     )
     phi.eliminate_zeros()
     return phi

@@ -7,6 +7,7 @@ from typing import Any
 import numpy as np
 import scipy.sparse as sp
 
+from conjure.core.linalg import feature_matrix
 from conjure.core.seeding import make_rng
 from conjure.planners import _kernels
 from conjure.planners._api import ModelAPI
@@ -63,8 +64,7 @@ class QAPI(ModelAPI):
         num_states, num_actions = model.num_states, model.num_actions
         rep = _kernels.setup_representation(self.representation, model.domain_spec, self.seed)
         phi = sp.csr_matrix(
-            sp.diags((~model.is_terminal).astype(np.float64))
-            @ _kernels.encode_states(rep, model.states)
+            sp.diags((~model.is_terminal).astype(np.float64)) @ feature_matrix(rep, model.states)
         )
         phi_bar = _kernels.block_features(phi, num_actions)  # Φ̄, (|A||S| × n|A|)
         r_bar = model.rewards_by_action.reshape(-1)  # R̄, action-major

@@ -7,6 +7,7 @@ from typing import Any
 import numpy as np
 import scipy.sparse as sp
 
+from conjure.core.linalg import feature_matrix
 from conjure.core.seeding import make_rng
 from conjure.planners import _kernels
 from conjure.planners._api import ModelAPI
@@ -65,7 +66,7 @@ class VAPI(ModelAPI):
     def _plan(self, source: Any) -> Plan:
         model = self._tabular(source)
         rep = _kernels.setup_representation(self.representation, model.domain_spec, self.seed)
-        phi = _kernels.encode_states(rep, model.states)
+        phi = feature_matrix(rep, model.states)
         live = sp.diags((~model.is_terminal).astype(np.float64))
         phi_live = sp.csr_matrix(live @ phi)  # V(terminal) = 0
         policy = make_rng(self.seed).integers(model.num_actions, size=model.num_states)
