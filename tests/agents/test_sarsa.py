@@ -128,7 +128,7 @@ def test_save_restore_with_traces_continues_exactly(tmp_path):
     assert resumed.episode_ == first.episode_
     _rollout(domain, resumed, 300, seed=6)
     assert np.array_equal(resumed.weights_, straight.weights_)
-    assert resumed.get_params() == straight.get_params() or repr(resumed) == repr(straight)
+    assert resumed.get_params() == straight.get_params()
 
 
 def test_traces_grow_with_discovered_features():
