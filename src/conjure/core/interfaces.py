@@ -198,6 +198,14 @@ class Domain(gym.Env, Configurable):
         """Return the exact tabular (P, R) model, or ``None`` if the domain has none."""
         return None
 
+    def is_constrained(self, state: np.ndarray) -> bool:
+        """Whether ``state`` is a failure the learner must not reach (constrained(s), Alg. 25).
+
+        Safety-relevant domains return True for crash, pit or fall states and mark the step that
+        enters one with ``info["cost"] = 1.0`` (0.0 otherwise); the default is False.
+        """
+        return False
+
     def check_action(self, action: Any) -> int:
         """Return ``action`` as an int, or raise a clear error if it is not a valid action."""
         n = self.domain_spec.num_actions

@@ -10,9 +10,10 @@ import numpy as np
 import scipy.sparse as sp
 from gymnasium import spaces
 
+from conjure.core.cooperative import NoisyDomain
 from conjure.core.errors import InvalidParameterError
-from conjure.core.interfaces import Domain, DomainSpec
-from conjure.core.params import Constraint, InstanceOf, Interval, did_you_mean
+from conjure.core.interfaces import DomainSpec
+from conjure.core.params import Constraint, InstanceOf, Interval, Options, did_you_mean
 from conjure.models.tabular_model import TabularModel
 
 __all__ = ["GridWorld", "check_grid", "load_map", "open_grid", "shipped_maps"]
@@ -122,14 +123,16 @@ def open_grid(rows: int, cols: int, *, blocked_fraction: float = 0.1, seed: int 
     return grid
 
 
-class GridWorld(Domain):
+class GridWorld(NoisyDomain):
     """Navigate a grid from the start to a goal, avoiding pits, under random wind.
 
-    Geramifard (2012), Section 5.1 (GridWorld-1, Figure 5-1) and Section 5.5.1 (GridWorld-2,
-    Figure 5-10). Actions are up, down, left, right. With probability η (``noise``) the chosen
-    action is replaced by one drawn uniformly from the feasible moves of the current cell
-    ("pushed into any unoccupied neighbouring cell"). Entering a goal earns +1 and entering a pit
-    earns −1; both end the episode. Every other step earns ``step_reward``.
+    Geramifard (2012), Section 5.1 (GridWorld-1, Figure 5-1), Section 5.5.1 (GridWorld-2,
+    Figure 5-10) and Section 5.5.3 (GridWorld-3, Figure 5-14: noise only in the windy cells).
+    Actions are up, down, left, right. With probability η (``noise``) the chosen action is
+    replaced by one drawn uniformly from the feasible moves of the current cell ("pushed into
+    any unoccupied neighbouring cell"). Entering a goal earns +1 and entering a pit earns −1;
+    both end the episode. Every other step earns ``step_reward``. Pits are the constrained
+    states of iCCA (`is_constrained`); the step entering one reports ``info["cost"] = 1.0``.
 
     Parameters
     ----------
@@ -140,6 +143,8 @@ class GridWorld(Domain):
         Reward of every step that reaches neither a goal nor a pit; any finite float.
     noise : float, default=0.3
         η, the probability in [0, 1] that the action is replaced by a random feasible move.
+    noise_cells : {"all", "windy"}, default="all"
+        Where the noise acts: in every cell, or only in the windy cells (code 5; GridWorld-3).
     discount : float, default=1.0
         γ in [0, 1].
     max_episode_steps : int, default=1000
@@ -176,7 +181,11 @@ class GridWorld(Domain):
     - Choice: the goal and pit rewards replace ``step_reward`` (they are not added to it).
     - Choice: ``discount`` defaults to 1.0: the thesis treats both grid worlds as undiscounted
       episodic tasks (cumulative return per episode); RLPy uses 0.9.
-    - Choice: code 5 (the windy cells of GridWorld-3) is free here; the noise is uniform.
+    - Choice: code 5 marks the windy cells; they are free cells, and with
+      ``noise_cells="windy"`` the only cells where the noise acts.
+    - [R] GridWorld-3's figure is missing: its windy cells are taken to be GridWorld-2's code-5
+      block (rows 3-4, columns 14-21), so passing next to the danger cell is safe there while a
+      uniform-noise model wrongly avoids it (Section 5.5.3).
     - Caveat: with this noise model value iteration reproduces the thesis's ratio of planner to
       optimal value for GridWorld-1 (about 3), but not its success rates (29% → 80%); the
       thesis's exact noise model is unknown.
@@ -199,6 +208,7 @@ class GridWorld(Domain):
         ),
         "step_reward": Interval(float, None, None),
         "noise": Interval(float, 0.0, 1.0),
+        "noise_cells": Options(("all", "windy")),
         "discount": Interval(float, 0.0, 1.0),
         "max_episode_steps": Interval(int, 1, None),
     }
@@ -209,12 +219,14 @@ class GridWorld(Domain):
         map_name: str | os.PathLike[str] = "gridworld1",
         step_reward: float = -0.001,
         noise: float = 0.3,
+        noise_cells: str = "all",
         discount: float = 1.0,
         max_episode_steps: int = 1000,
     ) -> None:
         self.map_name = map_name
         self.step_reward = step_reward
         self.noise = noise
+        self.noise_cells = noise_cells
         self.discount = discount
         self.max_episode_steps = max_episode_steps
         self._build()
@@ -233,6 +245,11 @@ class GridWorld(Domain):
     def gridworld_2(cls, **params: Any) -> GridWorld:
         """GridWorld-2 (Section 5.5.1): 5×22 map, two goals, step reward −0.01, η = 0.2."""
         return cls(**{"map_name": "gridworld2", "step_reward": -0.01, "noise": 0.2, **params})
+
+    @classmethod
+    def gridworld_3(cls, **params: Any) -> GridWorld:
+        """GridWorld-3 (Section 5.5.3, Figure 5-14): GridWorld-2 with noise only in windy cells."""
+        return cls.gridworld_2(**{"noise_cells": "windy", **params})
 
     def _build(self) -> None:
         """Validate the parameters, read the map and precompute the move tables."""
@@ -276,6 +293,10 @@ class GridWorld(Domain):
         reward = np.where(codes == GOAL, 1.0, np.where(codes == PIT, -1.0, self.step_reward))
         self._reward = reward.astype(np.float64).tolist()
         self._terminal = ((codes == GOAL) | (codes == PIT)).tolist()
+        self._is_pit = (codes == PIT).tolist()
+        self._is_noisy = (
+            np.ones(codes.size, dtype=bool) if self.noise_cells == "all" else codes == WINDY
+        ).tolist()
         self._coords = list(
             zip(
                 (np.arange(rows * cols) // cols).astype(np.float64).tolist(),
@@ -312,32 +333,68 @@ class GridWorld(Domain):
     def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
         """Move one cell (up, down, left, right); with probability η a random feasible move."""
         a = self.check_action(action)
-        cell = self._cell
-        if self._noise > 0.0:
-            rng = self.np_random
-            if rng.random() < self._noise:
-                moves = self._feasible[cell]
-                if moves:
-                    a = moves[int(rng.random() * len(moves))]
-        cell = self._next_cell[cell][a]
+        cell = self._next(self._cell, a, self._noise, self.np_random)
         self._cell = cell
         obs = np.array(self._coords[cell], dtype=np.float64)
-        return obs, self._reward[cell], self._terminal[cell], False, {}
+        cost = 1.0 if self._is_pit[cell] else 0.0
+        return obs, self._reward[cell], self._terminal[cell], False, {"cost": cost}
 
-    def set_state(self, state: Any) -> None:
-        """Put the agent in cell ``state`` = (row, col) (the generative-model hook, Eq. 2.28)."""
+    def _next(self, cell: int, action: int, noise: float, rng: np.random.Generator) -> int:
+        """The next cell; with probability ``noise`` (in a noisy cell) a random feasible move."""
+        if noise > 0.0 and self._is_noisy[cell] and rng.random() < noise:
+            moves = self._feasible[cell]
+            if moves:
+                action = moves[int(rng.random() * len(moves))]
+        return self._next_cell[cell][action]
+
+    def _cell_of(self, state: Any) -> int:
         row, col = (round(float(x)) for x in np.asarray(state).reshape(-1)[:2])
         rows, cols = self.grid_.shape
         if not (0 <= row < rows and 0 <= col < cols) or self.grid_[row, col] == BLOCKED:
             raise InvalidParameterError(
-                f"GridWorld.set_state: ({row}, {col}) is not a free cell of the {rows}x{cols} map."
+                f"GridWorld: ({row}, {col}) is not a free cell of the {rows}x{cols} map."
             )
-        self._cell = row * cols + col
+        return row * cols + col
+
+    def simulate(
+        self, state: np.ndarray, action: int, noise: float, rng: np.random.Generator
+    ) -> tuple[np.ndarray, float, bool]:
+        """Draw ⟨s', r, terminated⟩ from ``state`` at noise η = ``noise`` (the T̂ of Section 5.5)."""
+        cell = self._next(self._cell_of(state), self.check_action(action), noise, rng)
+        obs = np.array(self._coords[cell], dtype=np.float64)
+        return obs, self._reward[cell], self._terminal[cell]
+
+    def nominal_next_state(self, state: np.ndarray, action: int) -> np.ndarray:
+        """The cell the action leads to without wind."""
+        cell = self._next_cell[self._cell_of(state)][self.check_action(action)]
+        return np.array(self._coords[cell], dtype=np.float64)
+
+    def count_unintended(
+        self, state: np.ndarray, action: int, next_state: np.ndarray
+    ) -> tuple[int, int]:
+        """(1, 1) if the agent did not land where the action leads, else (0, 1).
+
+        Moves from terminal cells, and (with ``noise_cells="windy"``) from calm cells, count
+        as no move: the model's form says no noise acts there.
+        """
+        cell = self._cell_of(state)
+        if self._terminal[cell] or not self._is_noisy[cell]:
+            return 0, 0
+        intended = self._next_cell[cell][self.check_action(action)]
+        return int(self._cell_of(next_state) != intended), 1
+
+    def is_constrained(self, state: np.ndarray) -> bool:
+        """Whether ``state`` is a pit (the danger zones of Figures 5-1 and 5-10)."""
+        return bool(self._is_pit[self._cell_of(state)])
+
+    def set_state(self, state: Any) -> None:
+        """Put the agent in cell ``state`` = (row, col) (the generative-model hook, Eq. 2.28)."""
+        self._cell = self._cell_of(state)
 
     def model(self) -> TabularModel:
         """Return the exact model: one state per non-blocked cell, goals and pits absorbing.
 
-        P^a_{ss'} = (1 − η)·[s' = move(s, a)] + η/k·[s' ∈ feasible moves of s] (k of them; a
+        P^a_{ss'} = (1 − η_s)·[s' = move(s, a)] + η_s/k·[s' ∈ feasible moves of s] (k of them; a
         cell without feasible moves stays put), R(s, a) = Σ P^a_{ss'} r(s'), built vectorised
         in Θ(|S||A|) (Section 2.3's P and R).
         """
@@ -353,24 +410,24 @@ class GridWorld(Domain):
         targets = self._targets[cells]  # (|S|, 4) cell ids
         feasible = self.feasible_moves_.reshape(-1, len(MOVES))[cells]
         num_feasible = feasible.sum(axis=1)
-        eta = float(self.noise)
+        eta = float(self.noise) * np.asarray(self._is_noisy, dtype=np.float64)[cells]
         live = np.flatnonzero(~terminal)
         transitions, rewards = [], np.zeros((num_states, len(MOVES)))
         for a in range(len(MOVES)):
             r_parts = [live]
             c_parts = [index[targets[live, a]]]
-            p_parts = [np.full(live.size, 1.0 - eta)]
-            if eta > 0.0:
+            p_parts = [1.0 - eta[live]]
+            if eta.any():
                 has_moves = live[num_feasible[live] > 0]
                 stuck = live[num_feasible[live] == 0]
                 for m in range(len(MOVES)):
                     chosen = has_moves[feasible[has_moves, m]]
                     r_parts.append(chosen)
                     c_parts.append(index[targets[chosen, m]])
-                    p_parts.append(eta / num_feasible[chosen])
+                    p_parts.append(eta[chosen] / num_feasible[chosen])
                 r_parts.append(stuck)
                 c_parts.append(stuck)
-                p_parts.append(np.full(stuck.size, eta))
+                p_parts.append(eta[stuck])
             absorbing = np.flatnonzero(terminal)
             r_parts.append(absorbing)
             c_parts.append(absorbing)

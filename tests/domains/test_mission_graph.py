@@ -1,0 +1,84 @@
+import numpy as np
+import pytest
+
+from conjure.core.errors import InvalidParameterError
+from conjure.domains.mission_graph import MissionGraph, uav_7_2, uav_10_2
+
+
+def test_floyd_warshall_hop_distances_from_the_base_match_the_reconstruction():
+    # spec 2.2: d(2) = d(3) = 1, d(4) = d(5) = 2, d(6) = d(7) = 3 (thesis numbering)
+    assert uav_7_2().distances[0].tolist() == [0, 1, 1, 2, 2, 3, 3]
+    assert uav_10_2().distances[0].tolist() == [0, 1, 1, 2, 2, 3, 3, 4, 4, 4]
+
+
+def test_distances_are_symmetric_shortest_paths():
+    g = uav_10_2()
+    d = g.distances
+    assert np.array_equal(d, d.T)
+    # triangle inequality holds everywhere, and edges have length 1
+    assert np.all(d[:, :, None] <= d[:, None, :] + d.T[None, :, :].transpose(0, 2, 1) + 0)
+    for u, v in g.edges:
+        assert d[u, v] == 1
+
+
+def test_state_action_counts_match_the_thesis_orders_of_magnitude():
+    assert uav_7_2().state_action_count() == 49 * 49 * 128 * 8 * 49
+    assert uav_10_2().state_action_count() == 100 * 81 * 1024 * 11 * 100
+
+
+def test_crash_penalty_is_minus_the_sum_of_rewards():
+    assert uav_7_2().crash_penalty == -750.0
+    assert uav_10_2().crash_penalty == -1400.0
+
+
+def test_state_layout_and_joint_actions_round_trip():
+    g = uav_7_2()
+    s = g.initial_state()
+    assert g.locations(s).tolist() == [0, 0]
+    assert g.fuels(s).tolist() == [6, 6]
+    assert not g.visited(s).any() and g.time(s) == 0
+    for destinations in ([0, 0], [3, 5], [6, 1]):
+        assert g.decode_action(g.encode_action(destinations)).tolist() == destinations
+    assert g.encode_action([3, 5]) == 3 + 5 * 7
+
+
+def test_config_round_trip():
+    g = uav_7_2()
+    again = MissionGraph.from_dict(g.to_dict())
+    assert again.to_dict() == g.to_dict()
+    assert again.windows[3].tolist() == [2, 4]
+
+
+@pytest.mark.parametrize(
+    ("data", "message"),
+    [
+        ({"num_nodes": 3, "edges": [(1, 2)], "fuel": [1], "horizon": 3}, "base"),
+        ({"num_nodes": 3, "edges": [(0, 1)], "fuel": [1], "horizon": 3}, "disconnected"),
+        ({"num_nodes": 3, "edges": [(0, 1), (1, 2)], "fuel": [-1], "horizon": 3}, "fuel"),
+        ({"num_nodes": 3, "edges": [(0, 3)], "fuel": [1], "horizon": 3}, "edges"),
+        (
+            {
+                "num_nodes": 2,
+                "edges": [(0, 1)],
+                "fuel": [1],
+                "horizon": 3,
+                "targets": {1: {"reward": 1, "probability": 1.5}},
+            },
+            "probabilities",
+        ),
+        (
+            {
+                "num_nodes": 2,
+                "edges": [(0, 1)],
+                "fuel": [1],
+                "horizon": 3,
+                "targets": {1: {"reward": 1, "window": [3, 2]}},
+            },
+            "a <= b",
+        ),
+        ({"num_nodes": 2, "edges": [(0, 1)], "fuel": [1]}, "horizon"),
+    ],
+)
+def test_bad_graphs_are_refused_with_the_value_named(data, message):
+    with pytest.raises(InvalidParameterError, match=message):
+        MissionGraph.from_dict(data)
