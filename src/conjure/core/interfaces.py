@@ -206,6 +206,14 @@ class Domain(gym.Env, Configurable):
         """
         return False
 
+    def value_bounds(self) -> tuple[float, float] | None:
+        """Return (worst, best) expected return from the start over all policies, if known.
+
+        Domains that can solve themselves exactly (UAV 7-2 by backward induction) return the
+        values "optimality" is scaled between (Figure 5-6b); the default is ``None``.
+        """
+        return None
+
     def check_action(self, action: Any) -> int:
         """Return ``action`` as an int, or raise a clear error if it is not a valid action."""
         n = self.domain_spec.num_actions
