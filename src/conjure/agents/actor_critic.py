@@ -2,11 +2,9 @@
 
 from __future__ import annotations
 
-from typing import Any
-
 import numpy as np
 
-from conjure.agents import _kernels
+from conjure.agents import _kernels, persistence
 from conjure.agents.linear_td import STEP_SIZE, LinearTDAgent, make_schedule
 from conjure.core.interfaces import (
     DomainSpec,
@@ -194,11 +192,9 @@ class ActorCritic(LinearTDAgent):
                 arrays[f"actor_representation.{key}"] = value
         return arrays
 
-    def _load_state(self, state: dict[str, Any], arrays: dict[str, np.ndarray]) -> None:
-        super()._load_state(state, arrays)
-        self.actor_weights_ = np.array(arrays["actor_weights"], dtype=np.float64)
+    def _load_state(self, saved: persistence.SavedAgent) -> None:
+        super()._load_state(saved)
         if not self._is_shared:
-            prefix = "actor_representation."
-            self.actor_representation_.load_state_arrays(
-                {k[len(prefix) :]: v for k, v in arrays.items() if k.startswith(prefix)}
-            )
+            self.actor_representation_.load_state_arrays(saved.with_prefix("actor_representation."))
+        shape = (self.actor_representation_.num_features_, self.spec_.num_actions)
+        self.actor_weights_ = saved.array("actor_weights", shape)

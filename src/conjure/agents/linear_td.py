@@ -221,32 +221,16 @@ class LinearTDAgent(Agent):
     def save(self, path: str | Path) -> Path:
         """Write the agent to directory ``path``; see `conjure.agents.persistence`."""
         check_is_set_up(self, "save")
-        arrays = {f"representation.{k}": v for k, v in self.representation_.state_arrays().items()}
-        arrays.update(self._state_arrays())
-        metadata = {
-            "component": persistence.component_to_dict(self),
-            "spec": self.spec_.to_dict(),
-            "state": self._state_metadata(),
-        }
-        return persistence.write(path, metadata, arrays)
+        return persistence.save_agent(self, path)
 
     @classmethod
     def restore(cls, path: str | Path) -> LinearTDAgent:
-        """Load an agent written by `save`; it continues exactly as if never saved."""
-        document, arrays = persistence.read(path)
-        agent = persistence.component_from_dict(document["component"])
-        if not isinstance(agent, cls):
-            raise IncompatibleComponentsError(
-                f"{str(path)!r} holds a {type(agent).__name__}, not a {cls.__name__}."
-            )
-        agent.setup(DomainSpec.from_dict(document["spec"]), seed=0)
-        prefix = "representation."
-        agent.representation_.load_state_arrays(
-            {k[len(prefix) :]: v for k, v in arrays.items() if k.startswith(prefix)}
-        )
-        agent._bind_kernels(agent.representation_)
-        agent._load_state(document["state"], arrays)
-        return agent
+        """Load an agent written by `save`; it continues exactly as if never saved.
+
+        Raises `InvalidParameterError` naming the file for a damaged save (see
+        `conjure.agents.persistence`).
+        """
+        return persistence.restore_agent(cls, path)
 
     def _state_metadata(self) -> dict[str, Any]:
         return {
@@ -258,11 +242,15 @@ class LinearTDAgent(Agent):
     def _state_arrays(self) -> dict[str, np.ndarray]:
         return {"weights": self.weights_}
 
-    def _load_state(self, state: dict[str, Any], arrays: dict[str, np.ndarray]) -> None:
+    def _load_state(self, saved: persistence.SavedAgent) -> None:
+        state = saved.state
         self.episode_ = int(state["episode"])
         self.num_learning_steps_ = int(state["num_learning_steps"])
         self.rng_ = rng_from_state(state["rng"])
-        self.weights_ = np.array(arrays["weights"], dtype=np.float64)
+        self._bind_kernels(self.representation_)
+        self.weights_ = saved.array(
+            "weights", (self.representation_.num_features_, self.spec_.num_actions)
+        )
         self._forget_cache()
 
 
