@@ -173,7 +173,7 @@ class ActorCritic(LinearTDAgent):
 
     def _actor_features(self, state: np.ndarray) -> np.ndarray:
         """ψ(s), from the act cache when possible."""
-        return self._cached_features(state, self._encode_actor)
+        return self._features(state, self._encode_actor)
 
     def _actor_norm(self, psi: np.ndarray) -> float:
         return float(psi.shape[0]) if self._actor_is_binary else float(np.abs(psi).sum())

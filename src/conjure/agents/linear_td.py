@@ -44,6 +44,7 @@ STEP_SIZE = Interval(float, 0, None, closed="neither") | InstanceOf(
     StepSizeSchedule, "a StepSizeSchedule"
 )
 _FLOAT64 = np.dtype(np.float64)
+_NDARRAY = np.ndarray
 
 
 def state_key(state: np.ndarray) -> bytes:
@@ -54,7 +55,7 @@ def state_key(state: np.ndarray) -> bytes:
     >>> state_key(np.array([1.0])) == state_key([1])
     True
     """
-    if type(state) is np.ndarray and state.dtype is _FLOAT64:  # the hot path
+    if type(state) is _NDARRAY and state.dtype is _FLOAT64:
         return state.tobytes()
     return np.asarray(state, dtype=np.float64).tobytes()
 
@@ -193,27 +194,39 @@ class LinearTDAgent(Agent):
         self._last = (None, None, None, -1)
         self._before_last = (None, None, None, -1)
 
+    # The hot paths below inline `state_key`'s fast case (a function call costs as much).
+
     def _remember(self, state: np.ndarray, phi: np.ndarray, q: np.ndarray | None) -> None:
         self._before_last = self._last
-        self._last = (state_key(state), phi, q, self._weights_version)
+        if type(state) is _NDARRAY and state.dtype is _FLOAT64:
+            self._last = (state.tobytes(), phi, q, self._weights_version)
+        else:
+            self._last = (state_key(state), phi, q, self._weights_version)
 
-    def _features(self, state: np.ndarray) -> np.ndarray:
-        """φ(s), from the cache when ``act`` saw a state of the same value."""
-        return self._cached_features(state, self._encode)
+    def _features(self, state: np.ndarray, encode: Any = None) -> np.ndarray:
+        """φ(s) (or ``encode(s)``), from the cache when ``act`` saw a state of the same value.
 
-    def _cached_features(self, state: np.ndarray, encode: Any) -> np.ndarray:
-        key = state_key(state)
-        if key == self._last[0]:
-            return self._last[1]
+        In the run loop s is the state ``act`` saw before last, so that entry is tried first.
+        """
+        if type(state) is _NDARRAY and state.dtype is _FLOAT64:
+            key = state.tobytes()
+        else:
+            key = state_key(state)
         if key == self._before_last[0]:
             return self._before_last[1]
-        return encode(state)
+        if key == self._last[0]:
+            return self._last[1]
+        return (encode or self._encode)(state)
 
     def _next_q_values(self, state: np.ndarray) -> np.ndarray:
         """Q(s', ·) under the current weights, from the cache when still valid."""
-        key, _, q, version = self._last
-        if state_key(state) == key and version == self._weights_version:
-            return q
+        key, phi, q, version = self._last
+        if type(state) is _NDARRAY and state.dtype is _FLOAT64:
+            same = state.tobytes() == key
+        else:
+            same = state_key(state) == key
+        if same:
+            return q if version == self._weights_version else self._q_values(self.weights_, phi)
         return self._q_values(self.weights_, self._features(state))
 
     # ------------------------------------------------------------------ persistence

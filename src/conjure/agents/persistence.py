@@ -169,9 +169,9 @@ def _from_json(value: Any) -> Any:
 
 @dataclass
 class SavedAgent:
-    """The checked contents of a saved agent: its JSON document and its arrays.
+    """The contents of a saved agent (a learner of Algorithms 10-16): JSON document and arrays.
 
-    Attributes
+    Parameters
     ----------
     directory : Path
         The saved agent's directory.
