@@ -17,8 +17,8 @@ Notes
 -----
 - Choice: the loop is the library's hot path (target about 20 µs per SARSA + tile-coding step,
   all included), so it binds methods to locals, allocates nothing per step but the
-  `Transition` and the observation's copy (below), and never times single steps; throughput is measured around whole
-  ``advance`` calls by `conjure.experiments.run`.
+  `Transition` and the observation's copy (below), and never times single steps;
+  throughput is measured around whole ``advance`` calls by `conjure.experiments.run`.
   `profile_steps` gives the per-call microseconds of ``step``, ``act`` and ``learn`` (STYLE
   §2) in a separate, slower loop.
 - Choice: ``domain.legal_actions`` is called only when ``domain_spec.has_action_constraints``;
