@@ -9,6 +9,7 @@ from conjure.domains import GridWorld
 from conjure.experiments.registry import LAYERS
 from conjure.representations import (
     RBF,
+    HashedTabular,
     IndependentDiscretization,
     OnlineIFDD,
     Tabular,
@@ -28,6 +29,7 @@ VARIANTS = [
     SARSA(representation=TileCoding(num_tilings=4, tiles_per_dim=4), trace_decay=0.8),
     SARSA(representation=TileCoding(num_tilings=3, tiles_per_dim=4, memory_size=64)),
     QLearning(representation=RBF()),
+    SARSA(representation=HashedTabular(capacity=64)),
     ActorCritic(representation=Tabular(), actor_representation=RBF()),
     GridWorld(map_name="gridworld2", step_reward=-0.01, noise=0.2),
     TileCoding(num_tilings=2, tiles_per_dim=3, dimension_groups=[[0], [1], [0, 1]]),
