@@ -121,7 +121,8 @@ class UAVMission(NoisyDomain):
       documented in `conjure.domains.mission_graph`.
 
     Complexity: Θ(n²) per step; Θ(Π_i (deg(l_i) + 1)) per legal-action list. `exact_solution`
-    takes Θ(Σ_t |S_t| · |A(s)| · 4^n) time and Θ(H · 2^m Π_i (F_i + 1) N^n) memory bits.
+    takes Θ(Σ_t |S_t| · |A(s)| · 4^n) time over the reachable states S_t of each time layer and
+    Θ(2^m Π_i (F_i + 1) N^n + Σ_t |S_t|) memory (m targets).
 
     Examples
     --------
@@ -186,13 +187,11 @@ class UAVMission(NoisyDomain):
         )
         for table in (adjacency, node_table, layout, high):
             table.flags.writeable = False
-        self._adjacency, self._node_table, self._layout, self._high = (
-            adjacency,
-            node_table,
-            layout,
-            high,
-        )
-        self._tables = (high, layout, adjacency, node_table)
+        self._adjacency = adjacency
+        self._node_table = node_table
+        self._layout = layout
+        self._high = high
+        self._tables = (high, layout, adjacency, node_table)  # checked_transition's order
         self._eta = float(self.traverse_failure)
         self._num_uniforms = 2 * n
         low = np.zeros_like(high)
@@ -441,9 +440,10 @@ class MissionSolution:
     """The exact optimal and worst policies of a UAV mission (Section 5.3.5, Figure 5-6b).
 
     Rows are the non-terminal states reachable from s₀, by time and then by key (see
-    `conjure.domains._mission_dp`); terminal states have value 0.
+    `conjure.domains._mission_dp`); terminal states have value 0. Built by
+    `UAVMission.exact_solution`.
 
-    Attributes
+    Parameters
     ----------
     optimal_return, worst_return : float
         V*(s₀) and the worst policy's V(s₀).
@@ -455,6 +455,11 @@ class MissionSolution:
         V*(s) and V_worst(s) of each row.
     actions, worst_actions : ndarray of int64
         An optimal and a worst joint action of each row (lowest index among ties).
+    num_layer_keys : int
+        Number of keys of one time layer, 2^m Π_i (F_i + 1) N^n.
+    layout, fuel_caps, target_bit : ndarray of int64
+        The state encoding: ``[n, N, base, H]``, each UAV's initial fuel, and each node's bit
+        among the visited targets (−1 for a node without reward).
     """
 
     optimal_return: float
