@@ -5,7 +5,7 @@ import inspect
 import pytest
 
 from conjure.agents import SARSA, ActorCritic, QLearning
-from conjure.domains import GridWorld
+from conjure.domains import GridWorld, UAVMission
 from conjure.experiments.registry import LAYERS
 from conjure.representations import (
     RBF,
@@ -32,6 +32,7 @@ VARIANTS = [
     SARSA(representation=HashedTabular(capacity=64)),
     ActorCritic(representation=Tabular(), actor_representation=RBF()),
     GridWorld(map_name="gridworld2", step_reward=-0.01, noise=0.2),
+    UAVMission(scenario="uav-10-2", traverse_failure=0.05),
     TileCoding(num_tilings=2, tiles_per_dim=3, dimension_groups=[[0], [1], [0, 1]]),
     OnlineIFDD(base=TileCoding(num_tilings=2, tiles_per_dim=3), relevance="ifdd_plus"),
     SARSA(

@@ -31,6 +31,7 @@ from conjure.domains import (
     InvertedPendulum,
     PersistentSurveillance,
     RescueMission,
+    UAVMission,
 )
 from conjure.planners import (
     QAPI,
@@ -81,6 +82,7 @@ DOMAINS: dict[str, type[Configurable]] = {
     "InvertedPendulum": InvertedPendulum,
     "PersistentSurveillance": PersistentSurveillance,
     "RescueMission": RescueMission,
+    "UAVMission": UAVMission,
 }
 REPRESENTATIONS: dict[str, type[Configurable]] = {
     "ARiFDD": ARiFDD,
