@@ -114,6 +114,8 @@ def test_a_uav_at_the_base_waits_there_when_it_is_early():
     plan = planner(graph, variant="aggressive").plan(graph.initial_state())
     assert plan.paths[0].tolist()[-1] == 9
     assert plan.allocation.departures[0] == 1.0 and plan.allocation.returns[0] == 9.0
+    assert plan.arrivals[0][0] == 1.0 + graph.distances[graph.base, plan.paths[0][0]]
+    assert plan.arrivals[0][-1] == 5.0  # target 9 as its window opens, home at 9
     assert plan.destinations[0] == graph.base
 
 
@@ -184,6 +186,10 @@ def test_first_moves_follow_shortest_paths_and_keep_the_fuel_check(make_graph, v
             if there != here:
                 assert graph.distances[there, goal] == graph.distances[here, goal] - 1
         alloc = plan.allocation
+        for nodes, arrivals in zip(plan.paths, plan.arrivals, strict=True):
+            assert np.all(arrivals >= graph.time(s) + 1)
+            start, end = graph.windows[nodes, 0], graph.windows[nodes, 1]
+            assert np.all((start <= arrivals) & (arrivals <= end))
         planned = [len(path) > 0 for path in plan.paths]
         assert np.all(alloc.returns[planned] <= graph.horizon)
         assert np.all(alloc.fuel_used[planned] <= plan.fuel[planned])

@@ -28,30 +28,40 @@ MIN_FIRST_LEG, TIME_DISCOUNT, FUEL_WEIGHT = 0, 1, 2
 
 
 @njit(cache=True)
-def schedule(distances, agents, i, path, path_len, tasks, base, now, horizon, settings, arrivals):
-    """Arrival times of agent ``i`` along ``path[:path_len]``; return (feasible, return, departure).
+def forward_pass(distances, here, t, path, path_len, tasks, settings, arrivals):
+    """Leave ``here`` at ``t`` and reach each task at max(window start, t + travel).
 
-    Each task is reached at max(window start, previous arrival + travel) (loitering allowed);
-    the path is feasible when every arrival is within its window, the agent is back at
-    ``base`` by ``horizon`` and the fuel it burns, (return − departure), is within its fuel.
-    An agent at the base departs as late as its return time allows (loitering at the base is
-    free); anywhere else it departs now. ``arrivals[:path_len]`` receives the arrival times.
+    Return (every arrival within its window, time at the last task, last location).
     """
-    location = int(agents[i, LOCATION])
-    t = now
-    here = location
     for k in range(path_len):
         task = path[k]
         node = int(tasks[task, LOC])
         travel = distances[here, node]
         if k == 0 and travel < settings[MIN_FIRST_LEG]:
             travel = settings[MIN_FIRST_LEG]
-        arrival = max(tasks[task, START], t + travel)
-        if arrival > tasks[task, END]:
-            return False, np.inf, now
-        arrivals[k] = arrival
-        t = arrival
+        t = max(tasks[task, START], t + travel)
+        if t > tasks[task, END]:
+            return False, t, node
+        arrivals[k] = t
         here = node
+    return True, t, here
+
+
+@njit(cache=True)
+def schedule(distances, agents, i, path, path_len, tasks, base, now, horizon, settings, arrivals):
+    """Arrival times of agent ``i`` along ``path[:path_len]``; return (feasible, return, departure).
+
+    Each task is reached at max(window start, previous arrival + travel) (loitering allowed);
+    the path is feasible when every arrival is within its window, the agent is back at
+    ``base`` by ``horizon`` and the fuel it burns, (return − departure), is within its fuel.
+    An agent at the base departs as late as its earliest return time allows (loitering at the
+    base is free); anywhere else it departs now. ``arrivals[:path_len]`` receives the arrival
+    times after that departure.
+    """
+    location = int(agents[i, LOCATION])
+    ok, t, here = forward_pass(distances, location, now, path, path_len, tasks, settings, arrivals)
+    if not ok:
+        return False, np.inf, now
     back = t + distances[here, base]
     if path_len == 0:
         return True, back, now
@@ -66,6 +76,8 @@ def schedule(distances, agents, i, path, path_len, tasks, base, now, horizon, se
             latest = min(tasks[path[k], END], latest - distances[node, after])
             after = node
         departure = latest - max(distances[base, after], settings[MIN_FIRST_LEG])
+        if departure > now:  # feasible again, and back by `back` (latest-start argument)
+            forward_pass(distances, base, departure, path, path_len, tasks, settings, arrivals)
     return back - departure <= agents[i, FUEL], back, departure
 
 
@@ -85,15 +97,14 @@ def path_score(distances, agents, i, path, path_len, tasks, settings, arrivals):
 
 @njit(cache=True)
 def best_insertion(
-    distances, agents, i, path, path_len, task, tasks, base, now, horizon, settings, scratch, times
-):
+    distances, agents, i, path, path_len, current, task, tasks, base, now, horizon, settings,
+    scratch, times,
+):  # fmt: skip
     """c_ij and n_ij: the best marginal score of inserting ``task`` into the path, and where.
 
-    Infeasible positions are skipped; ties go to the least fuel burnt, then the earliest
-    return, then the earliest position. Return (found, gain, position).
+    ``current`` is S_i(path). Infeasible positions are skipped; ties go to the least fuel
+    burnt, then the earliest return, then the earliest position. Return (found, gain, position).
     """
-    schedule(distances, agents, i, path, path_len, tasks, base, now, horizon, settings, times)
-    current = path_score(distances, agents, i, path, path_len, tasks, settings, times)
     found, best_gain, best_fuel, best_back, best_position = False, 0.0, 0.0, 0.0, -1
     for position in range(path_len + 1):
         for k in range(position):
@@ -135,11 +146,14 @@ def build_bundle(
     placed = False
     while bundle_len[i] < max_bundle:
         chosen, chosen_gain, chosen_position = -1, 0.0, -1
+        path, length = paths[i], bundle_len[i]
+        schedule(distances, agents, i, path, length, tasks, base, now, horizon, settings, times)
+        current = path_score(distances, agents, i, path, length, tasks, settings, times)
         for task in range(m):
             if in_bundle[task]:
                 continue
             found, gain, position = best_insertion(
-                distances, agents, i, paths[i], bundle_len[i], task, tasks, base, now, horizon,
+                distances, agents, i, path, length, current, task, tasks, base, now, horizon,
                 settings, scratch, times,
             )  # fmt: skip
             if not found or gain <= 0.0:
@@ -155,7 +169,6 @@ def build_bundle(
                 chosen, chosen_gain, chosen_position = task, gain, position
         if chosen < 0:
             break
-        length = bundle_len[i]
         for k in range(length, chosen_position, -1):  # insert J into p_i at n_iJ
             paths[i, k] = paths[i, k - 1]
         paths[i, chosen_position] = chosen
@@ -226,10 +239,12 @@ def consensus_round(bids, winners, stamps, adjacency, round_index):
     """One synchronous exchange of (y, z, s) over ``adjacency`` (k's message reaches i if [k, i]).
 
     Every receiver reads its neighbours' beliefs as they were at the start of the round and
-    processes senders in increasing index, raising its time-stamps after each one.
+    processes senders in increasing index, raising its time-stamps after each one. Return
+    which receivers changed a bid or a winner.
     """
     n, m = bids.shape
     sent_bids, sent_winners, sent_stamps = bids.copy(), winners.copy(), stamps.copy()
+    changed = np.zeros(n, dtype=np.bool_)
     for i in range(n):
         for k in range(n):
             if k == i or not adjacency[k, i]:
@@ -240,15 +255,19 @@ def consensus_round(bids, winners, stamps, adjacency, round_index):
                     bids[i, task], sent_stamps[k], stamps[i],
                 )  # fmt: skip
                 if action == UPDATE:
-                    bids[i, task] = sent_bids[k, task]
-                    winners[i, task] = sent_winners[k, task]
+                    new_bid, new_winner = sent_bids[k, task], sent_winners[k, task]
                 elif action == RESET:
-                    bids[i, task] = 0.0
-                    winners[i, task] = NONE
+                    new_bid, new_winner = 0.0, NONE
+                else:
+                    continue
+                if new_bid != bids[i, task] or new_winner != winners[i, task]:
+                    bids[i, task], winners[i, task] = new_bid, new_winner
+                    changed[i] = True
             for other in range(n):
                 if other != i and sent_stamps[k, other] > stamps[i, other]:
                     stamps[i, other] = sent_stamps[k, other]
             stamps[i, k] = round_index
+    return changed
 
 
 @njit(cache=True)
@@ -297,8 +316,9 @@ def run_cbba(
     """CBBA: rounds of consensus, bundle release and bundle construction until convergence.
 
     Converged when no agent placed a new bid for more than n rounds; gives up after
-    ``max_rounds``. Return (bundles, bundle_len, paths, arrivals, departures, returns, bids,
-    winners, rounds, converged).
+    ``max_rounds``. An agent whose beliefs and bundle did not change since its last bundle
+    construction skips it (it would place no bid). Return (bundles, bundle_len, paths,
+    arrivals, departures, returns, bids, winners, rounds, converged).
     """
     n, m = agents.shape[0], tasks.shape[0]
     bundles = np.full((n, max(max_bundle, 1)), NONE, dtype=np.int64)
@@ -310,11 +330,11 @@ def run_cbba(
     rounds, last_bid, converged = 0, 0, False
     while rounds < max_rounds:
         rounds += 1
-        consensus_round(bids, winners, stamps, adjacency, rounds)
+        changed = consensus_round(bids, winners, stamps, adjacency, rounds)
         placed = False
         for i in range(n):
-            release_bundle(i, bundles, bundle_len, paths, bids, winners)
-            if build_bundle(
+            released = release_bundle(i, bundles, bundle_len, paths, bids, winners)
+            if (rounds == 1 or changed[i] or released) and build_bundle(
                 distances, agents, i, tasks, base, now, horizon, settings,
                 bundles, bundle_len, paths, bids, winners, max_bundle,
             ):  # fmt: skip
@@ -349,6 +369,18 @@ def run_cbba(
 
 
 # --------------------------------------------------------------------------- UAV missions
+
+
+@njit(cache=True)
+def is_mission_state(state, num_uavs, num_nodes):
+    """Whether ``state`` holds finite ints, nodes in [0, N), fuel >= 0 and time >= 0."""
+    for k in range(state.shape[0]):
+        if not (np.isfinite(state[k]) and state[k] == np.floor(state[k])):
+            return False
+    for i in range(num_uavs):
+        if not (0 <= state[2 * i] < num_nodes and state[2 * i + 1] >= 0):
+            return False
+    return state[state.shape[0] - 1] >= 0
 
 
 @njit(cache=True)

@@ -40,7 +40,7 @@ class Allocation:
     paths : tuple of ndarray of int64
         p_i: the same tasks in the order agent i executes them.
     arrivals : tuple of ndarray of float64
-        The planned arrival time at each task of p_i.
+        The planned arrival time at each task of p_i, leaving at ``departures[i]``.
     departures : ndarray of float64, shape (n,)
         When each agent sets off (later than now only for an agent waiting at the base).
     returns : ndarray of float64, shape (n,)
