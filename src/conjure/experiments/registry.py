@@ -37,6 +37,7 @@ from conjure.planners import (
     QAPI,
     QAVI,
     VAPI,
+    CBBAPlanner,
     FittedValueIteration,
     PolicyIteration,
     SampledQAPI1,
@@ -62,6 +63,7 @@ from conjure.representations import (
 
 __all__ = [
     "AGENTS",
+    "COOPERATIVE_PLANNERS",
     "DOMAINS",
     "LAYERS",
     "PLANNERS",
@@ -120,6 +122,10 @@ PLANNERS: dict[str, type[Configurable]] = {
     "VAPI": VAPI,
     "ValueIteration": ValueIteration,
 }
+#: π^p of iCCA (Section 5.3.1): `conjure.core.cooperative.CooperativePlanner` subclasses.
+COOPERATIVE_PLANNERS: dict[str, type[Configurable]] = {
+    "CBBAPlanner": CBBAPlanner,
+}
 SCHEDULES: dict[str, type[Configurable]] = {
     "ConstantStepSize": ConstantStepSize,
     "EpisodicDecay": EpisodicDecay,
@@ -133,6 +139,7 @@ LAYERS: dict[str, dict[str, type[Configurable]]] = {
     "policy": POLICIES,
     "agent": AGENTS,
     "planner": PLANNERS,
+    "cooperative_planner": COOPERATIVE_PLANNERS,
     "schedule": SCHEDULES,
 }
 
@@ -171,8 +178,8 @@ def build(layer: str | None, spec: Mapping[str, Any], *, path: str = "") -> Conf
     Parameters
     ----------
     layer : str or None
-        ``"domain"``, ``"representation"``, ``"policy"``, ``"agent"`` or ``"schedule"``;
-        ``None`` looks the kind up in every registry.
+        ``"domain"``, ``"representation"``, ``"policy"``, ``"agent"``, ``"planner"``,
+        ``"cooperative_planner"`` or ``"schedule"``; ``None`` looks the kind up in every registry.
     spec : mapping
         ``{"kind": name, "params": {...}}`` (``params`` may be omitted).
     path : str, default ""

@@ -1,6 +1,8 @@
-"""Planners: dynamic programming and approximate DP on models (Algorithms 1-9, 13)."""
+"""Planners: DP and approximate DP on models (Algorithms 1-9, 13); CBBA for iCCA (Algorithm 27)."""
 
 from conjure.planners.base import Plan, PlanAgent, Planner
+from conjure.planners.cbba import CBBA, Allocation
+from conjure.planners.cbba_planner import CBBAPlanner, MissionPlan
 from conjure.planners.fitted_vi import FittedValueIteration
 from conjure.planners.policy_iteration import PolicyIteration
 from conjure.planners.q_api import QAPI
@@ -12,10 +14,14 @@ from conjure.planners.v_api import VAPI
 from conjure.planners.value_iteration import ValueIteration
 
 __all__ = [
+    "CBBA",
     "QAPI",
     "QAVI",
     "VAPI",
+    "Allocation",
+    "CBBAPlanner",
     "FittedValueIteration",
+    "MissionPlan",
     "Plan",
     "PlanAgent",
     "Planner",
