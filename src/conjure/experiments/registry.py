@@ -32,15 +32,19 @@ from conjure.domains import (
     PersistentSurveillance,
     RescueMission,
 )
+from conjure.models.approximate_model import ApproximateModel
 from conjure.planners import (
     QAPI,
     QAVI,
     VAPI,
     FittedValueIteration,
+    ModelPlanner,
     PolicyIteration,
     SampledQAPI1,
     SampledQAPI2,
     SampledQAVI,
+    ShortestPathPlanner,
+    SwitchingPlanner,
     TrajectoryQAPI,
     ValueIteration,
 )
@@ -57,14 +61,26 @@ from conjure.representations import (
     Tabular,
     TileCoding,
 )
+from conjure.safety import (
+    AdaptiveCooperativeLearner,
+    CooperativeActorCritic,
+    CooperativeLearner,
+    FuelRiskAnalyzer,
+    MonteCarloRiskAnalyzer,
+    NominalRiskAnalyzer,
+    PlannerAgent,
+)
 
 __all__ = [
     "AGENTS",
+    "COOPERATIVE_PLANNERS",
     "DOMAINS",
     "LAYERS",
+    "MODELS",
     "PLANNERS",
     "POLICIES",
     "REPRESENTATIONS",
+    "RISK_ANALYZERS",
     "SCHEDULES",
     "build",
     "find_kind",
@@ -99,8 +115,12 @@ POLICIES: dict[str, type[Configurable]] = {
 }
 AGENTS: dict[str, type[Configurable]] = {
     "ActorCritic": ActorCritic,
+    "AdaptiveCooperativeLearner": AdaptiveCooperativeLearner,
+    "CooperativeActorCritic": CooperativeActorCritic,
+    "CooperativeLearner": CooperativeLearner,
     "LSPI": LSPI,
     "LSPIBRM": LSPIBRM,
+    "PlannerAgent": PlannerAgent,
     "QLearning": QLearning,
     "SARSA": SARSA,
 }
@@ -116,6 +136,19 @@ PLANNERS: dict[str, type[Configurable]] = {
     "VAPI": VAPI,
     "ValueIteration": ValueIteration,
 }
+COOPERATIVE_PLANNERS: dict[str, type[Configurable]] = {
+    "ModelPlanner": ModelPlanner,
+    "ShortestPathPlanner": ShortestPathPlanner,
+    "SwitchingPlanner": SwitchingPlanner,
+}
+RISK_ANALYZERS: dict[str, type[Configurable]] = {
+    "FuelRiskAnalyzer": FuelRiskAnalyzer,
+    "MonteCarloRiskAnalyzer": MonteCarloRiskAnalyzer,
+    "NominalRiskAnalyzer": NominalRiskAnalyzer,
+}
+MODELS: dict[str, type[Configurable]] = {
+    "ApproximateModel": ApproximateModel,
+}
 SCHEDULES: dict[str, type[Configurable]] = {
     "ConstantStepSize": ConstantStepSize,
     "EpisodicDecay": EpisodicDecay,
@@ -129,6 +162,9 @@ LAYERS: dict[str, dict[str, type[Configurable]]] = {
     "policy": POLICIES,
     "agent": AGENTS,
     "planner": PLANNERS,
+    "cooperative_planner": COOPERATIVE_PLANNERS,
+    "risk": RISK_ANALYZERS,
+    "model": MODELS,
     "schedule": SCHEDULES,
 }
 
@@ -167,7 +203,7 @@ def build(layer: str | None, spec: Mapping[str, Any], *, path: str = "") -> Conf
     Parameters
     ----------
     layer : str or None
-        ``"domain"``, ``"representation"``, ``"policy"``, ``"agent"`` or ``"schedule"``;
+        A key of `LAYERS` (``"domain"``, ``"agent"``, ``"cooperative_planner"``, ...);
         ``None`` looks the kind up in every registry.
     spec : mapping
         ``{"kind": name, "params": {...}}`` (``params`` may be omitted).

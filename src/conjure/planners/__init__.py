@@ -1,12 +1,19 @@
-"""Planners: dynamic programming and approximate DP on models (Algorithms 1-9, 13)."""
+"""Planners: dynamic programming and approximate DP on models (Algorithms 1-9, 13).
+
+Cooperative planners π^p of iCCA (Section 5.3.1): `ModelPlanner`, `ShortestPathPlanner`,
+`SwitchingPlanner`.
+"""
 
 from conjure.planners.base import Plan, PlanAgent, Planner
 from conjure.planners.fitted_vi import FittedValueIteration
+from conjure.planners.model_planner import ModelPlanner
 from conjure.planners.policy_iteration import PolicyIteration
 from conjure.planners.q_api import QAPI
 from conjure.planners.q_avi import QAVI
 from conjure.planners.sampled_q_api import SampledQAPI1, SampledQAPI2
 from conjure.planners.sampled_q_avi import SampledQAVI
+from conjure.planners.shortest_path import ShortestPathPlanner
+from conjure.planners.switching_planner import SwitchingPlanner
 from conjure.planners.trajectory_q_api import TrajectoryQAPI
 from conjure.planners.v_api import VAPI
 from conjure.planners.value_iteration import ValueIteration
@@ -16,6 +23,7 @@ __all__ = [
     "QAVI",
     "VAPI",
     "FittedValueIteration",
+    "ModelPlanner",
     "Plan",
     "PlanAgent",
     "Planner",
@@ -23,6 +31,8 @@ __all__ = [
     "SampledQAPI1",
     "SampledQAPI2",
     "SampledQAVI",
+    "ShortestPathPlanner",
+    "SwitchingPlanner",
     "TrajectoryQAPI",
     "ValueIteration",
 ]
