@@ -6,7 +6,7 @@ from typing import Any
 
 import numpy as np
 
-from conjure.agents import _kernels
+from conjure.agents import _kernels, persistence
 from conjure.agents.linear_td import STEP_SIZE, LinearTDAgent, make_schedule
 from conjure.core.interfaces import (
     DomainSpec,
@@ -202,15 +202,17 @@ class ActorCritic(LinearTDAgent):
         arrays = super()._state_arrays()
         arrays["actor_weights"] = self.actor_weights_
         if not self._is_shared:
-            for key, value in self.actor_representation_.state_arrays().items():
-                arrays[f"actor_representation.{key}"] = value
+            arrays.update(
+                persistence.prefixed(
+                    "actor_representation.", self.actor_representation_.state_arrays()
+                )
+            )
         return arrays
 
     def _load_state(self, state: dict[str, Any], arrays: dict[str, np.ndarray]) -> None:
         super()._load_state(state, arrays)
         self.actor_weights_ = np.array(arrays["actor_weights"], dtype=np.float64)
         if not self._is_shared:
-            prefix = "actor_representation."
             self.actor_representation_.load_state_arrays(
-                {k[len(prefix) :]: v for k, v in arrays.items() if k.startswith(prefix)}
+                persistence.unprefixed("actor_representation.", arrays)
             )

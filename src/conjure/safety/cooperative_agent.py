@@ -136,7 +136,7 @@ class CooperativeAgent(Agent):
         check_is_set_up(self, "save")
         directory = Path(path)
         self.learner_.save(directory / LEARNER_DIRECTORY)
-        arrays = {f"index.{k}": v for k, v in self.index_.state_arrays().items()}
+        arrays = persistence.prefixed("index.", self.index_.state_arrays())
         arrays.update(self._table_arrays())
         state = {
             "num_unintended": self.model_.num_unintended_,
@@ -147,30 +147,19 @@ class CooperativeAgent(Agent):
             "risk_rng": rng_state(self.risk_.rng_),
             "extra": self._extra_state(),
         }
-        metadata = {
-            "component": persistence.component_to_dict(self),
-            "spec": self.spec_.to_dict(),
-            "state": state,
-        }
-        return persistence.write(directory, metadata, arrays)
+        return persistence.write_agent(directory, self, state, arrays)
 
     @classmethod
     def restore(cls, path: str | Path) -> CooperativeAgent:
         """Load an agent written by `save`; it continues exactly as if never saved.
 
-        π^p is re-made by replanning at the η̂ it was last planned at, then T̂'s counts are
-        restored.
+        π^p is re-made by replanning at the η̂ it was last planned at (planners are set up
+        with seed 0, so a planner that draws random numbers re-plans differently), then T̂'s
+        counts are restored.
         """
         directory = Path(path)
-        document, arrays = persistence.read(directory)
-        agent = persistence.component_from_dict(document["component"])
-        if not isinstance(agent, cls):
-            raise IncompatibleComponentsError(
-                f"{str(path)!r} holds a {type(agent).__name__}, not a {cls.__name__}."
-            )
-        agent.setup(DomainSpec.from_dict(document["spec"]), seed=0)
+        agent, state, arrays = persistence.read_agent(directory, cls)
         agent.learner_ = type(agent.learner_).restore(directory / LEARNER_DIRECTORY)
-        state = document["state"]
         model = agent.model_
         model.noise_ = agent.planned_noise_ = float(state["planned_noise"])
         if agent.planner_.update(model):
@@ -179,10 +168,7 @@ class CooperativeAgent(Agent):
         agent.rng_ = rng_from_state(state["rng"])
         agent.eval_rng_ = rng_from_state(state["evaluation_rng"])
         agent.risk_.rng_ = rng_from_state(state["risk_rng"])
-        prefix = "index."
-        agent.index_.load_state_arrays(
-            {k[len(prefix) :]: v for k, v in arrays.items() if k.startswith(prefix)}
-        )
+        agent.index_.load_state_arrays(persistence.unprefixed("index.", arrays))
         for name in agent._table_arrays():
             getattr(agent, f"{name}_")[...] = arrays[name]
         for name, value in state["extra"].items():

@@ -8,7 +8,6 @@ import numpy as np
 
 from conjure.agents import persistence
 from conjure.core.cooperative import CooperativePlanner
-from conjure.core.errors import IncompatibleComponentsError
 from conjure.core.interfaces import Agent, DomainSpec, Transition, check_is_set_up
 from conjure.core.params import InstanceOf
 from conjure.core.seeding import split_seed
@@ -105,20 +104,9 @@ class PlannerAgent(Agent):
     def save(self, path: str | Path) -> Path:
         """Write the agent's parameters and spec to directory ``path`` (π^p is re-planned)."""
         check_is_set_up(self, "save")
-        metadata = {
-            "component": persistence.component_to_dict(self),
-            "spec": self.spec_.to_dict(),
-            "state": {},
-        }
-        return persistence.write(path, metadata, {})
+        return persistence.write_agent(path, self, {}, {})
 
     @classmethod
     def restore(cls, path: str | Path) -> PlannerAgent:
-        """Rebuild the agent written by `save` and plan again."""
-        document, _ = persistence.read(path)
-        agent = persistence.component_from_dict(document["component"])
-        if not isinstance(agent, cls):
-            raise IncompatibleComponentsError(
-                f"{str(path)!r} holds a {type(agent).__name__}, not a {cls.__name__}."
-            )
-        return agent.setup(DomainSpec.from_dict(document["spec"]), seed=0)
+        """Rebuild the agent written by `save` and plan again (with seed 0)."""
+        return persistence.read_agent(path, cls)[0]

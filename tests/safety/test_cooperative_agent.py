@@ -1,0 +1,76 @@
+import tempfile
+
+import numpy as np
+import pytest
+from safety_fakes import gridworld_model
+
+from conjure.agents import SARSA
+from conjure.core.errors import IncompatibleComponentsError
+from conjure.domains import GridWorld
+from conjure.experiments.loop import LearningLoop
+from conjure.planners import ShortestPathPlanner
+from conjure.representations import Tabular, TileCoding
+from conjure.safety import CooperativeLearner, MonteCarloRiskAnalyzer
+
+
+def csarsa(model=None, index=None):
+    return CooperativeLearner(
+        learner=SARSA(representation=Tabular()),
+        planner=ShortestPathPlanner(),
+        risk=MonteCarloRiskAnalyzer(),
+        model=gridworld_model(GridWorld.gridworld_2()) if model is None else model,
+        index=index,
+        num_known_visits=2,
+    )
+
+
+def test_the_parts_share_one_model_and_planner():
+    agent = csarsa().setup(GridWorld.gridworld_2().domain_spec, seed=0)
+    assert agent.risk_.model_ is agent.model_ and agent.risk_.planner_ is agent.planner_
+    assert agent.planned_noise_ == agent.model_.noise_ == 0.2
+    assert agent.learner_.num_features == agent.num_features == 5 * 22
+
+
+def test_a_model_of_another_map_is_refused():
+    agent = csarsa(model=gridworld_model(GridWorld.gridworld_1()))
+    with pytest.raises(IncompatibleComponentsError, match="map or graph"):
+        agent.setup(GridWorld.gridworld_2().domain_spec, seed=0)
+
+
+def test_the_index_needs_one_feature_per_state():
+    agent = csarsa(index=TileCoding(num_tilings=2, tiles_per_dim=3))
+    agent.setup(GridWorld.gridworld_2().domain_spec, seed=0)
+    with pytest.raises(IncompatibleComponentsError, match="one feature per state"):
+        agent.act(np.array([4.0, 11.0]))
+
+
+def learn(agent, seed, num_steps, loop=None):
+    domain = GridWorld.gridworld_2()
+    loop = LearningLoop(domain, agent, seed=seed) if loop is None else loop
+    loop.advance(num_steps)
+    return loop
+
+
+def test_save_and_restore_continue_exactly():
+    spec = GridWorld.gridworld_2().domain_spec
+    straight = csarsa().setup(spec, seed=3)
+    learn(straight, seed=1, num_steps=400)
+    learn(straight, seed=2, num_steps=400)
+
+    halves = csarsa().setup(spec, seed=3)
+    learn(halves, seed=1, num_steps=400)
+    with tempfile.TemporaryDirectory() as directory:
+        halves.save(directory)
+        resumed = CooperativeLearner.restore(directory)
+    learn(resumed, seed=2, num_steps=400)
+    np.testing.assert_array_equal(resumed.learner_.weights_, straight.learner_.weights_)
+    np.testing.assert_array_equal(resumed.counts_, straight.counts_)
+    assert resumed.risk_.rng_.bit_generator.state == straight.risk_.rng_.bit_generator.state
+
+
+def test_restore_refuses_another_class(tmp_path):
+    from conjure.safety import AdaptiveCooperativeLearner
+
+    csarsa().setup(GridWorld.gridworld_2().domain_spec, seed=0).save(tmp_path)
+    with pytest.raises(IncompatibleComponentsError, match="not a AdaptiveCooperativeLearner"):
+        AdaptiveCooperativeLearner.restore(tmp_path)
