@@ -11,6 +11,7 @@ from conjure.models.approximate_model import ApproximateModel
 from conjure.planners import ModelPlanner, ShortestPathPlanner, SwitchingPlanner
 from conjure.representations import (
     RBF,
+    HashedTabular,
     IndependentDiscretization,
     OnlineIFDD,
     Tabular,
@@ -50,6 +51,7 @@ VARIANTS = [
     SARSA(representation=TileCoding(num_tilings=4, tiles_per_dim=4), trace_decay=0.8),
     SARSA(representation=TileCoding(num_tilings=3, tiles_per_dim=4, memory_size=64)),
     QLearning(representation=RBF()),
+    SARSA(representation=HashedTabular(capacity=64)),
     ActorCritic(representation=Tabular(), actor_representation=RBF()),
     GridWorld(map_name="gridworld2", step_reward=-0.01, noise=0.2),
     TileCoding(num_tilings=2, tiles_per_dim=3, dimension_groups=[[0], [1], [0, 1]]),
