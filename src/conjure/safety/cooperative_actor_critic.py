@@ -40,7 +40,8 @@ class CooperativeActorCritic(CooperativeAgent):
     model : ApproximateModel
         T̂, a model of the learning domain's map or graph.
     index : Representation or None, default None
-        Gives each state its row in the first-visit table; ``None`` means ``Tabular()``.
+        Gives each state its row in the first-visit table; ``None`` means ``Tabular()``, or
+        ``HashedTabular()`` on state spaces of more than a million cells (UAV missions).
     bias : float, default 100.0
         λ ≥ 0, the planner bias and the unsafe-action penalty (Section 5.3.5: 100).
 
@@ -128,10 +129,10 @@ class CooperativeActorCritic(CooperativeAgent):
         check_is_set_up(self, "act")
         learner = self.learner_
         planner_action = self.planner_.action(state)  # line 1
-        row = self.state_row(state)
+        row = self.state_row(state, store=not greedy)
         if greedy:
             preferences = learner.preferences(state)
-            if not self.visited_[row]:
+            if row < 0 or not self.visited_[row]:  # −1: never seen
                 preferences[planner_action] += self.bias
             learner_action = int(greedy_action(preferences, self._actions(legal_actions)))
             if self.risk_.is_safe(state, learner_action, self.eval_rng_):

@@ -9,12 +9,12 @@ import numpy as np
 
 from conjure.agents import persistence
 from conjure.core.cooperative import CooperativePlanner, RiskAnalyzer
-from conjure.core.errors import IncompatibleComponentsError
+from conjure.core.errors import IncompatibleComponentsError, InvalidParameterError
 from conjure.core.interfaces import Agent, DomainSpec, Representation, Transition, check_is_set_up
 from conjure.core.params import InstanceOf
 from conjure.core.seeding import make_rng, rng_from_state, rng_state, split_seed
 from conjure.models.approximate_model import ApproximateModel
-from conjure.representations import Tabular
+from conjure.representations import HashedTabular, Tabular
 
 __all__ = ["CooperativeAgent"]
 
@@ -22,6 +22,20 @@ __all__ = ["CooperativeAgent"]
 SEED_NAMES = ("model", "planner", "risk", "learner", "index", "behaviour", "evaluation")
 
 LEARNER_DIRECTORY = "learner"
+
+#: The most rows the default `Tabular` index may have; larger state spaces get `HashedTabular`.
+MAX_TABULAR_ROWS = 1_000_000
+
+
+def default_index(spec: DomainSpec, seed: int | np.random.SeedSequence) -> Representation:
+    """`Tabular` for state spaces up to `MAX_TABULAR_ROWS` cells, `HashedTabular` beyond."""
+    try:
+        tabular = Tabular().setup(spec, seed)
+    except InvalidParameterError:  # more cells than an int64 index holds
+        tabular = None
+    if tabular is not None and tabular.num_features_ <= MAX_TABULAR_ROWS:
+        return tabular
+    return HashedTabular().setup(spec, seed)
 
 
 class CooperativeAgent(Agent):
@@ -50,7 +64,9 @@ class CooperativeAgent(Agent):
       the risk analyser samples from a separate evaluation generator, so policy checks never
       perturb learning.
     - Choice: per-state tables (knownness counts, first visits) are indexed by ``index``, a
-      representation with exactly one active feature per state (`Tabular` by default).
+      representation with exactly one active feature per state. By default `Tabular`, or
+      `HashedTabular` (capacity 100,000) when `Tabular` would need more than
+      `MAX_TABULAR_ROWS` rows (UAV missions: 2.8 million cells for UAV 7-2).
     """
 
     parameter_constraints = {
@@ -76,8 +92,10 @@ class CooperativeAgent(Agent):
         self.planner_ = self.planner.clone().setup(self.model_, seeds["planner"])
         self.risk_ = self.risk.clone().setup(self.model_, self.planner_, seeds["risk"])
         self.learner_ = self.learner.clone().setup(spec, seeds["learner"])
-        index = Tabular() if self.index is None else self.index.clone()
-        self.index_ = index.setup(spec, seeds["index"])
+        if self.index is None:
+            self.index_ = default_index(spec, seeds["index"])
+        else:
+            self.index_ = self.index.clone().setup(spec, seeds["index"])
         self.rng_ = make_rng(seeds["behaviour"])
         self.eval_rng_ = make_rng(seeds["evaluation"])
         self.planned_noise_ = float(self.model_.noise_)
@@ -109,8 +127,15 @@ class CooperativeAgent(Agent):
         check_is_set_up(self, "num_features")
         return self.learner_.num_features
 
-    def state_row(self, state: np.ndarray) -> int:
-        """The row of ``state`` in the per-state tables: its one active ``index`` feature."""
+    def state_row(self, state: np.ndarray, *, store: bool = True) -> int:
+        """The row of ``state`` in the per-state tables: its one active ``index`` feature.
+
+        With ``store=False`` (greedy acting) a lazily indexed representation (`HashedTabular`)
+        only looks the state up, and −1 means it was never seen.
+        """
+        index_of = None if store else getattr(self.index_, "index_of", None)
+        if index_of is not None:
+            return int(index_of(state))
         active = self.index_.active_features(state)
         if active.shape[0] != 1:
             raise IncompatibleComponentsError(

@@ -46,7 +46,8 @@ class CooperativeLearner(CooperativeAgent):
         `AdaptiveCooperativeLearner` for Algorithm 26).
     index : Representation or None, default None
         Gives each state its row in the count table: one active feature per state. ``None``
-        means ``Tabular()``; use a lazily indexed tabular representation for huge state spaces.
+        means ``Tabular()``, or ``HashedTabular()`` (lazily indexed, capacity 100,000) on state
+        spaces of more than a million cells such as UAV missions.
     num_known_visits : int, default 10
         𝒦 ≥ 1, the knownness parameter: ⟨s, a⟩ is fully known after 𝒦 planner visits
         (Section 5.4.1 picks 𝒦 from {10, 20, 50}).
@@ -138,8 +139,9 @@ class CooperativeLearner(CooperativeAgent):
         """Algorithm 24, lines 1-8: the planner's action, or the learner's if known and safe."""
         check_is_set_up(self, "act")
         planner_action = self.planner_.action(state)  # line 1
-        row = self.state_row(state)
-        knownness = min(1.0, self.counts_[row, planner_action] / self.num_known_visits)  # line 2
+        row = self.state_row(state, store=not greedy)
+        count = self.counts_[row, planner_action] if row >= 0 else 0  # −1: never seen
+        knownness = min(1.0, count / self.num_known_visits)  # line 2
         if greedy:
             consult = knownness >= 1.0
         else:
