@@ -2,8 +2,16 @@
 
 from __future__ import annotations
 
+import numpy as np
+
 from conjure.core.cooperative import CooperativePlanner, RiskAnalyzer
-from conjure.core.interfaces import Agent, Representation, Transition, check_is_set_up
+from conjure.core.interfaces import (
+    Agent,
+    DomainSpec,
+    Representation,
+    Transition,
+    check_is_set_up,
+)
 from conjure.core.params import InstanceOf, Interval
 from conjure.models.approximate_model import ApproximateModel
 from conjure.safety.cooperative_learner import CooperativeLearner
@@ -112,9 +120,13 @@ class AdaptiveCooperativeLearner(CooperativeLearner):
         self.replan_threshold = replan_threshold
         self.trusted_knownness = trusted_knownness
 
-    def _build_tables(self, num_states: int, num_actions: int) -> None:
-        super()._build_tables(num_states, num_actions)
+    def setup(
+        self, spec: DomainSpec, seed: int | np.random.SeedSequence
+    ) -> AdaptiveCooperativeLearner:
+        """Set up as `CooperativeLearner`; no policy change yet."""
+        super().setup(spec, seed)
         self.num_policy_changes_ = 0
+        return self
 
     def _extra_state(self) -> dict[str, int]:
         return {"num_policy_changes": self.num_policy_changes_}

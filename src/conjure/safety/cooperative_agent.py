@@ -60,9 +60,9 @@ class CooperativeAgent(Agent):
 
     Notes
     -----
-    - Choice: greedy acting (policy checks) never changes the agent: no table is updated, and
-      the risk analyser samples from a separate evaluation generator, so policy checks never
-      perturb learning.
+    - Choice: greedy acting (policy checks) records nothing: no count or visit, no new row of a
+      lazily indexed ``index``, no draw from the behaviour generator; the risk analyser samples
+      from a separate evaluation generator. Policy checks never perturb learning.
     - Choice: per-state tables (knownness counts, first visits) are indexed by ``index``, a
       representation with exactly one active feature per state. By default `Tabular`, or
       `HashedTabular` (capacity 100,000) when `Tabular` would need more than
