@@ -69,3 +69,18 @@ def test_the_learner_must_be_an_actor_critic():
     )
     with pytest.raises(InvalidParameterError, match="learner"):
         agent.setup(GridWorld(map_name="4x5").domain_spec, seed=0)
+
+
+def test_the_shipped_gridworld1_example_runs_icca_as_the_planner_at_first():
+    from pathlib import Path
+
+    from conjure.experiments.config import load_config
+    from conjure.experiments.run import run_config
+
+    path = Path(__file__).resolve().parents[2] / "examples" / "gridworld_icca.yaml"
+    config = load_config(path, ["budget_steps=300", "num_policy_checks=1", "eval_episodes=5"])
+    returns = {
+        label: run_config(config, agent_name=label, seed=0).curve["return"].iloc[0]
+        for label in ("actor_critic", "icca", "vi_planner")
+    }
+    assert returns["icca"] == returns["vi_planner"] > returns["actor_critic"]
