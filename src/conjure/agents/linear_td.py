@@ -199,31 +199,17 @@ class LinearTDAgent(Agent):
     def save(self, path: str | Path) -> Path:
         """Write the agent to directory ``path``; see `conjure.agents.persistence`."""
         check_is_set_up(self, "save")
-        arrays = {f"representation.{k}": v for k, v in self.representation_.state_arrays().items()}
+        arrays = persistence.prefixed("representation.", self.representation_.state_arrays())
         arrays.update(self._state_arrays())
-        metadata = {
-            "component": persistence.component_to_dict(self),
-            "spec": self.spec_.to_dict(),
-            "state": self._state_metadata(),
-        }
-        return persistence.write(path, metadata, arrays)
+        return persistence.write_agent(path, self, self._state_metadata(), arrays)
 
     @classmethod
     def restore(cls, path: str | Path) -> LinearTDAgent:
         """Load an agent written by `save`; it continues exactly as if never saved."""
-        document, arrays = persistence.read(path)
-        agent = persistence.component_from_dict(document["component"])
-        if not isinstance(agent, cls):
-            raise IncompatibleComponentsError(
-                f"{str(path)!r} holds a {type(agent).__name__}, not a {cls.__name__}."
-            )
-        agent.setup(DomainSpec.from_dict(document["spec"]), seed=0)
-        prefix = "representation."
-        agent.representation_.load_state_arrays(
-            {k[len(prefix) :]: v for k, v in arrays.items() if k.startswith(prefix)}
-        )
+        agent, state, arrays = persistence.read_agent(path, cls)
+        agent.representation_.load_state_arrays(persistence.unprefixed("representation.", arrays))
         agent._bind_kernels(agent.representation_)
-        agent._load_state(document["state"], arrays)
+        agent._load_state(state, arrays)
         return agent
 
     def _state_metadata(self) -> dict[str, Any]:

@@ -250,30 +250,17 @@ class LSPI(Agent):
     def save(self, path: str | Path) -> Path:
         """Write θ, φ's arrays and the generator (`conjure.agents.persistence`)."""
         check_is_set_up(self, "save")
-        arrays = {f"representation.{k}": v for k, v in self.representation_.state_arrays().items()}
+        arrays = persistence.prefixed("representation.", self.representation_.state_arrays())
         arrays["weights"] = self.weights_
-        metadata = {
-            "component": persistence.component_to_dict(self),
-            "spec": self.spec_.to_dict(),
-            "state": {"rng": rng_state(self.rng_), "iterations": self.iterations_},
-        }
-        return persistence.write(path, metadata, arrays)
+        state = {"rng": rng_state(self.rng_), "iterations": self.iterations_}
+        return persistence.write_agent(path, self, state, arrays)
 
     @classmethod
     def restore(cls, path: str | Path) -> LSPI:
         """Load an agent written by `save` (stored samples are not saved)."""
-        document, arrays = persistence.read(path)
-        agent = persistence.component_from_dict(document["component"])
-        if not isinstance(agent, cls):
-            raise IncompatibleComponentsError(
-                f"{str(path)!r} holds a {type(agent).__name__}, not a {cls.__name__}."
-            )
-        agent.setup(DomainSpec.from_dict(document["spec"]), seed=0)
-        prefix = "representation."
-        agent.representation_.load_state_arrays(
-            {k[len(prefix) :]: v for k, v in arrays.items() if k.startswith(prefix)}
-        )
+        agent, state, arrays = persistence.read_agent(path, cls)
+        agent.representation_.load_state_arrays(persistence.unprefixed("representation.", arrays))
         agent.weights_ = np.array(arrays["weights"], dtype=np.float64)
-        agent.rng_ = rng_from_state(document["state"]["rng"])
-        agent.iterations_ = int(document["state"]["iterations"])
+        agent.rng_ = rng_from_state(state["rng"])
+        agent.iterations_ = int(state["iterations"])
         return agent

@@ -23,10 +23,22 @@ from typing import Any
 
 import numpy as np
 
-from conjure.core.errors import InvalidParameterError
+from conjure.core.errors import IncompatibleComponentsError, InvalidParameterError
+from conjure.core.interfaces import DomainSpec
 from conjure.core.params import Configurable
 
-__all__ = ["FORMAT", "VERSION", "component_from_dict", "component_to_dict", "read", "write"]
+__all__ = [
+    "FORMAT",
+    "VERSION",
+    "component_from_dict",
+    "component_to_dict",
+    "prefixed",
+    "read",
+    "read_agent",
+    "unprefixed",
+    "write",
+    "write_agent",
+]
 
 FORMAT = "conjure-agent"
 VERSION = 1
@@ -83,6 +95,43 @@ def read(path: str | Path) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
     with np.load(directory / "arrays.npz", allow_pickle=False) as data:
         arrays = {name: data[name] for name in data.files}
     return document, arrays
+
+
+def write_agent(
+    path: str | Path, agent: Any, state: dict[str, Any], arrays: dict[str, np.ndarray]
+) -> Path:
+    """Write a set-up agent: its component tree, its ``spec_``, ``state`` (JSON) and ``arrays``."""
+    metadata = {
+        "component": component_to_dict(agent),
+        "spec": agent.spec_.to_dict(),
+        "state": state,
+    }
+    return write(path, metadata, arrays)
+
+
+def read_agent(path: str | Path, cls: type) -> tuple[Any, dict[str, Any], dict[str, np.ndarray]]:
+    """Rebuild the agent `write_agent` saved, as a ``cls`` set up for its spec with seed 0.
+
+    Returns the agent, the saved ``state`` and the arrays; the caller loads them into it.
+    """
+    document, arrays = read(path)
+    agent = component_from_dict(document["component"])
+    if not isinstance(agent, cls):
+        raise IncompatibleComponentsError(
+            f"{str(path)!r} holds a {type(agent).__name__}, not a {cls.__name__}."
+        )
+    agent.setup(DomainSpec.from_dict(document["spec"]), seed=0)
+    return agent, document["state"], arrays
+
+
+def prefixed(prefix: str, arrays: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """``arrays`` with every name prefixed (``representation.`` + name)."""
+    return {prefix + name: value for name, value in arrays.items()}
+
+
+def unprefixed(prefix: str, arrays: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """The arrays whose names start with ``prefix``, with the prefix removed."""
+    return {k[len(prefix) :]: v for k, v in arrays.items() if k.startswith(prefix)}
 
 
 def _to_json(value: Any) -> Any:

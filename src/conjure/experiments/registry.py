@@ -33,16 +33,20 @@ from conjure.domains import (
     RescueMission,
     UAVMission,
 )
+from conjure.models.approximate_model import ApproximateModel
 from conjure.planners import (
     QAPI,
     QAVI,
     VAPI,
     CBBAPlanner,
     FittedValueIteration,
+    ModelPlanner,
     PolicyIteration,
     SampledQAPI1,
     SampledQAPI2,
     SampledQAVI,
+    ShortestPathPlanner,
+    SwitchingPlanner,
     TrajectoryQAPI,
     ValueIteration,
 )
@@ -60,15 +64,26 @@ from conjure.representations import (
     Tabular,
     TileCoding,
 )
+from conjure.safety import (
+    AdaptiveCooperativeLearner,
+    CooperativeActorCritic,
+    CooperativeLearner,
+    FuelRiskAnalyzer,
+    MonteCarloRiskAnalyzer,
+    NominalRiskAnalyzer,
+    PlannerAgent,
+)
 
 __all__ = [
     "AGENTS",
     "COOPERATIVE_PLANNERS",
     "DOMAINS",
     "LAYERS",
+    "MODELS",
     "PLANNERS",
     "POLICIES",
     "REPRESENTATIONS",
+    "RISK_ANALYZERS",
     "SCHEDULES",
     "build",
     "find_kind",
@@ -105,8 +120,12 @@ POLICIES: dict[str, type[Configurable]] = {
 }
 AGENTS: dict[str, type[Configurable]] = {
     "ActorCritic": ActorCritic,
+    "AdaptiveCooperativeLearner": AdaptiveCooperativeLearner,
+    "CooperativeActorCritic": CooperativeActorCritic,
+    "CooperativeLearner": CooperativeLearner,
     "LSPI": LSPI,
     "LSPIBRM": LSPIBRM,
+    "PlannerAgent": PlannerAgent,
     "QLearning": QLearning,
     "SARSA": SARSA,
 }
@@ -125,6 +144,17 @@ PLANNERS: dict[str, type[Configurable]] = {
 #: π^p of iCCA (Section 5.3.1): `conjure.core.cooperative.CooperativePlanner` subclasses.
 COOPERATIVE_PLANNERS: dict[str, type[Configurable]] = {
     "CBBAPlanner": CBBAPlanner,
+    "ModelPlanner": ModelPlanner,
+    "ShortestPathPlanner": ShortestPathPlanner,
+    "SwitchingPlanner": SwitchingPlanner,
+}
+RISK_ANALYZERS: dict[str, type[Configurable]] = {
+    "FuelRiskAnalyzer": FuelRiskAnalyzer,
+    "MonteCarloRiskAnalyzer": MonteCarloRiskAnalyzer,
+    "NominalRiskAnalyzer": NominalRiskAnalyzer,
+}
+MODELS: dict[str, type[Configurable]] = {
+    "ApproximateModel": ApproximateModel,
 }
 SCHEDULES: dict[str, type[Configurable]] = {
     "ConstantStepSize": ConstantStepSize,
@@ -140,6 +170,8 @@ LAYERS: dict[str, dict[str, type[Configurable]]] = {
     "agent": AGENTS,
     "planner": PLANNERS,
     "cooperative_planner": COOPERATIVE_PLANNERS,
+    "risk": RISK_ANALYZERS,
+    "model": MODELS,
     "schedule": SCHEDULES,
 }
 
@@ -178,8 +210,8 @@ def build(layer: str | None, spec: Mapping[str, Any], *, path: str = "") -> Conf
     Parameters
     ----------
     layer : str or None
-        ``"domain"``, ``"representation"``, ``"policy"``, ``"agent"``, ``"planner"``,
-        ``"cooperative_planner"`` or ``"schedule"``; ``None`` looks the kind up in every registry.
+        A key of `LAYERS` (``"domain"``, ``"agent"``, ``"cooperative_planner"``, ...);
+        ``None`` looks the kind up in every registry.
     spec : mapping
         ``{"kind": name, "params": {...}}`` (``params`` may be omitted).
     path : str, default ""
