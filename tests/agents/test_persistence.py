@@ -64,7 +64,7 @@ def _rewrite_document(directory, change):
     [
         "conjure.experiments.cli.main",  # a callable under conjure.*, not a component class
         "conjure.experiments.run.Result",  # a class in a layer a saved agent never names
-        "conjure.domains.chain.ChainMDP",  # a component, but never part of an agent
+        "conjure.testing.fakes.SharedObservationBuffer",  # a component outside the packages
         "conjure.agents.persistence.SavedAgent",  # not Configurable
         "conjure.agents.linear_td.np",  # a module attribute that is not a class
         "conjure.agents.sarsa.LinearTDAgent",  # re-exported, defined elsewhere

@@ -205,3 +205,13 @@ def test_set_params_rebuilds_the_map():
     assert domain.grid_.shape == (5, 22)
     assert domain.observation_space.high.tolist() == [4.0, 21.0]
     assert domain.clone() == domain
+
+
+@pytest.mark.parametrize("make", [GridWorld.gridworld_2, GridWorld.gridworld_3])
+def test_transitions_are_linear_in_the_noise(make):
+    # P_η = (1 − η)·P_0 + η·P_1 (one wind draw per step); GridWorld-3's calm cells have P_1 = P_0.
+    calm, windy = make().noise_decomposition()
+    mixed = make(noise=0.3).model()
+    for a in range(4):
+        expected = 0.7 * calm.transitions[a] + 0.3 * windy.transitions[a]
+        assert abs(mixed.transitions[a] - expected).max() < 1e-12

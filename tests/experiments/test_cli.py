@@ -45,6 +45,8 @@ def test_list_shows_every_component():
         "EpsilonGreedy",
         "SARSA",
         "ConstantStepSize",
+        "CBBAPlanner",
+        "fuel_reserve",
         "num_tilings",
         "epsilon",
     ):

@@ -146,6 +146,18 @@ class ActorCritic(LinearTDAgent):
         check_is_set_up(self, "preferences")
         return self._actor_values(self.actor_weights_, self._encode_actor(state))
 
+    def shift_preference(self, state: np.ndarray, action: int, amount: float) -> None:
+        """ρ(s, a) += ``amount``: the bias and penalty λ of iCCA (Section 5.3.2; Algorithm 23).
+
+        ω_a += amount · ψ(s) / ‖ψ(s)‖², which changes ρ(s, a) by exactly ``amount``; with a
+        tabular actor (the thesis's) nothing else changes.
+        """
+        check_is_set_up(self, "shift_preference")
+        psi = self._encode_actor(state)
+        norm = float(psi.shape[0]) if self._actor_is_binary else float(psi @ psi)
+        if norm > 0.0:
+            self._actor_add(self.actor_weights_, psi, int(action), float(amount) / norm)
+
     def learn(self, transition: Transition) -> float:
         """Critic and actor updates of Algorithm 12, lines 6-9; returns δ."""
         check_is_set_up(self, "learn")
@@ -188,8 +200,11 @@ class ActorCritic(LinearTDAgent):
         arrays = super()._state_arrays()
         arrays["actor_weights"] = self.actor_weights_
         if not self._is_shared:
-            for key, value in self.actor_representation_.state_arrays().items():
-                arrays[f"actor_representation.{key}"] = value
+            arrays.update(
+                persistence.prefixed(
+                    "actor_representation.", self.actor_representation_.state_arrays()
+                )
+            )
         return arrays
 
     def _load_state(self, saved: persistence.SavedAgent) -> None:

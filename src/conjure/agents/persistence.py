@@ -51,10 +51,13 @@ __all__ = [
     "SavedAgent",
     "component_from_dict",
     "component_to_dict",
+    "prefixed",
     "read",
+    "read_agent",
     "restore_agent",
     "save_agent",
     "write",
+    "write_agent",
 ]
 
 FORMAT = "conjure-agent"
@@ -62,10 +65,13 @@ VERSION = 1
 METADATA_FILE = "agent.json"
 ARRAYS_FILE = "arrays.npz"
 #: The packages whose `Configurable` classes a saved agent may name (its parts: agents,
-#: representations, policies, step-size schedules, planners and safety components).
+#: representations, policies, step-size schedules, domains and models a planner
+#: plans in, planners and safety components).
 COMPONENT_PACKAGES = (
     "conjure.agents",
     "conjure.core.schedules",
+    "conjure.domains",
+    "conjure.models",
     "conjure.planners",
     "conjure.policies",
     "conjure.representations",
@@ -96,7 +102,7 @@ def component_from_dict(tree: dict[str, Any]) -> Configurable:
     >>> component_from_dict({"class": "conjure.experiments.cli.main", "params": {}})
     Traceback (most recent call last):
     ...
-    conjure.core.errors.InvalidParameterError: A saved agent may only name conjure component classes (in conjure.agents, conjure.core.schedules, conjure.planners, conjure.policies, conjure.representations, conjure.safety); got 'conjure.experiments.cli.main'.
+    conjure.core.errors.InvalidParameterError: A saved agent may only name conjure component classes (in conjure.agents, conjure.core.schedules, conjure.domains, conjure.models, conjure.planners, conjure.policies, conjure.representations, conjure.safety); got 'conjure.experiments.cli.main'.
     """  # noqa: E501
     if not isinstance(tree, dict) or set(tree) != {"class", "params"}:
         raise InvalidParameterError(
@@ -140,6 +146,11 @@ def _component_class(qualified: Any) -> type[Configurable]:
     if not is_component:
         raise refused
     return cls
+
+
+def prefixed(prefix: str, arrays: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """``arrays`` with every name prefixed (``representation.`` + name)."""
+    return {prefix + name: value for name, value in arrays.items()}
 
 
 def _to_json(value: Any) -> Any:
@@ -313,36 +324,56 @@ def read(path: str | Path) -> SavedAgent:
     return SavedAgent(directory, document, arrays)
 
 
-def save_agent(agent: Any, path: str | Path) -> Path:
-    """Write a set-up agent: its component tree, spec, ``_state_metadata`` and arrays.
-
-    The arrays are the representation's (``representation.*``) and the agent's own
-    (``_state_arrays``).
-    """
-    arrays = {f"representation.{k}": v for k, v in agent.representation_.state_arrays().items()}
-    arrays.update(agent._state_arrays())
+def write_agent(
+    path: str | Path, agent: Any, state: dict[str, Any], arrays: dict[str, np.ndarray]
+) -> Path:
+    """Write a set-up agent: its component tree, its ``spec_``, ``state`` (JSON) and ``arrays``."""
     metadata = {
         "component": component_to_dict(agent),
         "spec": agent.spec_.to_dict(),
-        "state": agent._state_metadata(),
+        "state": state,
     }
     return write(path, metadata, arrays)
 
 
+def read_agent(cls: type[AgentType], saved: SavedAgent) -> AgentType:
+    """Rebuild the agent in ``saved`` as a ``cls`` set up for its spec with seed 0.
+
+    Call inside ``saved.loading()``; the caller then loads the saved state into it, checking
+    each array with `SavedAgent.array`.
+    """
+    agent = component_from_dict(saved.document.get("component"))
+    if not isinstance(agent, cls):
+        raise IncompatibleComponentsError(
+            f"{str(saved.directory)!r} holds a {type(agent).__name__}, not a {cls.__name__}."
+        )
+    spec = saved.document.get("spec")
+    if not isinstance(spec, dict):
+        raise saved.damaged(METADATA_FILE, "its 'spec' section is missing")
+    agent.setup(DomainSpec.from_dict(spec), seed=0)
+    return agent
+
+
+def save_agent(agent: Any, path: str | Path) -> Path:
+    """Write a set-up linear agent: component tree, spec, ``_state_metadata`` and arrays.
+
+    The arrays are the representation's (``representation.*``) and the agent's own
+    (``_state_arrays``).
+    """
+    arrays = prefixed("representation.", agent.representation_.state_arrays())
+    arrays.update(agent._state_arrays())
+    return write_agent(path, agent, agent._state_metadata(), arrays)
+
+
 def restore_agent(cls: type[AgentType], path: str | Path) -> AgentType:
-    """Rebuild an agent of class ``cls`` saved by `save_agent`, checking everything it loads.
+    """Rebuild a linear agent of class ``cls`` saved by `save_agent`, checking what it loads.
 
     The agent is built from the saved component tree, set up for the saved spec, given the
     representation's arrays and then its own state (``agent._load_state(saved)``).
     """
     saved = read(path)
     with saved.loading():
-        agent = component_from_dict(saved.document["component"])
-        if not isinstance(agent, cls):
-            raise IncompatibleComponentsError(
-                f"{str(path)!r} holds a {type(agent).__name__}, not a {cls.__name__}."
-            )
-        agent.setup(DomainSpec.from_dict(saved.document["spec"]), seed=0)
+        agent = read_agent(cls, saved)
         agent.representation_.load_state_arrays(saved.with_prefix("representation."))
         agent._load_state(saved)
     return agent

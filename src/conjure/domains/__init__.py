@@ -17,6 +17,7 @@ from conjure.domains.gymnasium_adapter import GymnasiumDomain, from_gymnasium
 from conjure.domains.pendulum import InvertedPendulum
 from conjure.domains.persistent_surveillance import PersistentSurveillance
 from conjure.domains.rescue_mission import RescueMission
+from conjure.domains.uav_mission import UAVMission
 
 __all__ = [
     "BlocksWorld",
@@ -26,6 +27,7 @@ __all__ = [
     "InvertedPendulum",
     "PersistentSurveillance",
     "RescueMission",
+    "UAVMission",
     "from_gymnasium",
 ]
 
@@ -54,6 +56,18 @@ _REGISTRATIONS: tuple[tuple[str, str, int, dict[str, Any]], ...] = (
         {},
     ),
     ("conjure/RescueMission-v0", "conjure.domains.rescue_mission:RescueMission", 10, {}),
+    (
+        "conjure/UAV-7-2-v0",
+        "conjure.domains.uav_mission:UAVMission",
+        8,
+        {"scenario": "uav-7-2"},
+    ),
+    (
+        "conjure/UAV-10-2-v0",
+        "conjure.domains.uav_mission:UAVMission",
+        11,
+        {"scenario": "uav-10-2"},
+    ),
 )
 
 

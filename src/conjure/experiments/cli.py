@@ -98,7 +98,7 @@ def run_command(
 
 @main.command("list")
 def list_command() -> None:
-    """List every domain, representation, policy, agent and schedule with its parameters."""
+    """List every registered component (domains to cooperative planners) with its parameters."""
     from conjure.experiments import registry
 
     table = Table(title="conjure components (kind: use in configs as {kind, params})")

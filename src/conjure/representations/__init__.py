@@ -8,6 +8,7 @@ Adaptive representations add features in `discover`; `grow_weights` applies
 
 from conjure.representations.adaptive_tile_coding import AdaptiveTileCoding
 from conjure.representations.arifdd import ARiFDD
+from conjure.representations.hashed_tabular import HashedTabular
 from conjure.representations.independent_discretization import IndependentDiscretization
 from conjure.representations.indicators import BinaryIndicators
 from conjure.representations.online_ifdd import OnlineIFDD
@@ -23,6 +24,7 @@ __all__ = [
     "ARiFDD",
     "AdaptiveTileCoding",
     "BinaryIndicators",
+    "HashedTabular",
     "IndependentDiscretization",
     "OnlineIFDD",
     "RandomExpansion",
