@@ -104,6 +104,11 @@ def test_run_then_plot(config_file, tmp_path):
     plotted = runner.invoke(main, ["plot", str(out), "--metric", "num_features"])
     assert plotted.exit_code == 0, plotted.output
     assert (out / "learning_curve_num_features.png").is_file()
+    for metric in ("failure_rate", "learning_failures"):
+        plotted = runner.invoke(main, ["plot", str(out), "--metric", metric])
+        assert plotted.exit_code == 0, plotted.output
+    no_bounds = runner.invoke(main, ["plot", str(out), "--metric", "optimality"])
+    assert no_bounds.exit_code == 2 and "no finite value" in no_bounds.output
 
 
 def test_config_error_is_one_clean_line(config_file, tmp_path):
