@@ -14,9 +14,10 @@ Notes
   before any run; under about 0.9 GiB, compiling numba code can abort in LLVM. Arrays count
   in full when allocated, written or not: every shipped example and reproduction config (one
   seed, 3,000 steps) runs under 1 GiB, except the tabular agents of the Fig. 4-5 rescue and
-  surveillance configs, whose Q-tables take 3.25 and 1.1 GiB. Allocators reserve less under
-  a limit (pyarrow otherwise reserves 1 GiB up front). There is no default limit; choose
-  about the machine's memory divided by the workers, and at least 1 GiB.
+  surveillance configs, which allocate two tables of 3.25 GiB (they run under 7.5 GiB) and
+  two of 1.1 GiB (under 3 GiB). Allocators reserve less under a limit (pyarrow otherwise
+  reserves 1 GiB up front). There is no default limit; choose about the machine's memory
+  divided by the workers, and at least 1 GiB.
 - Choice: sizes with a binary unit (``KiB``, ``MiB``, ``GiB``, ``TiB``) or a bare letter
   (``K``, ``M``, ``G``, ``T``, as Docker and SLURM read them) are powers of 1024; ``kB``,
   ``MB``, ``GB``, ``TB`` are powers of 1000; a plain number is bytes.
