@@ -13,10 +13,10 @@ the same config through the Python API, for notebooks and scripts that want the 
 
 ``run_config(config, agent_name=..., seed=...)`` does 2-3 in one call, and
 ``run_experiment(config, out_dir)`` runs every agent over every seed in parallel and writes
-the results folder exactly as ``conjure run`` does.
+the results folder as ``conjure run`` does (the CLI then also plots).
 
 Run with:  python examples/python_api.py  (5,000 steps of the tile-coding agent; 32 s measured
-on 2 busy cores, most of it compiling)
+of wall time on 2 busy cores)
 """
 
 from __future__ import annotations
