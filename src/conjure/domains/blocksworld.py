@@ -11,7 +11,7 @@ from gymnasium import spaces
 from conjure.core.errors import InvalidParameterError
 from conjure.core.interfaces import Domain, DomainSpec
 from conjure.core.params import Constraint, Interval
-from conjure.domains._blocks_kernels import blocks_legal_actions
+from conjure.domains._blocks_kernels import blocks_legal_actions, blocks_legal_mask
 from conjure.domains._legal_space import LegalDiscrete
 from conjure.domains.action_masking import ActionMasking
 
@@ -213,9 +213,7 @@ class BlocksWorld(ActionMasking, Domain):
         return self.legal_actions(self._obs)
 
     def _current_mask(self) -> np.ndarray:
-        mask = np.zeros(self._n * self._n, dtype=bool)
-        mask[blocks_legal_actions(self._obs, self._n)[0]] = True
-        return mask
+        return blocks_legal_mask(self._obs, self._n)
 
     def _current_observation(self) -> np.ndarray:
         return self._obs.copy()

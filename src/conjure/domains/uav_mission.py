@@ -20,6 +20,7 @@ from conjure.domains._mission_dp import layer_size, solve_mission, state_key
 from conjure.domains._mission_kernels import (
     ILLEGAL,
     checked_legal_actions,
+    checked_legal_mask,
     checked_transition,
     count_unintended,
     is_crashed,
@@ -264,9 +265,9 @@ class UAVMission(ActionMasking, NoisyDomain):
         return checked_legal_actions(self._state, self._high, self._layout, self._adjacency)[0]
 
     def _current_mask(self) -> np.ndarray:
-        mask = np.zeros(self.graph_.num_actions, dtype=bool)
-        mask[self._current_legal()] = True
-        return mask
+        return checked_legal_mask(
+            self._state, self._high, self._layout, self._adjacency, self.graph_.num_actions
+        )
 
     def _current_observation(self) -> np.ndarray:
         return self._state.copy()
