@@ -5,7 +5,7 @@ import inspect
 import pytest
 
 from conjure.agents import SARSA, ActorCritic, QLearning
-from conjure.domains import GridWorld, UAVMission
+from conjure.domains import BlocksWorld, GridWorld, UAVMission
 from conjure.experiments.registry import LAYERS
 from conjure.models.approximate_model import ApproximateModel
 from conjure.planners import ModelPlanner, ShortestPathPlanner, SwitchingPlanner
@@ -55,6 +55,7 @@ VARIANTS = [
     ActorCritic(representation=Tabular(), actor_representation=RBF()),
     GridWorld(map_name="gridworld2", step_reward=-0.01, noise=0.2),
     UAVMission(scenario="uav-10-2", traverse_failure=0.05),
+    BlocksWorld(num_blocks=4, illegal_action="penalize", illegal_action_penalty=0.5),
     TileCoding(num_tilings=2, tiles_per_dim=3, dimension_groups=[[0], [1], [0, 1]]),
     OnlineIFDD(base=TileCoding(num_tilings=2, tiles_per_dim=3), relevance="ifdd_plus"),
     SARSA(

@@ -69,7 +69,13 @@ def test_start_state_and_move_onto_block_without_drop():
     np.testing.assert_array_equal(obs, on_vector(6, range(6)))
     obs, reward, terminated, truncated, info = domain.step(move(6, 1, 0))
     np.testing.assert_array_equal(obs, on_vector(6, [0, 0, 2, 3, 4, 5]))
-    assert (reward, terminated, truncated, info) == (-0.001, False, False, {})
+    assert (reward, terminated, truncated, list(info)) == (-0.001, False, False, ["action_mask"])
+    # Block 0 is covered now: every move of another block onto 0 and move(0, ·) are illegal.
+    legal = domain.legal_actions(obs)
+    assert info["action_mask"].dtype == bool and np.flatnonzero(info["action_mask"]).tolist() == (
+        legal.tolist()
+    )
+    assert move(6, 2, 0) not in legal and move(6, 0, 2) not in legal and move(6, 2, 1) in legal
 
 
 def test_tower_completing_move_earns_one_and_terminates():
@@ -97,10 +103,10 @@ def test_legal_actions_of_a_hand_built_state():
 def test_illegal_move_raises_naming_the_legal_ones():
     domain = BlocksWorld(num_blocks=3, drop_probability=0.0)
     domain.reset(seed=0)
-    with pytest.raises(InvalidParameterError, match=r"move\(0, table\).*Legal actions: \[1, 2"):
+    with pytest.raises(InvalidParameterError, match=r"move\(0, table\).*legal actions: \[1, 2"):
         domain.step(move(3, 0))
     domain.step(move(3, 1, 0))
-    with pytest.raises(InvalidParameterError, match=r"move\(2, 0\) \(action 6\).*\[4, 5, 7\]"):
+    with pytest.raises(InvalidParameterError, match=r"action 6 \(move\(2, 0\)\).*\[4, 5, 7\]"):
         domain.step(move(3, 2, 0))
     with pytest.raises(InvalidParameterError, match="action must be an int"):
         domain.step(9)

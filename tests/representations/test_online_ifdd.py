@@ -398,3 +398,27 @@ def test_errors():
     rep = OnlineIFDD(base=IndependentDiscretization()).setup(InvertedPendulum().domain_spec, 0)
     with pytest.raises(InvalidParameterError, match=r"\(3,\)"):
         rep.active_features(np.zeros(3))
+
+
+def test_max_features_counts_initial_plus_discovered_features():
+    # 5 initial flags; a cap of 5 + 2 lets exactly two conjunctions in.
+    rep = flag_ifdd(5, discovery_threshold=0.0, max_features=7)
+    for active in ([0, 1], [2, 3], [0, 4], [1, 2, 3]):
+        rep.discover(rep.active_features(flags(5, active)), 1.0)
+    assert rep.num_features_ == 7
+    with pytest.raises(InvalidParameterError, match=r"initial plus discovered"):
+        OnlineIFDD(base=FlagFeatures(num_flags=5), max_features=0).validate_params()
+
+
+@pytest.mark.parametrize("cls", ["OnlineIFDD", "RandomExpansion"])
+def test_a_cap_below_the_initial_features_is_rejected(cls):
+    from conjure.domains import BlocksWorld
+    from conjure.representations import BinaryIndicators, RandomExpansion
+
+    kind = {"OnlineIFDD": OnlineIFDD, "RandomExpansion": RandomExpansion}[cls]
+    spec = BlocksWorld().domain_spec  # 36 initial On(·,·) features
+    rate = {"discovery_rate": 1.0}
+    with pytest.raises(InvalidParameterError, match=rf"`{cls}.max_features`.*at least the 36"):
+        kind(base=BinaryIndicators(), max_features=10, **rate).setup(spec, seed=0)
+    rep = kind(base=BinaryIndicators(), max_features=36, **rate).setup(spec, seed=0)
+    assert rep.num_features_ == 36  # a cap equal to n₀ freezes the features

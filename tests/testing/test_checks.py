@@ -111,3 +111,21 @@ def test_a_planner_suggesting_illegal_actions_is_caught():
 
     with pytest.raises(AssertionError, match="is not legal"):
         checks.check_cooperative_planner_legal(Reckless())
+
+
+def test_a_mask_that_disagrees_with_legal_actions_is_caught():
+    from conjure.domains import BlocksWorld
+
+    class Unmasked(BlocksWorld):
+        def action_masks(self):
+            return np.ones(self.domain_spec.num_actions, dtype=bool)
+
+    with pytest.raises(AssertionError, match=r"action_masks\(\) marks"):
+        checks.check_action_masks(Unmasked())
+
+    class NoInfoMask(BlocksWorld):
+        def reset(self, *, seed=None, options=None):
+            return super().reset(seed=seed, options=options)[0], {}
+
+    with pytest.raises(AssertionError, match="info\\['action_mask'\\]"):
+        checks.check_action_masks(NoInfoMask())

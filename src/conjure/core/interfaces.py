@@ -194,6 +194,15 @@ class Domain(gym.Env, Configurable):
         """Return the sorted legal actions of ``state`` (every action unless constrained)."""
         return np.arange(self.domain_spec.num_actions, dtype=np.int64)
 
+    def action_masks(self) -> np.ndarray:
+        """Return a bool array, True at the legal actions of the current state.
+
+        The method sb3-contrib's ``MaskablePPO`` reads. Every action by default; domains with
+        action constraints (`conjure.domains.action_masking`) return their current mask and
+        also put it in ``info["action_mask"]`` at ``reset`` and ``step``.
+        """
+        return np.ones(self.domain_spec.num_actions, dtype=bool)
+
     def model(self) -> Any | None:
         """Return the exact tabular (P, R) model, or ``None`` if the domain has none."""
         return None

@@ -62,3 +62,12 @@ def blocks_legal_actions(state: np.ndarray, num_blocks: int) -> tuple[np.ndarray
                 out[count] = b * n + d
                 count += 1
     return out[:count].copy(), 0
+
+
+@njit(cache=True)
+def blocks_legal_mask(state: np.ndarray, num_blocks: int) -> np.ndarray:
+    """Return the legal moves of a well-formed On vector as a bool mask of length n²."""
+    mask = np.zeros(num_blocks * num_blocks, dtype=np.bool_)
+    for action in blocks_legal_actions(state, num_blocks)[0]:
+        mask[action] = True
+    return mask

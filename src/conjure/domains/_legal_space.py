@@ -1,7 +1,8 @@
 """A `Discrete` action space whose ``sample()`` draws among the currently legal actions.
 
-Domains with action constraints (BlocksWorld, Persistent Surveillance, Rescue Mission; thesis
-Section 4.1.4) raise on an illegal action. Gymnasium's ``check_env`` and ordinary user code
+Domains with action constraints (BlocksWorld, Persistent Surveillance, Rescue Mission, UAV
+missions; thesis Section 4.1.4) raise on an illegal action by default
+(`conjure.domains.action_masking`). Gymnasium's ``check_env`` and ordinary user code
 call ``action_space.sample()`` without a mask, so the space asks its domain for the legal
 actions of the current state whenever no mask is given. ``contains`` is unchanged: it answers
 "is this an action index at all", legality is per state (`Domain.legal_actions`).

@@ -341,3 +341,18 @@ def checked_legal_actions(
     if bad >= 0:
         return np.empty(0, dtype=np.int64), bad
     return legal_actions(state, layout, adjacency), -1
+
+
+@njit(cache=True)
+def checked_legal_mask(
+    observation: np.ndarray,
+    highs: np.ndarray,
+    layout: np.ndarray,
+    adjacency: np.ndarray,
+    num_actions: int,
+) -> np.ndarray:
+    """The legal joint actions of a float observation as a bool mask (all False if invalid)."""
+    mask = np.zeros(num_actions, dtype=np.bool_)
+    for action in checked_legal_actions(observation, highs, layout, adjacency)[0]:
+        mask[action] = True
+    return mask

@@ -11,8 +11,9 @@ from gymnasium import spaces
 from conjure.core.errors import InvalidParameterError
 from conjure.core.interfaces import Domain, DomainSpec
 from conjure.core.params import Constraint, Interval
-from conjure.domains._blocks_kernels import blocks_legal_actions
+from conjure.domains._blocks_kernels import blocks_legal_actions, blocks_legal_mask
 from conjure.domains._legal_space import LegalDiscrete
+from conjure.domains.action_masking import ActionMasking
 
 __all__ = ["BlocksWorld", "blocks_world_state_action_count"]
 
@@ -35,7 +36,7 @@ def blocks_world_state_action_count(num_blocks: int = 6) -> int:
     return b * b * sum(comb(b, i) * i ** (b - i) * factorial(b - i) for i in range(1, b + 1))
 
 
-class BlocksWorld(Domain):
+class BlocksWorld(ActionMasking, Domain):
     """Stack ``num_blocks`` blocks into the tower 0 (on the table), 1 on 0, 2 on 1, ...
 
     Geramifard (2012), Section 4.1.4 and Figure 4-2 (T:2486); spec section 4.1 (after RLPy's
@@ -59,6 +60,11 @@ class BlocksWorld(Domain):
         γ in [0, 1].
     max_episode_steps : int, default=1000
         Episode cap, in [1, inf).
+    illegal_action : {"raise", "ignore", "penalize"}, default="raise"
+        What an illegal move does: raise, or a no-op step with reward 0 or
+        −``illegal_action_penalty`` (`conjure.domains.action_masking`).
+    illegal_action_penalty : float, default=1.0
+        Penalty in [0, inf) of ``illegal_action="penalize"``.
 
     Attributes
     ----------
@@ -85,7 +91,9 @@ class BlocksWorld(Domain):
       move(b, b) means "onto the table" and is illegal for a block already on the table, which
       leaves exactly b² actions (36).
     - Choice: legality follows the thesis: b ≠ d (or d = table) and both clear. Illegal moves
-      raise `InvalidParameterError`; ``action_space.sample()`` draws only legal moves.
+      raise `InvalidParameterError` unless ``illegal_action`` says otherwise;
+      ``action_space.sample()`` draws only legal moves; ``action_masks()`` and
+      ``info["action_mask"]`` give them as a bool mask (`conjure.domains.action_masking`).
     - Choice: one uniform draw per move decides the drop, even for a move onto the table.
     - Note: ``state_action_count()`` is the thesis's formula (368,316 for 6 blocks). It counts
       more arrangements than exist: 6 labelled blocks form Σ_k L(6, k) = 4051 towers-of-stacks
@@ -111,6 +119,7 @@ class BlocksWorld(Domain):
         "goal_reward": Interval(float, None, None),
         "discount": Interval(float, 0.0, 1.0),
         "max_episode_steps": Interval(int, 1, None),
+        **ActionMasking.masking_constraints,
     }
 
     def __init__(
@@ -122,6 +131,8 @@ class BlocksWorld(Domain):
         goal_reward: float = 1.0,
         discount: float = 1.0,
         max_episode_steps: int = 1000,
+        illegal_action: str = "raise",
+        illegal_action_penalty: float = 1.0,
     ) -> None:
         self.num_blocks = num_blocks
         self.drop_probability = drop_probability
@@ -129,6 +140,8 @@ class BlocksWorld(Domain):
         self.goal_reward = goal_reward
         self.discount = discount
         self.max_episode_steps = max_episode_steps
+        self.illegal_action = illegal_action
+        self.illegal_action_penalty = illegal_action_penalty
         self._build()
 
     def _build(self) -> None:
@@ -179,7 +192,7 @@ class BlocksWorld(Domain):
         """Start an episode with every block on the table."""
         super().reset(seed=seed)
         self._set_start()
-        return self._obs.copy(), {}
+        return self._obs.copy(), self._with_mask({})
 
     def legal_actions(self, state: np.ndarray) -> np.ndarray:
         """Return the sorted legal moves of the On vector ``state`` (one compiled pass)."""
@@ -199,6 +212,17 @@ class BlocksWorld(Domain):
     def _current_legal(self) -> np.ndarray:
         return self.legal_actions(self._obs)
 
+    def _current_mask(self) -> np.ndarray:
+        return blocks_legal_mask(self._obs, self._n)
+
+    def _current_observation(self) -> np.ndarray:
+        return self._obs.copy()
+
+    def describe_action(self, action: int) -> str:
+        """Return the move in words, e.g. ``move(2, 0)`` or ``move(1, table)``."""
+        block, target = divmod(int(action), self._n)
+        return f"move({block}, {'table' if target == block else target})"
+
     def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
         """Move block b onto d (``action = b·n + d``); with probability 0.3 it drops."""
         a = self.check_action(action)
@@ -207,11 +231,8 @@ class BlocksWorld(Domain):
         on, above = self._on, self._above
         source = on[block]
         if above[block] >= 0 or (source == block if target == block else above[target] >= 0):
-            raise InvalidParameterError(
-                f"BlocksWorld.step: move({block}, {'table' if target == block else target}) "
-                f"(action {a}) is illegal here: both blocks must be clear and a block on the "
-                f"table cannot move to the table. Legal actions: "
-                f"{self._current_legal().tolist()}."
+            return self._reject(
+                a, "both blocks must be clear and a block on the table cannot move to the table"
             )
         if self.np_random.random() < self._drop:
             target = block  # dropped: lands on the table
@@ -225,7 +246,7 @@ class BlocksWorld(Domain):
         obs[block * n + target] = 1.0
         terminated = block == n - 1 and target == n - 2 and self._is_tower()
         reward = self._goal_reward if terminated else self._step_reward
-        return obs.copy(), reward, terminated, False, {}
+        return obs.copy(), reward, terminated, False, self._with_mask({})
 
     def _is_tower(self) -> bool:
         on = self._on

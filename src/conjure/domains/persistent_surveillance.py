@@ -19,6 +19,7 @@ from conjure.domains._uav_kernels import (
     pst_num_crashed,
     pst_step,
 )
+from conjure.domains.action_masking import ActionMasking
 
 __all__ = ["PersistentSurveillance", "persistent_surveillance_state_action_count"]
 
@@ -37,7 +38,7 @@ def persistent_surveillance_state_action_count(num_uavs: int = 3, max_fuel: int 
     return (NUM_LOCATIONS * (max_fuel + 1) * 2 * 2) ** num_uavs * 3**num_uavs
 
 
-class PersistentSurveillance(Domain):
+class PersistentSurveillance(ActionMasking, Domain):
     """Keep targets under surveillance with fuel-limited, failure-prone UAVs.
 
     Geramifard (2012), Section 4.1.4 and Figure 4-3(a) (T:2492-2494); spec section 3.1, after
@@ -77,6 +78,11 @@ class PersistentSurveillance(Domain):
         γ in [0, 1].
     max_episode_steps : int, default=1000
         Episode cap, in [1, inf).
+    illegal_action : {"raise", "ignore", "penalize"}, default="raise"
+        What an illegal joint action does: raise, or a no-op step with reward 0 or
+        −``illegal_action_penalty`` (`conjure.domains.action_masking`).
+    illegal_action_penalty : float, default=1.0
+        Penalty in [0, inf) of ``illegal_action="penalize"``.
 
     Attributes
     ----------
@@ -103,7 +109,9 @@ class PersistentSurveillance(Domain):
     - Legal actions (RLPy): LOITER needs a working actuator unless at REFUEL or BASE; ADVANCE
       needs fuel > 0, a working actuator and not being at SURVEIL; RETREAT needs fuel > 0 and
       not being at BASE; a UAV with none of these gets a dummy LOITER. Illegal joint actions
-      raise `InvalidParameterError`; ``action_space.sample()`` draws only legal ones.
+      raise `InvalidParameterError` unless ``illegal_action`` says otherwise;
+      ``action_space.sample()`` draws only legal ones; ``action_masks()`` and
+      ``info["action_mask"]`` give them as a bool mask (`conjure.domains.action_masking`).
     - Step order (RLPy): move; burn fuel unless loitering at REFUEL/BASE; actuator then sensor
       failures (2n uniform draws: all actuators, then all sensors); a UAV that stayed at REFUEL
       gets full fuel; a UAV that stayed at BASE is repaired (after failures, so it leaves BASE
@@ -140,6 +148,7 @@ class PersistentSurveillance(Domain):
         "max_fuel": Interval(int, 1, 100),
         "discount": Interval(float, 0.0, 1.0),
         "max_episode_steps": Interval(int, 1, None),
+        **ActionMasking.masking_constraints,
     }
 
     def __init__(
@@ -156,6 +165,8 @@ class PersistentSurveillance(Domain):
         max_fuel: int = 10,
         discount: float = 0.9,
         max_episode_steps: int = 1000,
+        illegal_action: str = "raise",
+        illegal_action_penalty: float = 1.0,
     ) -> None:
         self.num_uavs = num_uavs
         self.num_targets = num_targets
@@ -168,6 +179,8 @@ class PersistentSurveillance(Domain):
         self.max_fuel = max_fuel
         self.discount = discount
         self.max_episode_steps = max_episode_steps
+        self.illegal_action = illegal_action
+        self.illegal_action_penalty = illegal_action_penalty
         self._build()
 
     @classmethod
@@ -237,7 +250,7 @@ class PersistentSurveillance(Domain):
         """Start with every UAV at BASE, full fuel and working parts."""
         super().reset(seed=seed)
         self._set_start()
-        return self._state.astype(np.float64), {}
+        return self._state.astype(np.float64), self._with_mask({})
 
     def legal_actions(self, state: np.ndarray) -> np.ndarray:
         """Return the sorted legal joint actions of ``state`` (one compiled pass)."""
@@ -258,6 +271,12 @@ class PersistentSurveillance(Domain):
     def _current_legal(self) -> np.ndarray:
         return np.flatnonzero(self._mask).astype(np.int64)
 
+    def _current_mask(self) -> np.ndarray:
+        return self._mask.astype(bool)
+
+    def _current_observation(self) -> np.ndarray:
+        return self._state.astype(np.float64)
+
     def describe_action(self, action: int) -> str:
         """Return the joint action as per-UAV names, e.g. ``(LOITER, ADVANCE, RETREAT)``."""
         digits = [(int(action) // 3**i) % 3 for i in range(self._n)]
@@ -267,13 +286,11 @@ class PersistentSurveillance(Domain):
         """Apply one joint action: move, burn, fail, refuel, repair; reward as in RLPy."""
         a = self.check_action(action)
         if not self._mask[a]:
-            raise InvalidParameterError(
-                f"PersistentSurveillance.step: action {a} {self.describe_action(a)} is illegal "
-                f"in the current state; legal actions: {self._current_legal().tolist()}."
-            )
+            return self._reject(a, "see PersistentSurveillance's notes on legal actions")
         uniforms = self.np_random.random(2 * self._n)
         obs, reward, terminated = pst_step(self._state, a, uniforms, *self._args, self._mask)
-        return obs, reward, terminated, False, {"cost": 1.0 if terminated else 0.0}
+        info = {"cost": 1.0 if terminated else 0.0}
+        return obs, reward, terminated, False, self._with_mask(info)
 
     def is_constrained(self, state: np.ndarray) -> bool:
         """Whether a UAV is out of fuel outside REFUEL (the crash that ends the episode)."""

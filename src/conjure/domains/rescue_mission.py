@@ -19,6 +19,7 @@ from conjure.domains._uav_kernels import (
     rescue_legal_actions,
     rescue_step,
 )
+from conjure.domains.action_masking import ActionMasking
 
 __all__ = ["RescueMission", "rescue_mission_state_action_count"]
 
@@ -64,7 +65,7 @@ def _graph_tables() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return neighbours, degrees, is_near
 
 
-class RescueMission(Domain):
+class RescueMission(ActionMasking, Domain):
     """Fly a medic UAV to victims while a communication UAV stays within one edge to relay.
 
     Geramifard (2012), Section 4.1.4, Figure 4-3(b) and footnote 3 (T:2500-2502, T:3097);
@@ -88,6 +89,11 @@ class RescueMission(Domain):
         Penalty per fuel unit burnt; any finite float.
     failure_penalty : float, default=23.0
         Penalty for a crash or for not being home at the horizon, in [0, inf).
+    illegal_action : {"raise", "ignore", "penalize"}, default="raise"
+        What an illegal joint action does: raise, or a no-op step with reward 0 or
+        −``illegal_action_penalty`` (`conjure.domains.action_masking`).
+    illegal_action_penalty : float, default=1.0
+        Penalty in [0, inf) of ``illegal_action="penalize"``.
 
     Attributes
     ----------
@@ -121,7 +127,9 @@ class RescueMission(Domain):
       0 hover, 1..3 move to the 1st..3rd neighbour (increasing node number). Comm slots: 0 hover,
       1 perch, 2..4 move to the 1st..3rd neighbour. A slot beyond the node's degree, a move
       without fuel, or a move of a perched comm UAV ("a perched UAV must hover before moving")
-      is illegal; illegal actions raise `InvalidParameterError`.
+      is illegal; illegal actions raise `InvalidParameterError` unless ``illegal_action`` says
+      otherwise; ``action_masks()`` and ``info["action_mask"]`` give the legal ones as a bool
+      mask (`conjure.domains.action_masking`).
     - Choice: no fuel burn while hovering at the base; a hovering comm UAV burns 1 elsewhere;
       perching is free; every move burns 1. Fuel never goes below 0.
     - Choice: the comm UAV starts flying (mode 0). Its mode does not affect relaying.
@@ -147,6 +155,7 @@ class RescueMission(Domain):
         "horizon": Interval(int, 1, 1000),
         "fuel_penalty": Interval(float, None, None),
         "failure_penalty": Interval(float, 0.0, None),
+        **ActionMasking.masking_constraints,
     }
 
     def __init__(
@@ -156,11 +165,15 @@ class RescueMission(Domain):
         horizon: int = 10,
         fuel_penalty: float = 0.1,
         failure_penalty: float = 23.0,
+        illegal_action: str = "raise",
+        illegal_action_penalty: float = 1.0,
     ) -> None:
         self.max_fuel = max_fuel
         self.horizon = horizon
         self.fuel_penalty = fuel_penalty
         self.failure_penalty = failure_penalty
+        self.illegal_action = illegal_action
+        self.illegal_action_penalty = illegal_action_penalty
         self._build()
 
     def _build(self) -> None:
@@ -222,7 +235,7 @@ class RescueMission(Domain):
         """Start with both UAVs at the base, full fuel, the comm UAV flying, t = 0."""
         super().reset(seed=seed)
         self._set_start()
-        return self._state.astype(np.float64), {}
+        return self._state.astype(np.float64), self._with_mask({})
 
     def legal_actions(self, state: np.ndarray) -> np.ndarray:
         """Return the sorted legal joint actions of ``state`` (one compiled pass)."""
@@ -243,6 +256,12 @@ class RescueMission(Domain):
     def _current_legal(self) -> np.ndarray:
         return np.flatnonzero(self._mask).astype(np.int64)
 
+    def _current_mask(self) -> np.ndarray:
+        return self._mask.astype(bool)
+
+    def _current_observation(self) -> np.ndarray:
+        return self._state.astype(np.float64)
+
     @staticmethod
     def describe_action(action: int) -> str:
         """Return the joint action in words, e.g. ``medic: hover, comm: perch``."""
@@ -253,9 +272,8 @@ class RescueMission(Domain):
         """Move both UAVs, try the rescue at the medic's node, charge fuel and failures."""
         a = self.check_action(action)
         if not self._mask[a]:
-            raise InvalidParameterError(
-                f"RescueMission.step: action {a} ({self.describe_action(a)}) is illegal in the "
-                f"current state; legal actions: {self._current_legal().tolist()}."
+            return self._reject(
+                a, "a slot within the node's degree, fuel to move, a perched UAV hovers first"
             )
         obs, reward, terminated, failed = rescue_step(
             self._state,
@@ -269,7 +287,7 @@ class RescueMission(Domain):
             *self._scalars,
             self._mask,
         )
-        return obs, reward, terminated, False, {"cost": 1.0 if failed else 0.0}
+        return obs, reward, terminated, False, self._with_mask({"cost": 1.0 if failed else 0.0})
 
     def is_constrained(self, state: np.ndarray) -> bool:
         """Whether ``state`` is a failure: a UAV out of fuel, or away from the base at t = H."""

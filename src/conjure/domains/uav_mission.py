@@ -20,6 +20,7 @@ from conjure.domains._mission_dp import layer_size, solve_mission, state_key
 from conjure.domains._mission_kernels import (
     ILLEGAL,
     checked_legal_actions,
+    checked_legal_mask,
     checked_transition,
     count_unintended,
     is_crashed,
@@ -28,6 +29,7 @@ from conjure.domains._mission_kernels import (
     nominal_next_state,
     state_from_observation,
 )
+from conjure.domains.action_masking import ActionMasking
 from conjure.domains.mission_graph import MissionGraph, uav_7_2, uav_10_2
 
 __all__ = ["MissionSolution", "UAVMission"]
@@ -41,7 +43,7 @@ _SOLUTIONS: OrderedDict[tuple[str, float], MissionSolution] = OrderedDict()
 _CACHE_SIZE = 8
 
 
-class UAVMission(NoisyDomain):
+class UAVMission(ActionMasking, NoisyDomain):
     """A team of fuel-limited UAVs collects stochastic target rewards on a mission graph.
 
     Geramifard (2012), Section 5.3.5 ("UAV Mission Planning: MDP formulation", Figure 5-4,
@@ -69,6 +71,11 @@ class UAVMission(NoisyDomain):
     traverse_failure : float, default=0.0
         η in [0, 1], the probability that a UAV trying to traverse an edge stays where it is
         (Section 5.4.1 uses 0.05; Section 5.3.5 uses 0).
+    illegal_action : {"raise", "ignore", "penalize"}, default="raise"
+        What an illegal joint action does: raise, or a no-op step with reward 0 or
+        −``illegal_action_penalty`` (`conjure.domains.action_masking`).
+    illegal_action_penalty : float, default=1.0
+        Penalty in [0, inf) of ``illegal_action="penalize"``.
 
     Attributes
     ----------
@@ -114,7 +121,12 @@ class UAVMission(NoisyDomain):
       UAV i's traversal (fails if u_i < η), u_{n+c} the c-th target that may be obtained (in
       the order of the first UAV at each). The compiled kernel ``mission_step`` draws the same
       numbers from a Generator, so a compiled loop replays `step` exactly. A terminal state
-      absorbs (reward 0).
+      absorbs (reward 0). A rejected illegal action (``illegal_action`` "ignore"/"penalize")
+      draws them too.
+    - Choice: illegal joint actions raise `InvalidParameterError` unless ``illegal_action``
+      says otherwise; ``action_masks()`` and ``info["action_mask"]`` give the legal ones as a
+      bool mask (`conjure.domains.action_masking`). A no-op leaves t unchanged, so the episode
+      then ends at the cap H (``TimeLimit``, the run loop) rather than at t = H.
     - Choice: the domain never truncates; the episode ends (terminated) at t = H or a crash, so
       ``max_episode_steps`` is H.
     - [R] The graphs of Figure 5-4 are lost; the shipped scenarios are the reconstructions
@@ -144,6 +156,7 @@ class UAVMission(NoisyDomain):
             (Mapping, type(None)), "a mission-graph mapping (see MissionGraph.from_dict) or None"
         ),
         "traverse_failure": Interval(float, 0.0, 1.0),
+        **ActionMasking.masking_constraints,
     }
 
     def __init__(
@@ -152,10 +165,14 @@ class UAVMission(NoisyDomain):
         scenario: str = "uav-7-2",
         graph: Mapping[str, Any] | None = None,
         traverse_failure: float = 0.0,
+        illegal_action: str = "raise",
+        illegal_action_penalty: float = 1.0,
     ) -> None:
         self.scenario = scenario
         self.graph = graph
         self.traverse_failure = traverse_failure
+        self.illegal_action = illegal_action
+        self.illegal_action_penalty = illegal_action_penalty
         self._build()
 
     def _build(self) -> None:
@@ -230,7 +247,7 @@ class UAVMission(NoisyDomain):
         """Start with every UAV at the base with its initial fuel, nothing visited, t = 0."""
         super().reset(seed=seed)
         self._state = self.graph_.initial_state()
-        return self._state.copy(), {}
+        return self._state.copy(), self._with_mask({})
 
     def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
         """Fly every UAV one step; ``info["cost"]`` is 1.0 on a crash (Section 5.3.5)."""
@@ -240,16 +257,20 @@ class UAVMission(NoisyDomain):
             self._state, a, *self._tables, self._eta, uniforms
         )
         if status != -1:
-            raise InvalidParameterError(
-                f"UAVMission.step: action {a} {self.describe_action(a)} is illegal in the "
-                f"current state (each UAV stays or moves to a neighbour, with fuel left); legal "
-                f"actions: {self._current_legal().tolist()}."
-            )
+            return self._reject(a, "each UAV stays or moves to a neighbour, with fuel left")
         self._state = state
-        return state.copy(), reward, terminated, False, {"cost": cost}
+        return state.copy(), reward, terminated, False, self._with_mask({"cost": cost})
 
     def _current_legal(self) -> np.ndarray:
         return checked_legal_actions(self._state, self._high, self._layout, self._adjacency)[0]
+
+    def _current_mask(self) -> np.ndarray:
+        return checked_legal_mask(
+            self._state, self._high, self._layout, self._adjacency, self.graph_.num_actions
+        )
+
+    def _current_observation(self) -> np.ndarray:
+        return self._state.copy()
 
     def describe_action(self, action: int) -> str:
         """Return the joint action as destinations, e.g. ``(UAV 0 to node 1, UAV 1 to node 0)``."""

@@ -10,6 +10,7 @@ from conjure.core.params import Interval
 from conjure.core.seeding import as_seed_sequence
 from conjure.representations._adaptive_kernels import atc_leaf, atc_record
 from conjure.representations._kernels import per_dimension, positive_ints
+from conjure.representations._max_features import MAX_FEATURES
 from conjure.representations.weights import append_rows
 
 __all__ = ["AdaptiveTileCoding"]
@@ -38,8 +39,8 @@ class AdaptiveTileCoding(Representation):
         Whiteson et al.'s p, in [1, inf): updates of a tile without a new lowest |δ| after
         which it is split.
     max_features : int, default 10000
-        Cap on the number of tiles, in [1, inf); no tile splits once it is reached. Must be
-        at least the number of initial tiles.
+        Cap on the number of tiles, initial plus those added by splits, in [1, inf); no tile
+        splits once it is reached. Must be at least the number of initial tiles.
     min_tile_width : float, default 0.01
         Smallest tile width along a continuous dimension, as a fraction of ``high − low``, in
         (0, 1]: a tile splits along a dimension only if both halves are at least this wide.
@@ -112,7 +113,7 @@ class AdaptiveTileCoding(Representation):
     parameter_constraints = {
         "initial_tiles_per_dim": positive_ints(),
         "patience": Interval(int, 1, None),
-        "max_features": Interval(int, 1, None),
+        "max_features": MAX_FEATURES,
         "min_tile_width": Interval(float, 0, 1, closed="right"),
     }
 

@@ -6,11 +6,12 @@ import numpy as np
 
 from conjure.core.errors import InvalidParameterError
 from conjure.core.interfaces import DomainSpec, Expansion, Representation, check_is_set_up
-from conjure.core.params import InstanceOf, Interval, Options
+from conjure.core.params import Interval, Options
 from conjure.core.seeding import as_seed_sequence
 from conjure.representations import _arifdd_kernels as _ak
 from conjure.representations import _ifdd_kernels as _k
 from conjure.representations._kernels import per_dimension, positive_ints
+from conjure.representations._max_features import OPTIONAL_MAX_FEATURES
 from conjure.representations.online_ifdd import _RELEVANCES, _STATE_ARRAYS, OnlineIFDD
 
 __all__ = ["ARiFDD"]
@@ -52,8 +53,9 @@ class ARiFDD(OnlineIFDD):
         The coverage floor in (0, 1] (Section 4.2.1: 1/20): a split is rejected if either
         new tile would cover less than this fraction of its dimension's range.
     max_features : int or None, default None
-        Cap on the total number of features (tiles, retired ones included, plus
-        conjunctions), in [1, inf): no conjunction is added and no tile split beyond it.
+        Cap on the total number of features, initial plus discovered (the initial tiles, split
+        tiles, retired ones included, and conjunctions), in [number of initial tiles, inf) (a
+        smaller cap raises at setup): no conjunction is added and no tile split beyond it.
 
     Attributes
     ----------
@@ -141,7 +143,7 @@ class ARiFDD(OnlineIFDD):
         "relevance": Options(tuple(_RELEVANCES)),
         "split_threshold": Interval(float, 0, None),
         "min_tile_fraction": Interval(float, 0, 1, closed="right"),
-        "max_features": Interval(int, 1, None) | InstanceOf(type(None)),
+        "max_features": OPTIONAL_MAX_FEATURES,
     }
 
     is_binary = True

@@ -9,6 +9,7 @@ from conjure.core.interfaces import DomainSpec, Expansion, Representation, check
 from conjure.core.params import InstanceOf, Interval, Options
 from conjure.core.seeding import make_rng, split_seed
 from conjure.representations import _ifdd_kernels as _k
+from conjure.representations._max_features import OPTIONAL_MAX_FEATURES, check_max_features
 
 __all__ = ["OnlineIFDD"]
 
@@ -54,7 +55,9 @@ class OnlineIFDD(Representation):
         Whether φ̇ is sparsified (Alg 19); ``False`` activates every feature whose initial set
         lies within the active initial features (φ of Section 3.3, for comparison).
     max_features : int or None, default None
-        Cap on the total number of features (initial + discovered), in [1, inf).
+        Cap on the total number of features, the n₀ initial ones of ``base`` plus the
+        discovered ones, in [n₀, inf) (a smaller cap raises at setup); ``None``: no cap. For up
+        to k discovered features, pass n₀ + k.
     discovery_rate : float or None, default None
         C in (0, inf) of Eq. 4.6: if set, the threshold is ignored and after the t-th call of
         `discover` the most relevant potential features are added while fewer than
@@ -134,7 +137,7 @@ class OnlineIFDD(Representation):
         "discovery_threshold": Interval(float, 0, None),
         "relevance": Options(tuple(_RELEVANCES)),
         "sparsify": InstanceOf(bool, "a bool"),
-        "max_features": Interval(int, 1, None) | InstanceOf(type(None)),
+        "max_features": OPTIONAL_MAX_FEATURES,
         "discovery_rate": Interval(float, 0, None, closed="neither") | InstanceOf(type(None)),
     }
 
@@ -182,6 +185,8 @@ class OnlineIFDD(Representation):
         seeds = split_seed(seed, ("base", "conjunctions"))
         base = self.base.clone().setup(spec, seeds["base"])
         n0 = int(base.num_features_)
+        where = f"{type(base).__name__} on {spec.name!r}"
+        check_max_features(type(self).__name__, self.max_features, n0, where)
         rng = make_rng(seeds["conjunctions"])
         relevance, selection, threshold, rate = self._settings()
         ints = np.zeros(_k.NUM_INTS, dtype=np.int64)

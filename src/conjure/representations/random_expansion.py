@@ -5,6 +5,7 @@ from __future__ import annotations
 from conjure.core.interfaces import Representation
 from conjure.core.params import InstanceOf, Interval
 from conjure.representations import _ifdd_kernels as _k
+from conjure.representations._max_features import OPTIONAL_MAX_FEATURES
 from conjure.representations.online_ifdd import OnlineIFDD
 
 __all__ = ["RandomExpansion"]
@@ -29,7 +30,8 @@ class RandomExpansion(OnlineIFDD):
     sparsify : bool, default True
         Whether φ̇ is sparsified (Algorithm 19).
     max_features : int or None, default None
-        Cap on the total number of features, in [1, inf).
+        Cap on the total number of features, the n₀ initial ones of ``base`` plus the added
+        ones, in [n₀, inf) (a smaller cap raises at setup); ``None``: no cap.
 
     Attributes
     ----------
@@ -72,7 +74,7 @@ class RandomExpansion(OnlineIFDD):
         "base": InstanceOf(Representation, "a binary Representation"),
         "discovery_rate": Interval(float, 0, None, closed="neither"),
         "sparsify": InstanceOf(bool, "a bool"),
-        "max_features": Interval(int, 1, None) | InstanceOf(type(None)),
+        "max_features": OPTIONAL_MAX_FEATURES,
     }
 
     def __init__(

@@ -11,6 +11,7 @@ from conjure.core.interfaces import DomainSpec, Expansion, Representation, check
 from conjure.core.params import Interval, Predicate
 from conjure.core.seeding import as_seed_sequence
 from conjure.representations._adaptive_kernels import sdm_active, sdm_cell
+from conjure.representations._max_features import MAX_FEATURES
 from conjure.representations.weights import append_rows
 
 __all__ = ["SparseDistributedMemory"]
@@ -57,8 +58,8 @@ class SparseDistributedMemory(Representation):
         Ratitch & Precup's N_min, in [1, inf): the fewest prototypes an updated state should
         activate before new ones are allocated around it.
     max_features : int, default 10000
-        Cap on the number of prototypes, in [1, inf); none are added once it is reached. Must
-        be at least the number of initial prototypes (see Notes).
+        Cap on the number of prototypes, initial plus allocated, in [1, inf); none are added
+        once it is reached. Must be at least the number of initial prototypes (see Notes).
 
     Attributes
     ----------
@@ -141,7 +142,7 @@ class SparseDistributedMemory(Representation):
             "a non-empty list of floats in (0, 1]",
         ),
         "min_active": Interval(int, 1, None),
-        "max_features": Interval(int, 1, None),
+        "max_features": MAX_FEATURES,
     }
 
     def __init__(

@@ -381,6 +381,42 @@ def check_seeded_rollout(domain: Domain) -> None:
     assert spec.num_dims == domain.observation_space.shape[0], "domain_spec dims != observations"
 
 
+def check_action_masks(domain: Domain) -> None:
+    """``action_masks()`` is a bool array marking exactly the legal actions of the current state.
+
+    Domains with action constraints also give it as ``info["action_mask"]`` at reset and step
+    (`conjure.domains.action_masking`), along a rollout of random legal actions.
+    """
+    twin = domain.clone()
+    num_actions = twin.domain_spec.num_actions
+    has_constraints = twin.domain_spec.has_action_constraints
+    name = type(twin).__name__
+    observation, info = twin.reset(seed=7)
+    action_rng = make_rng(7)
+    for _ in range(40):
+        legal = twin.legal_actions(observation)
+        expected = np.zeros(num_actions, dtype=bool)
+        expected[legal] = True
+        mask = twin.action_masks()
+        assert isinstance(mask, np.ndarray) and mask.dtype == bool, (
+            f"{name}.action_masks() must return a bool ndarray; got {mask!r}."
+        )
+        assert np.array_equal(mask, expected), (
+            f"{name}.action_masks() marks {np.flatnonzero(mask).tolist()} but legal_actions is "
+            f"{legal.tolist()} in state {observation.tolist()}."
+        )
+        if has_constraints:
+            given = info.get("action_mask")
+            assert isinstance(given, np.ndarray) and np.array_equal(given, expected), (
+                f"{name}: info['action_mask'] must equal the legal actions {legal.tolist()}; "
+                f"got {given!r}."
+            )
+        action = int(legal[action_rng.integers(legal.shape[0])])
+        observation, _, terminated, truncated, info = twin.step(action)
+        if terminated or truncated:
+            observation, info = twin.reset()
+
+
 def check_pickle_round_trip(domain: Domain) -> None:
     """A pickled and restored domain continues the same rollout."""
     domain.reset(seed=5)
@@ -594,6 +630,7 @@ _CHECKS: dict[type, tuple[Check, ...]] = {
     Domain: (
         check_gymnasium_env,
         check_seeded_rollout,
+        check_action_masks,
         check_pickle_round_trip,
         check_model_matches_simulation,
     ),

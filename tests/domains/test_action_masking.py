@@ -1,0 +1,145 @@
+"""Legal-action masks and the illegal-action modes of the constrained domains."""
+
+import warnings
+
+import gymnasium as gym
+import numpy as np
+import pytest
+from gymnasium.utils.env_checker import check_env
+
+import conjure  # noqa: F401  (registers the Gymnasium ids)
+from conjure.core.errors import InvalidParameterError
+from conjure.domains import (
+    BlocksWorld,
+    GridWorld,
+    PersistentSurveillance,
+    RescueMission,
+    UAVMission,
+)
+from conjure.domains.action_masking import ILLEGAL_ACTION_MODES
+from conjure.testing.checks import check_action_masks
+
+CONSTRAINED = [BlocksWorld, PersistentSurveillance, RescueMission, UAVMission]
+
+
+def mask_of(domain, observation):
+    mask = np.zeros(domain.domain_spec.num_actions, dtype=bool)
+    mask[domain.legal_actions(observation)] = True
+    return mask
+
+
+def first_illegal(domain, observation):
+    return int(np.flatnonzero(~mask_of(domain, observation))[0])
+
+
+@pytest.mark.parametrize("cls", CONSTRAINED)
+def test_masks_on_reset_and_step_match_legal_actions(cls):
+    domain = cls()
+    observation, info = domain.reset(seed=0)
+    rng = np.random.default_rng(0)
+    num_constrained = 0  # states where some action is illegal: the masks tell something
+    for _ in range(30):
+        expected = mask_of(domain, observation)
+        num_constrained += int(expected.sum() < expected.size)
+        assert info["action_mask"].dtype == bool
+        np.testing.assert_array_equal(info["action_mask"], expected)
+        np.testing.assert_array_equal(domain.action_masks(), expected)
+        action = int(rng.choice(np.flatnonzero(expected)))
+        observation, _, terminated, _, info = domain.step(action)
+        if terminated:
+            observation, info = domain.reset()
+    assert num_constrained > 0
+    check_action_masks(domain)
+
+
+def test_blocks_world_mask_by_hand():
+    domain = BlocksWorld(num_blocks=3, drop_probability=0.0)
+    _, info = domain.reset(seed=0)
+    # All on the table: every block onto another block (1, 2, 3, 5, 6, 7), none to the table.
+    assert np.flatnonzero(info["action_mask"]).tolist() == [1, 2, 3, 5, 6, 7]
+    _, _, _, _, info = domain.step(1 * 3 + 0)  # block 1 onto 0
+    # Clear: 1 and 2. move(1, table)=4, move(1, 2)=5, move(2, 1)=7.
+    assert np.flatnonzero(info["action_mask"]).tolist() == [4, 5, 7]
+
+
+@pytest.mark.parametrize("cls", CONSTRAINED)
+def test_raise_names_the_action_and_the_legal_ones(cls):
+    domain = cls()
+    observation, _ = domain.reset(seed=0)
+    action = first_illegal(domain, observation)
+    legal = domain.legal_actions(observation).tolist()
+    with pytest.raises(InvalidParameterError, match=rf"action {action} .*legal actions: ") as err:
+        domain.step(action)
+    assert str(legal) in str(err.value) and "illegal_action='ignore'" in str(err.value)
+
+
+@pytest.mark.parametrize("cls", CONSTRAINED)
+@pytest.mark.parametrize(("mode", "reward"), [("ignore", 0.0), ("penalize", -2.5)])
+def test_ignore_and_penalize_are_no_ops(cls, mode, reward):
+    domain = cls(illegal_action=mode, illegal_action_penalty=2.5)
+    observation, info = domain.reset(seed=0)
+    action = first_illegal(domain, observation)
+    after, r, terminated, truncated, step_info = domain.step(action)
+    np.testing.assert_array_equal(after, observation)
+    assert (r, terminated, truncated, step_info["illegal_action"]) == (reward, False, False, True)
+    np.testing.assert_array_equal(step_info["action_mask"], info["action_mask"])
+    assert after is not observation
+    legal = int(domain.legal_actions(observation)[0])
+    moved = domain.step(legal)  # the episode goes on with a legal action
+    assert "illegal_action" not in moved[4]
+
+
+def test_ignored_action_leaves_the_random_stream_alone():
+    twins = [BlocksWorld(illegal_action="ignore"), BlocksWorld()]
+    observations = [twin.reset(seed=4)[0] for twin in twins]
+    twins[0].step(first_illegal(twins[0], observations[0]))
+    rng = np.random.default_rng(4)
+    for _ in range(40):
+        action = int(rng.choice(twins[1].legal_actions(observations[1])))
+        steps = [twin.step(action) for twin in twins]
+        np.testing.assert_array_equal(steps[0][0], steps[1][0])
+        observations = [step[0] for step in steps]
+        if steps[1][2]:
+            break
+
+
+@pytest.mark.parametrize("mode", ["ignore", "penalize"])
+def test_check_env_passes_in_every_mode(mode):
+    for cls in CONSTRAINED:
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            check_env(cls(illegal_action=mode), skip_render_check=True)
+
+
+@pytest.mark.parametrize(
+    ("params", "name"),
+    [
+        ({"illegal_action": "skip"}, "illegal_action"),
+        ({"illegal_action": "Raise"}, "illegal_action"),
+        ({"illegal_action_penalty": -1.0}, "illegal_action_penalty"),
+        ({"illegal_action_penalty": float("inf")}, "illegal_action_penalty"),
+        ({"illegal_action_penalty": True}, "illegal_action_penalty"),
+    ],
+)
+def test_bad_mode_or_penalty_is_rejected(params, name):
+    for cls in CONSTRAINED:
+        with pytest.raises(InvalidParameterError, match=rf"`{cls.__name__}.{name}` must be"):
+            cls(**params)
+    assert ILLEGAL_ACTION_MODES == ("raise", "ignore", "penalize")
+
+
+def test_masks_through_gymnasium_make_and_its_wrappers():
+    env = gym.make("conjure/BlocksWorld-v0", illegal_action="penalize", illegal_action_penalty=0.5)
+    observation, info = env.reset(seed=0)
+    mask = env.get_wrapper_attr("action_masks")()  # how sb3-contrib reads it
+    np.testing.assert_array_equal(mask, info["action_mask"])
+    action = int(np.flatnonzero(~mask)[0])
+    after, reward, *_ = env.step(action)
+    np.testing.assert_array_equal(after, observation)
+    assert reward == -0.5
+
+
+def test_unconstrained_domains_allow_every_action():
+    domain = GridWorld()
+    _, info = domain.reset(seed=0)
+    assert domain.action_masks().tolist() == [True] * 4 and "action_mask" not in info
