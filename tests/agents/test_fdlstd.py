@@ -178,3 +178,27 @@ def test_pendulum_fdlstd_beats_initial_features_and_random():
             assert mean[name] < 0.85 * mean["random"], (num_samples, mean)
         assert mean["ifdd_plus"] < mean["ifdd"], (num_samples, mean)
         assert mean["best"] <= mean["ifdd_plus"] + 1e-12, (num_samples, mean)
+
+
+def test_signed_iFDD_plus_follows_eq_3_18_as_printed():
+    # V = −9 at (2, 2) of a 3 × 3 grid: the additive fit leaves δ = −4 there, +2 beside it and
+    # −1 elsewhere (the negation of test_relevance_follows_the_td_error). Eq. 3.18 as printed,
+    # argmax Σδ/√count, picks a +2 cell: x=0 ∧ y=2 (features 0, 5) by the tie rule; RLPy's
+    # |Σδ|/√count picks the −4 cell x=2 ∧ y=2 (features 2, 5).
+    spec = DomainSpec(
+        name="xy3",
+        low=[0.0, 0.0],
+        high=[2.0, 2.0],
+        is_discrete=[True, True],
+        num_actions=1,
+        discount=0.9,
+        max_episode_steps=10,
+    )
+    states = [np.array([x, y], dtype=float) for x in range(3) for y in range(3)]
+    samples = [Transition(s, 0, -9.0 * (s == 2).all(), s, 0, True) for s in states]
+    signed = make("ifdd_plus_signed", num_expansions=1).setup(spec).fit(samples)
+    assert signed.parents_[0].tolist() == [0, 5]
+    assert np.isclose(signed.scores_[0], 2.0)
+    magnitude = make("ifdd_plus", num_expansions=1).setup(spec).fit(samples)
+    assert magnitude.parents_[0].tolist() == [2, 5]
+    assert np.isclose(magnitude.scores_[0], 4.0)
