@@ -54,6 +54,9 @@ class ARiFDD(OnlineIFDD):
     max_features : int or None, default None
         Cap on the total number of features (tiles, retired ones included, plus
         conjunctions), in [1, inf): no conjunction is added and no tile split beyond it.
+    split_rank : {"variance", "relative_variance"}, default "variance"
+        Line 12's ranking of the candidate tiles: σ² as printed, or σ² / (high − low)² of
+        the tile's dimension (independent of the state's units).
 
     Attributes
     ----------
@@ -69,7 +72,7 @@ class ARiFDD(OnlineIFDD):
     retired_tiles_ : ndarray of int64
         The split tiles, in split order.
     num_splits_, num_rejected_splits_ : int
-        Splits done, and splits suggested (line 12) but rejected by the coverage floor.
+        Splits done, and steps at which the coverage floor blocked every candidate tile.
 
     Notes
     -----
@@ -87,14 +90,14 @@ class ARiFDD(OnlineIFDD):
     - Choice (line 9): the printed ξ of line 9 is the split threshold ς of the text and of
       the inputs; the test is strict (Ξ > ς). Ξ is never reset, so once a tile passes ς
       every later single-feature step at it suggests a split.
-    - Choice (line 12): the variances of different dimensions are compared relative to
-      their ranges, σ² / (high − low)², so the choice does not depend on the state's units;
-      ties go to the lower dimension.
-    - Choice (Section 4.2.1): the floor is tested on the split suggested by line 12; a
-      rejected suggestion splits nothing that step (no other tile is tried), as "all
-      suggested splits were rejected" with 10 cuts. A split exactly at the midpoint of a
-      1/10 tile (halves of exactly 1/20) is accepted (footnote 7), up to a 1e-9 relative
-      tolerance.
+    - Choice (line 12): the default ranks the candidates by σ² itself, as printed; ties go
+      to the lower dimension. ``split_rank="relative_variance"`` compares σ² / (high − low)²
+      instead. Fig. 4-11 (docs/reproduction.md) was drawn with the printed rule.
+    - Choice (Section 4.2.1): line 12 ranks only the candidates whose split the coverage
+      floor allows (a tile it blocks is skipped, rather than re-picked after a rejection);
+      if it blocks every candidate nothing splits that step, as "all suggested splits were
+      rejected" with 10 cuts. A split exactly at the midpoint of a 1/10 tile (halves of
+      exactly 1/20) is accepted (footnote 7), up to a 1e-9 relative tolerance.
     - Choice (lines 13-15): the split tile t is retired and BOTH halves are new features
       (ids n_t and n_t + 1, lower half first), each with parents (t, −1), so θ_t is copied
       into both and values are unchanged wherever no conjunction on t was active. Their
@@ -142,6 +145,7 @@ class ARiFDD(OnlineIFDD):
         "split_threshold": Interval(float, 0, None),
         "min_tile_fraction": Interval(float, 0, 1, closed="right"),
         "max_features": Interval(int, 1, None) | InstanceOf(type(None)),
+        "split_rank": Options(("variance", "relative_variance")),
     }
 
     is_binary = True
@@ -159,6 +163,7 @@ class ARiFDD(OnlineIFDD):
         split_threshold: float = 1.0,
         min_tile_fraction: float = 0.05,
         max_features: int | None = None,
+        split_rank: str = "variance",
     ):
         self.initial_tiles_per_dim = initial_tiles_per_dim
         self.discovery_threshold = discovery_threshold
@@ -166,6 +171,7 @@ class ARiFDD(OnlineIFDD):
         self.split_threshold = split_threshold
         self.min_tile_fraction = min_tile_fraction
         self.max_features = max_features
+        self.split_rank = split_rank
 
     @property
     def base(self) -> Representation:
@@ -184,6 +190,9 @@ class ARiFDD(OnlineIFDD):
         super().setup(spec, seed)
         self._split_threshold = float(self.split_threshold)
         self._max_features = int(self._ints[_k.I_MAX_FEATURES])
+        tiles = self.base_
+        is_relative = self.split_rank == "relative_variance"
+        self._rank_scale = tiles.inverse_range_sq_ if is_relative else np.ones(spec.num_dims)
         return self
 
     def _install(
@@ -244,7 +253,7 @@ class ARiFDD(OnlineIFDD):
             tiles.stats_,
             tiles.low_,
             tiles.high_,
-            tiles.inverse_range_sq_,
+            self._rank_scale,
             tiles.min_width_,
             tiles.is_discrete_,
             self._split_threshold,
@@ -299,7 +308,7 @@ class ARiFDD(OnlineIFDD):
 
     @property
     def num_rejected_splits_(self) -> int:
-        """Number of suggested splits (line 12) rejected by the coverage floor."""
+        """Number of steps at which the coverage floor blocked every candidate tile."""
         check_is_set_up(self, "num_rejected_splits_")
         return int(self.base_.counters_[1])
 
