@@ -31,16 +31,23 @@ STEP = {
     "rescue": (1.0, 1000),
 }
 BLOCKS_INITIAL_STEP = (1.0, 100)
+# BlocksWorld's tabular learner indexes the states it meets (HashedTabular): the thesis's
+# 368,316 state-action pairs over 36 actions are 10,231 states, of which 4,051 are reachable
+BLOCKS_TABULAR = {"kind": "HashedTabular", "params": {"capacity": 10231}}
+# iFDD+ in both forms: RLPy's |Delta_f| / sqrt(nu_f) and Eq. 4.3 as printed, Delta_f / sqrt(nu_f)
+IFDD_PLUS_FORMS = ("ifdd_plus", "ifdd_plus_signed")
 # Fig. 4-7 on the Rescue Mission: alpha_0 = 0.1, the value Fig. 4-5's selection chose there
 # for the initial features, iFDD and iFDD+
 FIXED_RATE_STEP = {"rescue": (0.1, 1000)}  # examples/blocksworld.yaml's `initial`
-# discovery thresholds: iFDD+ from the thesis's candidate sets (Section 4.1.4); iFDD (Eq. 4.2,
-# sum of |delta|) on larger values, as the thesis says iFDD+'s candidates were smaller
+# discovery thresholds: iFDD+ (both forms) from the thesis's candidate sets (Section 4.1.4);
+# iFDD (Eq. 4.2, sum of |delta|) on larger values, as the thesis says iFDD+'s candidates were
+# smaller. The first runs offered iFDD two values and it picked the larger everywhere, so the
+# grid goes one to two decades higher.
 IFDD_XI = {
-    "pendulum": [0.2, 1.0],
-    "blocksworld": [0.2, 1.0],
-    "surveillance": [300.0, 3000.0],
-    "rescue": [10.0, 100.0],
+    "pendulum": [0.2, 1.0, 5.0],
+    "blocksworld": [0.2, 1.0, 5.0],
+    "surveillance": [300.0, 3000.0, 30000.0],
+    "rescue": [10.0, 100.0, 1000.0, 10000.0],
 }
 IFDD_PLUS_XI = {
     "pendulum": [0.02, 0.05, 0.1],
@@ -94,35 +101,40 @@ def fig_4_5():
                 },
                 step,
             ),
-            "ifdd_plus": sarsa(
-                {
-                    "kind": "OnlineIFDD",
-                    "params": {
-                        "base": base,
-                        "relevance": "ifdd_plus",
-                        "discovery_threshold": IFDD_PLUS_XI[domain][0],
+            **{
+                form: sarsa(
+                    {
+                        "kind": "OnlineIFDD",
+                        "params": {
+                            "base": base,
+                            "relevance": form,
+                            "discovery_threshold": IFDD_PLUS_XI[domain][0],
+                        },
                     },
-                },
-                step,
-            ),
+                    step,
+                )
+                for form in IFDD_PLUS_FORMS
+            },
             "atc": sarsa({"kind": "AdaptiveTileCoding", "params": {}}, step),
         }
-        if domain != "blocksworld":  # Tabular and SDM cannot be built on 36 dimensions
+        if domain == "blocksworld":  # Tabular would allocate all 2^36 cells
+            agents["tabular"] = sarsa(BLOCKS_TABULAR, step)
+        else:
             agents["tabular"] = sarsa({"kind": "Tabular", "params": {}}, step)
         if domain == "pendulum":
             agents["sdm"] = sarsa({"kind": "SparseDistributedMemory", "params": {}}, step)
             agents["rbf"] = sarsa({"kind": "RBF", "params": {"num_centers": 9}}, step)
-        elif domain != "blocksworld":
+        else:
             # the default radius 0.1 builds a 5^d covering grid (OOM on 12-13 dims)
             agents["sdm"] = sarsa(
                 {"kind": "SparseDistributedMemory", "params": {"activation_radius": 0.5}}, step
             )
-        grid = {
-            "agents.ifdd.params.representation.params.discovery_threshold": IFDD_XI[domain],
-            "agents.ifdd_plus.params.representation.params.discovery_threshold": IFDD_PLUS_XI[
-                domain
-            ],
-        }
+        grid = {"agents.ifdd.params.representation.params.discovery_threshold": IFDD_XI[domain]}
+        for form in IFDD_PLUS_FORMS:
+            key = f"agents.{form}.params.representation.params.discovery_threshold"
+            grid[key] = IFDD_PLUS_XI[domain]
+        if domain == "blocksworld":  # tabular is neither the initial nor an expanding method
+            grid["agents.tabular.params.step_size.params.alpha_0"] = [0.1, 1.0]
         if domain == "rescue":
             for label in agents:
                 grid[f"agents.{label}.params.step_size.params.alpha_0"] = [0.1, 1.0]
