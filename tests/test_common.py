@@ -5,8 +5,10 @@ import inspect
 import pytest
 
 from conjure.agents import SARSA, ActorCritic, QLearning
-from conjure.domains import GridWorld
+from conjure.domains import GridWorld, UAVMission
 from conjure.experiments.registry import LAYERS
+from conjure.models.approximate_model import ApproximateModel
+from conjure.planners import ModelPlanner, ShortestPathPlanner, SwitchingPlanner
 from conjure.representations import (
     RBF,
     HashedTabular,
@@ -15,13 +17,33 @@ from conjure.representations import (
     Tabular,
     TileCoding,
 )
+from conjure.safety import (
+    AdaptiveCooperativeLearner,
+    CooperativeLearner,
+    MonteCarloRiskAnalyzer,
+    NominalRiskAnalyzer,
+)
 from conjure.testing import applicable_checks
+
+
+def grid_model(**params):
+    """T̂ of the 4x5 grid (pit at (2, 2)) with short episodes, for the cooperative learners."""
+    domain = GridWorld(map_name="4x5", noise=0.1, max_episode_steps=40)
+    return ApproximateModel(domain=domain, **params)
+
 
 #: Values for required constructor parameters, by parameter name.
 REQUIRED = {
     "representation": lambda: Tabular(num_buckets=5),
     "base": lambda: IndependentDiscretization(num_buckets=5),
     "env_id": lambda: "CartPole-v1",
+    "domain": lambda: GridWorld(map_name="4x5"),
+    "learner": lambda: ActorCritic(representation=Tabular()),
+    "planner": lambda: ModelPlanner(),
+    "risk": lambda: NominalRiskAnalyzer(),
+    "model": grid_model,
+    "conservative": lambda: ShortestPathPlanner(),
+    "aggressive": lambda: ModelPlanner(),
 }
 
 #: Variants beyond each registered class's defaults.
@@ -32,6 +54,7 @@ VARIANTS = [
     SARSA(representation=HashedTabular(capacity=64)),
     ActorCritic(representation=Tabular(), actor_representation=RBF()),
     GridWorld(map_name="gridworld2", step_reward=-0.01, noise=0.2),
+    UAVMission(scenario="uav-10-2", traverse_failure=0.05),
     TileCoding(num_tilings=2, tiles_per_dim=3, dimension_groups=[[0], [1], [0, 1]]),
     OnlineIFDD(base=TileCoding(num_tilings=2, tiles_per_dim=3), relevance="ifdd_plus"),
     SARSA(
@@ -39,6 +62,31 @@ VARIANTS = [
         trace_decay=0.7,
     ),
     ActorCritic(representation=OnlineIFDD(base=Tabular(), discovery_threshold=0.01)),
+    MonteCarloRiskAnalyzer(num_rollouts=3, horizon=20, risk_tolerance=0.5),
+    CooperativeLearner(
+        learner=SARSA(representation=OnlineIFDD(base=IndependentDiscretization())),
+        planner=ShortestPathPlanner(),
+        risk=MonteCarloRiskAnalyzer(),
+        model=grid_model(),
+        num_known_visits=2,
+    ),
+    CooperativeLearner(
+        learner=QLearning(representation=Tabular()),
+        planner=ModelPlanner(),
+        risk=NominalRiskAnalyzer(),
+        model=grid_model(),
+        num_known_visits=1,
+    ),
+    AdaptiveCooperativeLearner(
+        learner=SARSA(representation=Tabular()),
+        planner=SwitchingPlanner(
+            conservative=ShortestPathPlanner(goal=(3, 4)), aggressive=ModelPlanner()
+        ),
+        risk=MonteCarloRiskAnalyzer(),
+        model=grid_model(initial_noise=0.4, prior_weight=10.0, is_adaptive=True),
+        num_known_visits=2,
+        trusted_knownness=0.5,
+    ),
 ]
 
 

@@ -54,3 +54,15 @@ def test_shared_adaptive_features_grow_both_weight_tables():
     n = agent.representation_.num_features_
     assert n > agent.representation_.num_initial_features_
     assert agent.weights_.shape[0] == agent.actor_weights_.shape[0] == n
+
+
+@pytest.mark.parametrize("actor", [None, RBF()])
+def test_shift_preference_moves_exactly_one_preference(actor):
+    # Section 5.3.2's bias: ρ(s, a) += λ, through ω += λψ(s)/‖ψ(s)‖².
+    domain = InvertedPendulum()
+    agent = ActorCritic(representation=Tabular(), actor_representation=actor)
+    agent.setup(domain.domain_spec, seed=0)
+    state = np.array([0.1, -0.2])
+    before = agent.preferences(state).copy()
+    agent.shift_preference(state, 2, 100.0)
+    assert agent.preferences(state) - before == pytest.approx([0.0, 0.0, 100.0])

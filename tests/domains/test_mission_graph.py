@@ -49,6 +49,15 @@ def test_config_round_trip():
     assert again.windows[3].tolist() == [2, 4]
 
 
+def test_target_keys_may_be_digit_strings_as_json_writes_them():
+    data = uav_7_2().to_dict()
+    data["targets"] = {str(node): target for node, target in data["targets"].items()}
+    assert MissionGraph.from_dict(data).to_dict() == uav_7_2().to_dict()
+    data["targets"] = {"three": {"reward": 1.0}}
+    with pytest.raises(InvalidParameterError, match="'three'"):
+        MissionGraph.from_dict(data)
+
+
 @pytest.mark.parametrize(
     ("data", "message"),
     [

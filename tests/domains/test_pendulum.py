@@ -211,3 +211,19 @@ def test_clone_and_set_params_rebuild():
     np.testing.assert_array_equal(domain.step(1)[0], [0.0, 0.0])
     with pytest.raises(InvalidParameterError):
         domain.set_params(force_noise=-3.0)
+
+
+def test_the_fall_is_marked_as_cost_and_constrained():
+    domain = InvertedPendulum(force_noise=0.0)
+    domain.reset(seed=0)
+    costs = []
+    for _ in range(3000):
+        obs, _, terminated, _, info = domain.step(2)  # push one way until it falls
+        costs.append(info["cost"])
+        assert domain.is_constrained(obs) == terminated
+        if terminated:
+            break
+    assert costs[-1] == 1.0 and set(costs[:-1]) == {0.0}
+    assert not domain.is_constrained(np.array([math.pi / 2 - 1e-9, 0.0]))
+    with pytest.raises(InvalidParameterError, match="shape"):
+        domain.is_constrained(np.zeros(3))

@@ -195,3 +195,17 @@ def test_state_action_count_matches_the_thesis():
     assert PersistentSurveillance().state_action_count() == 147_197_952
     assert persistent_surveillance_state_action_count(3, 10) == (4 * 11 * 2 * 2) ** 3 * 27
     assert abs(PersistentSurveillance().state_action_count() - 1.5e8) < 0.05e8
+
+
+def test_running_out_of_fuel_is_marked_as_cost_and_constrained():
+    domain = PersistentSurveillance(failure_probability=0.0)
+    domain.reset(seed=0)
+    put(domain, uav(2, COMMS), uav(10, BASE), uav(10, BASE))
+    obs, _, terminated, _, info = domain.step(joint(LOITER, LOITER, LOITER))  # fuel 1
+    assert not terminated and info["cost"] == 0.0 and not domain.is_constrained(obs)
+    obs, _, terminated, _, info = domain.step(joint(LOITER, LOITER, LOITER))  # fuel 0
+    assert terminated and info["cost"] == 1.0 and domain.is_constrained(obs)
+    empty_at_refuel = np.array(uav(0, REFUEL) + uav(10, BASE) + uav(10, BASE), dtype=float)
+    assert not domain.is_constrained(empty_at_refuel)
+    with pytest.raises(InvalidParameterError, match="shape"):
+        domain.is_constrained(np.zeros(3))

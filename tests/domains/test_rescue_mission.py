@@ -144,3 +144,26 @@ def test_state_action_count_exceeds_the_thesis_bound():
     count = RescueMission().state_action_count()
     assert count == 8**2 * 11**2 * 2 * 2**7 * 10 * 20 == rescue_mission_state_action_count()
     assert count > 2e8
+
+
+def test_failures_are_marked_as_cost_and_constrained():
+    late = RescueMission()  # away from the base at the horizon
+    late.reset(seed=0)
+    late.step(joint(2, HOVER))
+    for _ in range(9):
+        obs, _, terminated, _, info = late.step(joint(HOVER, PERCH))
+        assert info["cost"] == (1.0 if terminated else 0.0)
+        assert late.is_constrained(obs) == terminated
+    assert terminated
+    dry = RescueMission(max_fuel=2)  # out of fuel away from the base
+    dry.reset(seed=0)
+    assert dry.step(joint(2, PERCH))[4]["cost"] == 0.0
+    obs, _, terminated, _, info = dry.step(joint(HOVER, PERCH))
+    assert terminated and info["cost"] == 1.0 and dry.is_constrained(obs)
+    home = RescueMission()  # home at the horizon: ends, but no failure
+    home.reset(seed=0)
+    for _ in range(10):
+        obs, _, terminated, _, info = home.step(joint(HOVER, PERCH))
+    assert terminated and info["cost"] == 0.0 and not home.is_constrained(obs)
+    with pytest.raises(InvalidParameterError, match="shape"):
+        home.is_constrained(np.zeros(3))

@@ -24,6 +24,7 @@ def test_registries_are_keyed_by_kind_and_unique_across_layers():
     for name in ("TileCoding", "Tabular", "IndependentDiscretization", "RBF"):
         assert name in registry.REPRESENTATIONS
     assert "ConstantStepSize" in registry.SCHEDULES
+    assert "CBBAPlanner" in registry.COOPERATIVE_PLANNERS
     for layer in registry.LAYERS.values():
         for kind, cls in layer.items():
             if kind != "Gymnasium":

@@ -56,3 +56,13 @@ def test_a_model_of_another_domain_is_refused():
 def test_bad_parameters_are_refused():
     with pytest.raises(InvalidParameterError, match="prior_weight"):
         _model(prior_weight=-1.0)
+
+
+def test_load_counts_restores_the_estimate():
+    model = _model(initial_noise=0.4, prior_weight=100.0, is_adaptive=True)
+    model.load_counts(num_unintended=5, num_moves=61)
+    assert (model.num_unintended_, model.num_moves_) == (5, 61)
+    assert model.noise_ == pytest.approx((5 + 40) / 161)
+    static = _model(initial_noise=0.4)
+    static.load_counts(0, 0)
+    assert static.noise_ == 0.4

@@ -75,3 +75,39 @@ def test_a_model_that_disagrees_with_the_simulator_is_caught():
     checks.check_model_matches_simulation(GridWorld(map_name="4x5", noise=0.3))
     with pytest.raises(AssertionError, match="differ from the model"):
         checks.check_model_matches_simulation(WrongModel(map_name="4x5", noise=0.3))
+
+
+def test_broken_risk_analysers_are_caught():
+    from conjure.safety import NominalRiskAnalyzer
+
+    class Paranoid(NominalRiskAnalyzer):
+        """Judges even the planner's actions unsafe (Section 5.5.1's collapse to the planner)."""
+
+        def is_safe(self, state, action, rng=None):
+            return False
+
+    class Careless(NominalRiskAnalyzer):
+        def risk(self, state, action, rng=None):
+            return 0.0
+
+    class Erratic(NominalRiskAnalyzer):
+        def risk(self, state, action, rng=None):
+            return float(np.random.default_rng().random())
+
+    with pytest.raises(AssertionError, match="judged unsafe"):
+        checks.check_risk_planner_actions_safe(Paranoid())
+    with pytest.raises(AssertionError, match="expected in"):
+        checks.check_risk_flags_unsafe_action(Careless())
+    with pytest.raises(AssertionError, match="differ for one seed"):
+        checks.check_risk_deterministic(Erratic())
+
+
+def test_a_planner_suggesting_illegal_actions_is_caught():
+    from conjure.testing.mission_stub import HomePlanner
+
+    class Reckless(HomePlanner):
+        def action(self, state):
+            return self.graph_.encode_action([3, 3])  # three hops from the base at once
+
+    with pytest.raises(AssertionError, match="is not legal"):
+        checks.check_cooperative_planner_legal(Reckless())

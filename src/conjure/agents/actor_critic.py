@@ -2,11 +2,9 @@
 
 from __future__ import annotations
 
-from typing import Any
-
 import numpy as np
 
-from conjure.agents import _kernels
+from conjure.agents import _kernels, persistence
 from conjure.agents.linear_td import STEP_SIZE, LinearTDAgent, make_schedule
 from conjure.core.interfaces import (
     DomainSpec,
@@ -148,6 +146,18 @@ class ActorCritic(LinearTDAgent):
         check_is_set_up(self, "preferences")
         return self._actor_values(self.actor_weights_, self._encode_actor(state))
 
+    def shift_preference(self, state: np.ndarray, action: int, amount: float) -> None:
+        """ρ(s, a) += ``amount``: the bias and penalty λ of iCCA (Section 5.3.2; Algorithm 23).
+
+        ω_a += amount · ψ(s) / ‖ψ(s)‖², which changes ρ(s, a) by exactly ``amount``; with a
+        tabular actor (the thesis's) nothing else changes.
+        """
+        check_is_set_up(self, "shift_preference")
+        psi = self._encode_actor(state)
+        norm = float(psi.shape[0]) if self._actor_is_binary else float(psi @ psi)
+        if norm > 0.0:
+            self._actor_add(self.actor_weights_, psi, int(action), float(amount) / norm)
+
     def learn(self, transition: Transition) -> float:
         """Critic and actor updates of Algorithm 12, lines 6-9; returns δ."""
         check_is_set_up(self, "learn")
@@ -175,7 +185,7 @@ class ActorCritic(LinearTDAgent):
 
     def _actor_features(self, state: np.ndarray) -> np.ndarray:
         """ψ(s), from the act cache when possible."""
-        return self._cached_features(state, self._encode_actor)
+        return self._features(state, self._encode_actor)
 
     def _actor_norm(self, psi: np.ndarray) -> float:
         return float(psi.shape[0]) if self._actor_is_binary else float(np.abs(psi).sum())
@@ -190,15 +200,16 @@ class ActorCritic(LinearTDAgent):
         arrays = super()._state_arrays()
         arrays["actor_weights"] = self.actor_weights_
         if not self._is_shared:
-            for key, value in self.actor_representation_.state_arrays().items():
-                arrays[f"actor_representation.{key}"] = value
+            arrays.update(
+                persistence.prefixed(
+                    "actor_representation.", self.actor_representation_.state_arrays()
+                )
+            )
         return arrays
 
-    def _load_state(self, state: dict[str, Any], arrays: dict[str, np.ndarray]) -> None:
-        super()._load_state(state, arrays)
-        self.actor_weights_ = np.array(arrays["actor_weights"], dtype=np.float64)
+    def _load_state(self, saved: persistence.SavedAgent) -> None:
+        super()._load_state(saved)
         if not self._is_shared:
-            prefix = "actor_representation."
-            self.actor_representation_.load_state_arrays(
-                {k[len(prefix) :]: v for k, v in arrays.items() if k.startswith(prefix)}
-            )
+            self.actor_representation_.load_state_arrays(saved.with_prefix("actor_representation."))
+        shape = (self.actor_representation_.num_features_, self.spec_.num_actions)
+        self.actor_weights_ = saved.array("actor_weights", shape)

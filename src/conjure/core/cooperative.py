@@ -21,6 +21,10 @@ Notes
   expect: every safety-relevant domain puts ``info["cost"] = 1.0`` in the step that enters a
   constrained state (crash, pit, fall) and 0.0 otherwise; `Domain.is_constrained` answers the
   same question for any state, for the risk analysers.
+- Choice: the planner's own action is always safe (`RiskAnalyzer.is_safe` answers True for
+  a = π^p(s) without analysing it): "the planner's policy should be seen safe through the
+  eyes of the risk analyzer at all times" (end of Section 5.5.1), and π^p(s) is the fallback
+  of every unsafe action anyway.
 """
 
 from __future__ import annotations
@@ -29,8 +33,9 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from conjure.core.interfaces import Domain
+from conjure.core.interfaces import Domain, check_is_set_up
 from conjure.core.params import Configurable
+from conjure.core.seeding import make_rng
 
 __all__ = ["CooperativePlanner", "NoisyDomain", "RiskAnalyzer"]
 
@@ -74,6 +79,15 @@ class NoisyDomain(Domain):
         """Return (#unintended moves, #moves) in an observed transition (Section 5.5.2's counts)."""
         raise NotImplementedError
 
+    def noise_decomposition(self) -> tuple[Any, Any] | None:
+        """Return the tabular models (T at η = 0, T at η = 1) if T_η = (1 − η)·T_0 + η·T_1.
+
+        That holds when one Bernoulli(η) event per step decides whether the noise acts (the
+        grid worlds' wind); a Monte-Carlo risk analyser then samples T̂ at any η̂ from two fixed
+        tables in compiled code. ``None`` (the default): no such decomposition is known.
+        """
+        return None
+
 
 class CooperativePlanner(Configurable):
     """π^p of iCCA (Section 5.3.1): a safe policy computed quickly from the model T̂.
@@ -101,21 +115,54 @@ class RiskAnalyzer(Configurable):
     """Judges the learner's suggested actions (Section 5.3.3; Algorithm 25).
 
     ``setup(model, planner, seed)`` binds the analyser to T̂ and π^p (the Monte-Carlo analyser
-    follows π^p after the first action); ``risk(s, a)`` estimates the probability of reaching a
-    constrained state; ``is_safe(s, a)`` is the ``safe`` test of Algorithms 23-26. An analyser
-    that cannot judge the model's domain raises `IncompatibleComponentsError` in ``setup``.
+    follows π^p after the first action) and seeds its generator ``rng_``; ``risk(s, a)``
+    estimates the probability of reaching a constrained state; ``is_safe(s, a)`` is the
+    ``safe`` test of Algorithms 23-26: the planner's own action always is, any other action is
+    safe iff its risk is below ``risk_tolerance``. ``update()`` is called after π^p changed
+    (Algorithm 26, line 13) so that analysers can refresh what they derived from it. An
+    analyser that cannot judge the model's domain raises `IncompatibleComponentsError` in
+    ``setup`` (from `_bind`).
+
+    Sampling analysers draw from ``rng_``, or from the ``rng`` given to `risk`/`is_safe` (the
+    cooperative learners pass a separate evaluation generator when acting greedily, so that
+    policy checks never perturb learning).
     """
+
+    #: ε of Algorithm 25: safe iff risk < risk_tolerance. Deterministic analysers return a risk
+    #: of 0 or 1, so 1.0 makes them safe exactly when the risk is 0.
+    risk_tolerance: float = 1.0
 
     def setup(
         self, model: Any, planner: CooperativePlanner, seed: int | np.random.SeedSequence
     ) -> RiskAnalyzer:
         """Validate parameters, bind to ``model`` and ``planner`` and return ``self``."""
-        raise NotImplementedError
+        self.validate_params()
+        self.model_ = model
+        self.planner_ = planner
+        self.rng_ = make_rng(seed)
+        self._bind()
+        self.is_set_up_ = True
+        self.update()
+        return self
 
-    def risk(self, state: np.ndarray, action: int) -> float:
+    def _bind(self) -> None:
+        """Derive what the analyser needs from ``model_`` (or refuse a domain it cannot judge).
+
+        Raises `IncompatibleComponentsError` naming the domain and what the analyser needs.
+        """
+
+    def update(self) -> None:
+        """π^p or T̂ changed: refresh anything derived from them (nothing by default)."""
+
+    def risk(self, state: np.ndarray, action: int, rng: np.random.Generator | None = None) -> float:
         """The estimated probability that ``action`` in ``state`` leads to a constrained state."""
         raise NotImplementedError
 
-    def is_safe(self, state: np.ndarray, action: int) -> bool:
-        """Whether ``action`` is acceptable in ``state``."""
-        raise NotImplementedError
+    def is_safe(
+        self, state: np.ndarray, action: int, rng: np.random.Generator | None = None
+    ) -> bool:
+        """safe(s, a): a = π^p(s), or risk(s, a) < ``risk_tolerance``."""
+        check_is_set_up(self, "is_safe")
+        if action == self.planner_.action(state):  # the planner's own action (Section 5.5.1)
+            return True
+        return self.risk(state, action, rng) < self.risk_tolerance

@@ -13,8 +13,10 @@ from numba import njit
 __all__ = [
     "pst_fill_legal_mask",
     "pst_legal_actions",
+    "pst_num_crashed",
     "pst_step",
     "rescue_fill_legal_mask",
+    "rescue_is_failed",
     "rescue_legal_actions",
     "rescue_step",
 ]
@@ -101,6 +103,16 @@ def pst_legal_actions(state: np.ndarray, num_uavs: int, max_fuel: int) -> tuple[
 
 
 @njit(cache=True)
+def pst_num_crashed(state: np.ndarray, num_uavs: int) -> int:
+    """Number of UAVs out of fuel outside REFUEL (the failure that ends the episode)."""
+    num_crashed = 0
+    for i in range(num_uavs):
+        if state[4 * i + FUEL] <= 0 and state[4 * i + LOCATION] != REFUEL:
+            num_crashed += 1
+    return num_crashed
+
+
+@njit(cache=True)
 def pst_step(
     state: np.ndarray,
     action: int,
@@ -156,10 +168,7 @@ def pst_step(
             state[4 * i + ACTUATOR] = 1
             state[4 * i + SENSOR] = 1
     reward -= fuel_penalty * num_burnt
-    num_crashed = 0
-    for i in range(n):
-        if state[4 * i + FUEL] <= 0 and state[4 * i + LOCATION] != REFUEL:
-            num_crashed += 1
+    num_crashed = pst_num_crashed(state, n)
     terminated = num_crashed > 0
     if terminated:
         reward -= crash_penalty * (num_crashed if crash_penalty_per_uav else 1)
@@ -229,6 +238,16 @@ def rescue_legal_actions(
 
 
 @njit(cache=True)
+def rescue_is_failed(state: np.ndarray, horizon: int) -> bool:
+    """A UAV out of fuel away from the base, or away from the base when t reaches H."""
+    crashed = (state[MEDIC_FUEL] <= 0 and state[MEDIC_LOC] != 0) or (
+        state[COMM_FUEL] <= 0 and state[COMM_LOC] != 0
+    )
+    away = state[MEDIC_LOC] != 0 or state[COMM_LOC] != 0
+    return crashed or (state[state.shape[0] - 1] >= horizon and away)
+
+
+@njit(cache=True)
 def rescue_step(
     state: np.ndarray,
     action: int,
@@ -242,8 +261,8 @@ def rescue_step(
     fuel_penalty: float,
     failure_penalty: float,
     mask: np.ndarray,
-) -> tuple[np.ndarray, float, bool]:
-    """Advance the int state in place; return (float observation, reward, terminated)."""
+) -> tuple[np.ndarray, float, bool, bool]:
+    """Advance the int state in place; return (float observation, reward, terminated, failed)."""
     medic_slot = action // COMM_SLOTS
     comm_slot = action % COMM_SLOTS
     num_burnt = 0
@@ -283,15 +302,11 @@ def rescue_step(
         if uniform < success[node]:
             state[FIRST_BIT + node - 1] = 1
             reward += people[node]
-    crashed = (state[MEDIC_FUEL] <= 0 and state[MEDIC_LOC] != 0) or (
-        state[COMM_FUEL] <= 0 and state[COMM_LOC] != 0
-    )
-    timed_out = state[state.shape[0] - 1] >= horizon
-    away = state[MEDIC_LOC] != 0 or state[COMM_LOC] != 0
-    if crashed or (timed_out and away):
+    failed = rescue_is_failed(state, horizon)
+    if failed:
         reward -= failure_penalty
     rescue_fill_legal_mask(state, neighbours, degrees, mask)
     obs = np.empty(state.shape[0], dtype=np.float64)
     for k in range(state.shape[0]):
         obs[k] = state[k]
-    return obs, reward, crashed or timed_out
+    return obs, reward, failed or state[state.shape[0] - 1] >= horizon, failed

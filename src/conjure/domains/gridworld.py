@@ -383,6 +383,17 @@ class GridWorld(NoisyDomain):
         intended = self._next_cell[cell][self.check_action(action)]
         return int(self._cell_of(next_state) != intended), 1
 
+    def noise_decomposition(self) -> tuple[TabularModel, TabularModel]:
+        """(the model at η = 0, the model at η = 1): one wind draw per step makes P linear in η.
+
+        P_η = (1 − η)·P_0 + η·P_1 row by row (calm cells have P_1 = P_0), so T̂ at any η̂ is
+        sampled by drawing the wind with probability η̂, then a successor from P_1 or P_0.
+        """
+        return (
+            self.clone().set_params(noise=0.0).model(),
+            self.clone().set_params(noise=1.0).model(),
+        )
+
     def is_constrained(self, state: np.ndarray) -> bool:
         """Whether ``state`` is a pit (the danger zones of Figures 5-1 and 5-10)."""
         return bool(self._is_pit[self._cell_of(state)])

@@ -214,7 +214,8 @@ class MissionGraph:
 
         ``{num_nodes, edges: [[u, v], ...], fuel: [...], horizon, base,
         targets: {node: {reward, probability, window: [a, b]}}}``; nodes not listed in
-        ``targets`` have no reward, probability 1 and window [0, H].
+        ``targets`` have no reward, probability 1 and window [0, H]. A node key may also be a
+        string of digits (``"3"``), as JSON and resolved configs write integer keys.
         """
         known = {"num_nodes", "edges", "fuel", "horizon", "base", "targets"}
         unknown = sorted(set(data) - known)
@@ -235,7 +236,9 @@ class MissionGraph:
                 f"`targets` must map nodes to {{reward, probability, window}}; got {targets!r}."
             )
         for node, target in targets.items():
-            j = _check_int(f"targets key {node!r}", node, 0)
+            # JSON and resolved configs turn integer keys into strings: accept "3" as node 3.
+            key = int(node) if isinstance(node, str) and node.isdigit() else node
+            j = _check_int(f"targets key {node!r}", key, 0)
             if j >= n or not isinstance(target, Mapping):
                 raise InvalidParameterError(
                     f"`targets[{node!r}]` must be a node in [0, {n - 1}] mapped to "

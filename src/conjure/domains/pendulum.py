@@ -8,6 +8,7 @@ from typing import Any, ClassVar
 import numpy as np
 from gymnasium import spaces
 
+from conjure.core.errors import InvalidParameterError
 from conjure.core.interfaces import Domain, DomainSpec
 from conjure.core.params import Constraint, Interval
 from conjure.domains._kernels import MAX_ANGULAR_RATE, pendulum_step
@@ -29,7 +30,8 @@ class InvertedPendulum(Domain):
 
     with g = 9.8 m/s², m = 2 kg, M = 8 kg, α = 1/(m + M), l = 0.5 m. Every step earns 0 until
     |θ| ≥ π/2, which earns −1 and ends the episode; γ = 0.95 and episodes are capped at 3000
-    steps.
+    steps. The fall is the domain's failure (`is_constrained`; ``info["cost"] = 1.0`` on the
+    falling step, 0.0 otherwise).
 
     Parameters
     ----------
@@ -131,6 +133,16 @@ class InvertedPendulum(Domain):
         theta, theta_dot = pendulum_step(self._theta, self._theta_dot, force)
         self._theta, self._theta_dot = theta, theta_dot
         if -_HALF_PI < theta < _HALF_PI:
-            return np.array((theta, theta_dot)), 0.0, False, False, {}
+            return np.array((theta, theta_dot)), 0.0, False, False, {"cost": 0.0}
         shown = _HALF_PI if theta > 0.0 else -_HALF_PI  # clip into observation_space
-        return np.array((shown, theta_dot)), -1.0, True, False, {}
+        return np.array((shown, theta_dot)), -1.0, True, False, {"cost": 1.0}
+
+    def is_constrained(self, state: np.ndarray) -> bool:
+        """Whether the pendulum has fallen, |θ| >= π/2 (the failure that ends the episode)."""
+        array = np.asarray(state, dtype=np.float64)
+        if array.shape != (2,):
+            raise InvalidParameterError(
+                f"InvertedPendulum.is_constrained expects a state (θ, θ̇) of shape (2,); got "
+                f"shape {array.shape}."
+            )
+        return bool(abs(array[0]) >= _HALF_PI)

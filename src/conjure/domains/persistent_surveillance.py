@@ -16,6 +16,7 @@ from conjure.domains._uav_kernels import (
     NUM_LOCATIONS,
     pst_fill_legal_mask,
     pst_legal_actions,
+    pst_num_crashed,
     pst_step,
 )
 
@@ -46,8 +47,9 @@ class PersistentSurveillance(Domain):
     fully and loitering at BASE repairs both parts. Each step the actuator (motor) and the sensor
     (camera) of every UAV fail independently with probability 0.05. The team earns +20 per
     target reported (a healthy sensor at SURVEIL while a UAV relays from COMMS), −1 per UAV that
-    burnt fuel, and −50 per UAV that runs out of fuel outside REFUEL, which ends the episode.
-    γ = 0.9; episodes are capped at 1000 steps.
+    burnt fuel, and −50 per UAV that runs out of fuel outside REFUEL, which ends the episode;
+    such a crash is the domain's failure (`is_constrained`, ``info["cost"] = 1.0`` on that step,
+    0.0 otherwise). γ = 0.9; episodes are capped at 1000 steps.
 
     Parameters
     ----------
@@ -271,4 +273,14 @@ class PersistentSurveillance(Domain):
             )
         uniforms = self.np_random.random(2 * self._n)
         obs, reward, terminated = pst_step(self._state, a, uniforms, *self._args, self._mask)
-        return obs, reward, terminated, False, {}
+        return obs, reward, terminated, False, {"cost": 1.0 if terminated else 0.0}
+
+    def is_constrained(self, state: np.ndarray) -> bool:
+        """Whether a UAV is out of fuel outside REFUEL (the crash that ends the episode)."""
+        array = np.asarray(state, dtype=np.float64)
+        if array.shape != (4 * self._n,):
+            raise InvalidParameterError(
+                f"PersistentSurveillance.is_constrained expects a state of shape "
+                f"({4 * self._n},); got shape {array.shape}."
+            )
+        return pst_num_crashed(np.rint(array).astype(np.int64), self._n) > 0

@@ -15,6 +15,7 @@ from conjure.domains._uav_kernels import (
     COMM_SLOTS,
     MEDIC_SLOTS,
     rescue_fill_legal_mask,
+    rescue_is_failed,
     rescue_legal_actions,
     rescue_step,
 )
@@ -73,7 +74,9 @@ class RescueMission(Domain):
     hovers, perches or moves. When the medic is at an unrescued node and the communication UAV
     is at most one edge away, all its victims are saved with the node's success probability
     (+1 per person). Every fuel unit costs −0.1; being away from the base when t reaches 10, or
-    a UAV running out of fuel away from the base, costs −23 and ends the episode. γ = 1.
+    a UAV running out of fuel away from the base, costs −23 and ends the episode. That failure
+    is the domain's constrained state (`is_constrained`; ``info["cost"] = 1.0`` on the failing
+    step, 0.0 otherwise). γ = 1.
 
     Parameters
     ----------
@@ -254,7 +257,7 @@ class RescueMission(Domain):
                 f"RescueMission.step: action {a} ({self.describe_action(a)}) is illegal in the "
                 f"current state; legal actions: {self._current_legal().tolist()}."
             )
-        obs, reward, terminated = rescue_step(
+        obs, reward, terminated, failed = rescue_step(
             self._state,
             a,
             self.np_random.random(),
@@ -266,4 +269,14 @@ class RescueMission(Domain):
             *self._scalars,
             self._mask,
         )
-        return obs, reward, terminated, False, {}
+        return obs, reward, terminated, False, {"cost": 1.0 if failed else 0.0}
+
+    def is_constrained(self, state: np.ndarray) -> bool:
+        """Whether ``state`` is a failure: a UAV out of fuel, or away from the base at t = H."""
+        array = np.asarray(state, dtype=np.float64)
+        if array.shape != self._high.shape:
+            raise InvalidParameterError(
+                f"RescueMission.is_constrained expects a state of shape {self._high.shape}; "
+                f"got shape {array.shape}."
+            )
+        return bool(rescue_is_failed(np.rint(array).astype(np.int64), int(self.horizon)))

@@ -19,7 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from conjure.agents import LSPI, LSPIBRM, SARSA, ActorCritic, QLearning
+from conjure.agents import FDLSTD, LSPI, LSPIBRM, LSTD, SARSA, ActorCritic, QLearning
 from conjure.core.errors import InvalidParameterError
 from conjure.core.params import Configurable, did_you_mean
 from conjure.core.schedules import ConstantStepSize, EpisodicDecay, FeatureNormalizedDecay
@@ -31,16 +31,22 @@ from conjure.domains import (
     InvertedPendulum,
     PersistentSurveillance,
     RescueMission,
+    UAVMission,
 )
+from conjure.models.approximate_model import ApproximateModel
 from conjure.planners import (
     QAPI,
     QAVI,
     VAPI,
+    CBBAPlanner,
     FittedValueIteration,
+    ModelPlanner,
     PolicyIteration,
     SampledQAPI1,
     SampledQAPI2,
     SampledQAVI,
+    ShortestPathPlanner,
+    SwitchingPlanner,
     TrajectoryQAPI,
     ValueIteration,
 )
@@ -58,14 +64,26 @@ from conjure.representations import (
     Tabular,
     TileCoding,
 )
+from conjure.safety import (
+    AdaptiveCooperativeLearner,
+    CooperativeActorCritic,
+    CooperativeLearner,
+    FuelRiskAnalyzer,
+    MonteCarloRiskAnalyzer,
+    NominalRiskAnalyzer,
+    PlannerAgent,
+)
 
 __all__ = [
     "AGENTS",
+    "COOPERATIVE_PLANNERS",
     "DOMAINS",
     "LAYERS",
+    "MODELS",
     "PLANNERS",
     "POLICIES",
     "REPRESENTATIONS",
+    "RISK_ANALYZERS",
     "SCHEDULES",
     "build",
     "find_kind",
@@ -81,6 +99,7 @@ DOMAINS: dict[str, type[Configurable]] = {
     "InvertedPendulum": InvertedPendulum,
     "PersistentSurveillance": PersistentSurveillance,
     "RescueMission": RescueMission,
+    "UAVMission": UAVMission,
 }
 REPRESENTATIONS: dict[str, type[Configurable]] = {
     "ARiFDD": ARiFDD,
@@ -101,8 +120,14 @@ POLICIES: dict[str, type[Configurable]] = {
 }
 AGENTS: dict[str, type[Configurable]] = {
     "ActorCritic": ActorCritic,
+    "AdaptiveCooperativeLearner": AdaptiveCooperativeLearner,
+    "CooperativeActorCritic": CooperativeActorCritic,
+    "CooperativeLearner": CooperativeLearner,
+    "FDLSTD": FDLSTD,
     "LSPI": LSPI,
     "LSPIBRM": LSPIBRM,
+    "LSTD": LSTD,
+    "PlannerAgent": PlannerAgent,
     "QLearning": QLearning,
     "SARSA": SARSA,
 }
@@ -118,6 +143,21 @@ PLANNERS: dict[str, type[Configurable]] = {
     "VAPI": VAPI,
     "ValueIteration": ValueIteration,
 }
+#: π^p of iCCA (Section 5.3.1): `conjure.core.cooperative.CooperativePlanner` subclasses.
+COOPERATIVE_PLANNERS: dict[str, type[Configurable]] = {
+    "CBBAPlanner": CBBAPlanner,
+    "ModelPlanner": ModelPlanner,
+    "ShortestPathPlanner": ShortestPathPlanner,
+    "SwitchingPlanner": SwitchingPlanner,
+}
+RISK_ANALYZERS: dict[str, type[Configurable]] = {
+    "FuelRiskAnalyzer": FuelRiskAnalyzer,
+    "MonteCarloRiskAnalyzer": MonteCarloRiskAnalyzer,
+    "NominalRiskAnalyzer": NominalRiskAnalyzer,
+}
+MODELS: dict[str, type[Configurable]] = {
+    "ApproximateModel": ApproximateModel,
+}
 SCHEDULES: dict[str, type[Configurable]] = {
     "ConstantStepSize": ConstantStepSize,
     "EpisodicDecay": EpisodicDecay,
@@ -131,6 +171,9 @@ LAYERS: dict[str, dict[str, type[Configurable]]] = {
     "policy": POLICIES,
     "agent": AGENTS,
     "planner": PLANNERS,
+    "cooperative_planner": COOPERATIVE_PLANNERS,
+    "risk": RISK_ANALYZERS,
+    "model": MODELS,
     "schedule": SCHEDULES,
 }
 
@@ -169,7 +212,7 @@ def build(layer: str | None, spec: Mapping[str, Any], *, path: str = "") -> Conf
     Parameters
     ----------
     layer : str or None
-        ``"domain"``, ``"representation"``, ``"policy"``, ``"agent"`` or ``"schedule"``;
+        A key of `LAYERS` (``"domain"``, ``"agent"``, ``"cooperative_planner"``, ...);
         ``None`` looks the kind up in every registry.
     spec : mapping
         ``{"kind": name, "params": {...}}`` (``params`` may be omitted).

@@ -115,11 +115,16 @@ class ApproximateModel(Configurable):
         if not self.is_adaptive:
             return
         unintended, moves = self.domain_.count_unintended(state, action, next_state)
-        self.num_unintended_ += unintended
-        self.num_moves_ += moves
+        self.load_counts(self.num_unintended_ + unintended, self.num_moves_ + moves)
+
+    def load_counts(self, num_unintended: int, num_moves: int) -> None:
+        """Set the counts behind η̂ and re-estimate it (also how saved agents restore T̂)."""
+        check_is_set_up(self, "load_counts")
+        self.num_unintended_ = int(num_unintended)
+        self.num_moves_ = int(num_moves)
         weight = float(self.prior_weight)
         denominator = self.num_moves_ + weight
-        if denominator > 0:
+        if self.is_adaptive and denominator > 0:
             self.noise_ = (self.num_unintended_ + weight * self.prior_noise_) / denominator
 
     def domain_at_noise(self) -> NoisyDomain:

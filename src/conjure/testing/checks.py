@@ -1,9 +1,15 @@
 """Common checks every conjure component must pass, shipped for users' own components.
 
 Like Gymnasium's ``check_env`` and scikit-learn's ``check_estimator``: call
-``check_component(instance)`` (or a single ``check_*``) on a domain, representation, policy or
-agent. Each check raises ``AssertionError`` with a message saying what broke. A class may
-declare known exceptions as ``expected_check_failures = {"check_name": "reason"}``.
+``check_component(instance)`` (or a single ``check_*``) on a domain, representation, policy,
+agent, planner, cooperative planner or risk analyser. Each check raises ``AssertionError`` with
+a message saying what broke. A class may declare known exceptions as
+``expected_check_failures = {"check_name": "reason"}``.
+
+Cooperative planners and risk analysers are checked on the first shipped setting they accept
+(`cooperative_settings`: a 4×5 grid world with a pit, then a small UAV mission). Agents whose
+``model`` parameter is an `ApproximateModel` (the cooperative learners) are checked on the
+model's domain instead of the 4-state chain.
 """
 
 from __future__ import annotations
@@ -13,25 +19,32 @@ import pickle
 import tempfile
 import warnings
 from collections.abc import Callable, Iterator
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 from gymnasium.utils.env_checker import check_env
 
-from conjure.core.errors import InvalidParameterError, NotSetUpError
+from conjure.core.cooperative import CooperativePlanner, NoisyDomain, RiskAnalyzer
+from conjure.core.errors import IncompatibleComponentsError, InvalidParameterError, NotSetUpError
 from conjure.core.interfaces import Agent, Domain, DomainSpec, Policy, Representation, Transition
 from conjure.core.params import Configurable
 from conjure.core.seeding import make_rng
+from conjure.domains import GridWorld
+from conjure.models.approximate_model import ApproximateModel
+from conjure.planners import ShortestPathPlanner
 from conjure.planners.base import Planner
+from conjure.testing.mission_stub import HomePlanner, MissionStub
 from conjure.testing.planner_checks import (
     check_planner_matches_closed_form,
     check_planner_policy_is_greedy,
 )
 
 __all__ = [
+    "CooperativeSetting",
     "applicable_checks",
     "box_spec",
     "check_component",
+    "cooperative_settings",
     "sample_states",
 ]
 
@@ -88,9 +101,18 @@ def _check_spec() -> DomainSpec:
     )
 
 
+#: Policy checks per `_rollout`: the agent's ``before_policy_check`` runs this many times.
+NUM_ROLLOUT_CHECKS = 10
+
+
 def _rollout(domain: Domain, agent: Agent, num_steps: int, seed: int) -> None:
-    """A minimal learning loop (the experiments layer's loop is not importable here)."""
+    """A minimal learning loop (the experiments layer's loop is not importable here).
+
+    As the run loop, it calls ``agent.before_policy_check()`` at `NUM_ROLLOUT_CHECKS` evenly
+    spaced steps (the last one at ``num_steps``), where batch learners fit.
+    """
     spec = domain.domain_spec
+    checks = {num_steps * i // NUM_ROLLOUT_CHECKS for i in range(1, NUM_ROLLOUT_CHECKS + 1)}
     steps, episode = 0, 0
     while steps < num_steps:
         state, _ = domain.reset(seed=seed + episode)
@@ -102,15 +124,135 @@ def _rollout(domain: Domain, agent: Agent, num_steps: int, seed: int) -> None:
             next_action = 0 if terminated else agent.act(next_state)
             agent.learn(Transition(state, action, reward, next_state, next_action, terminated))
             steps += 1
+            if steps in checks:
+                agent.before_policy_check()
             if terminated or truncated or steps >= num_steps:
                 break
             state, action = next_state, next_action
 
 
 def _check_domain_for(agent: Agent) -> Domain:
+    """The 4-state chain, or the model's domain for agents built around an `ApproximateModel`."""
     from conjure.domains import ChainMDP
 
+    model = getattr(agent, "model", None)
+    if isinstance(model, ApproximateModel):
+        return model.domain.clone()
     return ChainMDP(num_states=4, num_actions=2, slip=0.1)
+
+
+def _visited_states(domain: Domain, num_steps: int, seed: int = 0) -> list[np.ndarray]:
+    """The states a random rollout of ``domain`` visits (valid states of any domain)."""
+    records = _domain_rollout(domain, seed=seed, num_steps=num_steps)
+    return [np.array(record[1]) for record in records]  # ("reset", s) or (a, s', r, ...)
+
+
+# ------------------------------------------------------------------------------ cooperative parts
+
+
+class CooperativeSetting(NamedTuple):
+    """A model, a planner for it and an action known to be unsafe, for the iCCA checks."""
+
+    domain: NoisyDomain
+    planner: CooperativePlanner
+    unsafe_state: np.ndarray
+    unsafe_action: int
+
+    def model(self) -> ApproximateModel:
+        """A set-up `ApproximateModel` of the setting's domain."""
+        return ApproximateModel(domain=self.domain).setup(self.domain.domain_spec, seed=0)
+
+
+def cooperative_settings() -> list[CooperativeSetting]:
+    """The settings cooperative planners and risk analysers are checked on, in order.
+
+    A 4×5 grid world (noise 0.1, pit at (2, 2); moving left from (2, 3) enters it) and a
+    4-node UAV line mission (UAV 1 at node 1 with 1 fuel flying on to node 2 cannot get home).
+    """
+    grid = GridWorld(map_name="4x5", noise=0.1, max_episode_steps=50)
+    mission = MissionStub()
+    stranded = mission.graph_.initial_state()
+    stranded[0], stranded[1] = 1.0, 1.0
+    return [
+        CooperativeSetting(grid, ShortestPathPlanner(), np.array([2.0, 3.0]), 2),
+        CooperativeSetting(mission, HomePlanner(), stranded, mission.graph_.encode_action([2, 0])),
+    ]
+
+
+def _set_up_on_setting(component: CooperativePlanner | RiskAnalyzer, seed: int) -> tuple:
+    """(set-up component, setting, model) on the first setting the component accepts."""
+    for setting in cooperative_settings():
+        model = setting.model()
+        try:
+            if isinstance(component, RiskAnalyzer):
+                planner = setting.planner.setup(model, seed=0)
+                return component.clone().setup(model, planner, seed), setting, model
+            return component.clone().setup(model, seed), setting, model
+        except IncompatibleComponentsError:
+            continue
+    raise AssertionError(
+        f"{type(component).__name__} accepts none of the shipped check settings "
+        f"({', '.join(type(s.domain).__name__ for s in cooperative_settings())}); declare the "
+        f"cooperative checks in expected_check_failures."
+    )
+
+
+def check_cooperative_planner_legal(planner: CooperativePlanner) -> None:
+    """π^p(s) is a legal action (an int) in every state a rollout visits."""
+    planner_, setting, _ = _set_up_on_setting(planner, seed=0)
+    for state in _visited_states(setting.domain, 60):
+        action = planner_.action(state)
+        assert isinstance(action, int), f"action() must return an int; got {action!r}."
+        legal = setting.domain.legal_actions(state)
+        assert action in legal, f"π^p({state.tolist()}) = {action} is not legal: {legal}."
+
+
+def check_cooperative_planner_deterministic(planner: CooperativePlanner) -> None:
+    """The same seed gives the same π^p; updating on an unchanged model changes nothing."""
+    first, setting, model = _set_up_on_setting(planner, seed=5)
+    second, _, _ = _set_up_on_setting(planner, seed=5)
+    states = _visited_states(setting.domain, 60)
+    actions = [first.action(s) for s in states]
+    assert actions == [second.action(s) for s in states], "π^p differs for one seed."
+    assert first.update(model) is False, "update() on an unchanged model reported a change."
+    assert actions == [first.action(s) for s in states], "update() on the same model moved π^p."
+
+
+def check_risk_planner_actions_safe(analyser: RiskAnalyzer) -> None:
+    """The planner's own actions are judged safe (Section 5.5.1)."""
+    analyser_, setting, _ = _set_up_on_setting(analyser, seed=0)
+    for state in _visited_states(setting.domain, 60):
+        if not setting.domain.is_constrained(state):
+            action = analyser_.planner_.action(state)
+            assert analyser_.is_safe(state, action), (
+                f"The planner's action {action} in {state.tolist()} was judged unsafe."
+            )
+
+
+def check_risk_flags_unsafe_action(analyser: RiskAnalyzer) -> None:
+    """An action known to lead into a constrained state is unsafe, with a positive risk."""
+    analyser_, setting, _ = _set_up_on_setting(analyser, seed=0)
+    state, action = setting.unsafe_state, setting.unsafe_action
+    risk = analyser_.risk(state, action)
+    assert 0.0 < risk <= 1.0, f"risk{state.tolist(), action} = {risk}; expected in (0, 1]."
+    assert not analyser_.is_safe(state, action), f"{state.tolist(), action} was judged safe."
+
+
+def check_risk_deterministic(analyser: RiskAnalyzer) -> None:
+    """The same seed gives the same risk estimates (Monte-Carlo analysers included)."""
+    estimates = []
+    for _ in range(2):
+        analyser_, setting, _ = _set_up_on_setting(analyser, seed=3)
+        states = _visited_states(setting.domain, 30)
+        estimates.append(
+            [
+                analyser_.risk(s, int(a))
+                for s in states
+                if not setting.domain.is_constrained(s)
+                for a in setting.domain.legal_actions(s)[:4]
+            ]
+        )
+    assert estimates[0] == estimates[1], "The risk estimates differ for one seed."
 
 
 # ------------------------------------------------------------------------------ all components
@@ -195,6 +337,12 @@ def _exercise(component: Configurable) -> None:
         domain = _check_domain_for(component)
         agent = component.clone().setup(domain.domain_spec, seed=0)
         _rollout(domain, agent, 50, seed=0)
+    elif isinstance(component, RiskAnalyzer):
+        analyser, setting, _ = _set_up_on_setting(component, seed=0)
+        analyser.risk(setting.unsafe_state, setting.unsafe_action)
+    elif isinstance(component, CooperativePlanner):
+        planner, setting, _ = _set_up_on_setting(component, seed=0)
+        planner.action(setting.unsafe_state)
 
 
 # ------------------------------------------------------------------------------ domains
@@ -373,20 +521,31 @@ def check_actions_in_space(agent: Agent) -> None:
     """Every action lies in the action space, exploratory or greedy."""
     learner, domain = _trained(agent, 100, seed=0)
     n = domain.domain_spec.num_actions
-    for state in sample_states(domain.domain_spec, 50):
+    for state in _visited_states(domain, 50):
         for greedy in (False, True):
             action = learner.act(state, greedy=greedy)
             assert isinstance(action, int) and 0 <= action < n, f"Bad action {action!r}"
+
+
+def _learned_weights(agent: Agent, prefix: str = "") -> dict[str, np.ndarray]:
+    """Every ``*weights_`` array of the agent and of the agents it holds (e.g. ``learner_``)."""
+    weights = {}
+    for name, value in vars(agent).items():
+        if name.endswith("weights_"):
+            weights[prefix + name] = value
+        elif name.endswith("_") and isinstance(value, Agent):
+            weights.update(_learned_weights(value, f"{prefix}{name}."))
+    return weights
 
 
 def check_agent_determinism(agent: Agent) -> None:
     """The same seed gives identical weights; the weights stay finite."""
     first, _ = _trained(agent, 300, seed=4)
     second, _ = _trained(agent, 300, seed=4)
-    for name, value in vars(first).items():
-        if name.endswith("weights_"):
-            assert np.array_equal(value, getattr(second, name)), f"{name} differs for one seed."
-            assert np.all(np.isfinite(value)), f"{name} is not finite."
+    expected = _learned_weights(second)
+    for name, value in _learned_weights(first).items():
+        assert np.array_equal(value, expected[name]), f"{name} differs for one seed."
+        assert np.all(np.isfinite(value)), f"{name} is not finite."
 
 
 def check_save_restore_continues(agent: Agent) -> None:
@@ -402,9 +561,9 @@ def check_save_restore_continues(agent: Agent) -> None:
         halves.save(directory)
         resumed = type(halves).restore(directory)
     _rollout(domain, resumed, 200, seed=9)
-    for name, value in vars(straight).items():
-        if name.endswith("weights_"):
-            assert np.array_equal(value, getattr(resumed, name)), f"{name} differs after restore."
+    expected = _learned_weights(resumed)
+    for name, value in _learned_weights(straight).items():
+        assert np.array_equal(value, expected[name]), f"{name} differs after restore."
 
 
 def check_converges_on_chain(agent: Agent) -> None:
@@ -446,6 +605,12 @@ _CHECKS: dict[type, tuple[Check, ...]] = {
     ),
     Policy: (check_policy_probabilities,),
     Planner: (check_planner_matches_closed_form, check_planner_policy_is_greedy),
+    CooperativePlanner: (check_cooperative_planner_legal, check_cooperative_planner_deterministic),
+    RiskAnalyzer: (
+        check_risk_planner_actions_safe,
+        check_risk_flags_unsafe_action,
+        check_risk_deterministic,
+    ),
     Agent: (
         check_not_set_up_raises,
         check_actions_in_space,

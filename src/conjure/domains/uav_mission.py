@@ -1,0 +1,507 @@
+"""UAV mission planning: fuel-limited UAVs visit targets on a graph (Geramifard 2012, §5.3.5)."""
+
+from __future__ import annotations
+
+import json
+from collections import OrderedDict
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any, ClassVar
+
+import numpy as np
+from gymnasium import spaces
+
+from conjure.core.cooperative import NoisyDomain
+from conjure.core.errors import InvalidParameterError
+from conjure.core.interfaces import DomainSpec
+from conjure.core.params import Constraint, InstanceOf, Interval, Options, did_you_mean
+from conjure.domains._legal_space import LegalDiscrete
+from conjure.domains._mission_dp import layer_size, solve_mission, state_key
+from conjure.domains._mission_kernels import (
+    ILLEGAL,
+    checked_legal_actions,
+    checked_transition,
+    count_unintended,
+    is_crashed,
+    is_legal,
+    is_terminal,
+    nominal_next_state,
+    state_from_observation,
+)
+from conjure.domains.mission_graph import MissionGraph, uav_7_2, uav_10_2
+
+__all__ = ["MissionSolution", "UAVMission"]
+
+SCENARIOS = {"uav-7-2": uav_7_2, "uav-10-2": uav_10_2}
+#: Largest joint action space N^n accepted (the legal-action sampler builds masks of this size).
+MAX_JOINT_ACTIONS = 1_000_000
+#: Largest time layer 2^m Π(F_i + 1) N^n `exact_solution` accepts (~33 bytes per key in memory).
+MAX_LAYER_KEYS = 20_000_000
+_SOLUTIONS: OrderedDict[tuple[str, float], MissionSolution] = OrderedDict()
+_CACHE_SIZE = 8
+
+
+class UAVMission(NoisyDomain):
+    """A team of fuel-limited UAVs collects stochastic target rewards on a mission graph.
+
+    Geramifard (2012), Section 5.3.5 ("UAV Mission Planning: MDP formulation", Figure 5-4,
+    footnotes 3-4) and Section 5.4.1 (edge-traverse failures); spec ``domains-and-icca``
+    section 2. n UAVs start at the base with their initial fuel at t = 0. Each step every UAV
+    stays (loiters) at its node or moves along an edge; moving or loitering burns one fuel unit
+    and takes one step, except loitering at the base, which is free. With probability η
+    (``traverse_failure``, unknown to the planner's model in Section 5.4.1) a UAV trying to
+    traverse an edge burns its fuel but does not move. A UAV at an unvisited target inside the
+    target's window obtains its reward r_j with probability p_j (k UAVs there together:
+    1 − (1 − p_j)^k); only then does v_j turn on. The step's reward is Σ newly obtained r_j minus
+    the fuel burnt. The mission fails, with reward −Σ_j r_j, when a UAV is away from the base
+    without fuel or when t = H finds a UAV away from the base; it ends successfully at t = H
+    with every UAV home. γ = 1.
+
+    Parameters
+    ----------
+    scenario : {"uav-7-2", "uav-10-2"}, default="uav-7-2"
+        A shipped scenario of Figure 5-4 (`conjure.domains.mission_graph`); ignored when
+        ``graph`` is given.
+    graph : mapping or None, default=None
+        Any mission graph, as a config mapping ``MissionGraph.from_dict`` reads (``num_nodes``,
+        ``edges``, ``fuel``, ``horizon``, ``base``, ``targets``); it replaces ``scenario``. At
+        most 10⁶ joint actions N^n.
+    traverse_failure : float, default=0.0
+        η in [0, 1], the probability that a UAV trying to traverse an edge stays where it is
+        (Section 5.4.1 uses 0.05; Section 5.3.5 uses 0).
+
+    Attributes
+    ----------
+    graph_ : MissionGraph
+        The mission: nodes, edges, fuel, horizon, targets, shortest-path distances. CBBA and
+        the fuel risk analyser read it as ``model.domain_.graph_``.
+    domain_spec : DomainSpec
+        2n + N + 1 integer dimensions in the layout of `conjure.domains.mission_graph`:
+        l_i ∈ [0, N − 1], f_i ∈ [0, F_i], v_j ∈ {0, 1}, t ∈ [0, H]; N^n joint actions,
+        γ = 1, cap H, ``has_action_constraints=True``.
+
+    Notes
+    -----
+    ========  ==================  ==================================================
+    Symbol    Name                Meaning
+    ========  ==================  ==================================================
+    l_i       obs[2i]             node of UAV i (0-based; the base is node 0)
+    f_i       obs[2i + 1]         remaining fuel of UAV i
+    v_j       obs[2n + j]         1 once node j's reward was obtained
+    t         obs[-1]             time step, 0 .. H
+    a         action              Σ_i l_i⁺ N^i, l_i⁺ the next node of UAV i
+    η         traverse_failure    probability that a traversal fails
+    γ         discount            1.0
+    ========  ==================  ==================================================
+
+    - Choice: a UAV obtains a target whenever it *is* at the unvisited node inside the window
+      after a step, so loitering at a target retries the draw (one fuel unit per try). The
+      state ⟨l, f, v, t⟩ keeps no record of earlier tries, the thesis lets UAVs loiter "if they
+      believe loitering to be the optimal action", and a planner that arrives before a window
+      opens waits at the target (spec 1.7), which only pays if the wait can obtain it.
+    - Choice: the window [a_j, b_j] is tested at the arrival time t + 1 (the t of the next
+      state); default windows are [0, H].
+    - Choice: only nodes with a positive reward can be obtained; v_j of a node without value
+      stays 0 (nothing is obtained there, and the bits would only split states).
+    - Choice: the failure reward −Σ_j r_j replaces the step's reward (no fuel, no target on the
+      crashing step), as the goal and pit rewards of GridWorld do; a crash is charged once
+      however many UAVs fail. ``info["cost"]`` is 1.0 on that step and 0.0 otherwise.
+    - Choice: "runs out of fuel" means f_i = 0 away from the base after a step, which is a
+      crash even if the UAV could still reach the base; at the base f_i = 0 is safe and the UAV
+      can only stay. Fuel never goes below 0: moving needs f_i >= 1, and a UAV away from the base
+      always has f_i >= 1 in a non-terminal state.
+    - Choice: every step draws exactly 2n uniforms from ``np_random``, used or not: u_i decides
+      UAV i's traversal (fails if u_i < η), u_{n+c} the c-th target that may be obtained (in
+      the order of the first UAV at each). The compiled kernel ``mission_step`` draws the same
+      numbers from a Generator, so a compiled loop replays `step` exactly. A terminal state
+      absorbs (reward 0).
+    - Choice: the domain never truncates; the episode ends (terminated) at t = H or a crash, so
+      ``max_episode_steps`` is H.
+    - [R] The graphs of Figure 5-4 are lost; the shipped scenarios are the reconstructions
+      documented in `conjure.domains.mission_graph`.
+
+    Complexity: Θ(n²) per step; Θ(Π_i (deg(l_i) + 1)) per legal-action list. `exact_solution`
+    takes Θ(Σ_t |S_t| · |A(s)| · 4^n) time over the reachable states S_t of each time layer and
+    Θ(2^m Π_i (F_i + 1) N^n + Σ_t |S_t|) memory (m targets).
+
+    Examples
+    --------
+    >>> domain = UAVMission()
+    >>> obs, info = domain.reset(seed=0)
+    >>> obs.tolist()  # l_1, f_1, l_2, f_2, v_0..v_6, t
+    [0.0, 6.0, 0.0, 6.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]
+    >>> domain.legal_actions(obs).size  # each UAV: stay, or fly to node 1 or 2
+    9
+    >>> obs, reward, terminated, truncated, info = domain.step(domain.graph_.encode_action([1, 0]))
+    >>> obs[:4].tolist(), reward, info["cost"]
+    ([1.0, 5.0, 0.0, 6.0], -1.0, 0.0)
+    """
+
+    noise_parameter: ClassVar[str] = "traverse_failure"
+    parameter_constraints: ClassVar[dict[str, Constraint]] = {
+        "scenario": Options(tuple(SCENARIOS)),
+        "graph": InstanceOf(
+            (Mapping, type(None)), "a mission-graph mapping (see MissionGraph.from_dict) or None"
+        ),
+        "traverse_failure": Interval(float, 0.0, 1.0),
+    }
+
+    def __init__(
+        self,
+        *,
+        scenario: str = "uav-7-2",
+        graph: Mapping[str, Any] | None = None,
+        traverse_failure: float = 0.0,
+    ) -> None:
+        self.scenario = scenario
+        self.graph = graph
+        self.traverse_failure = traverse_failure
+        self._build()
+
+    def _build(self) -> None:
+        """Validate the parameters, read the graph and build the kernel tables and spaces."""
+        if isinstance(self.scenario, str) and self.scenario not in SCENARIOS:
+            raise InvalidParameterError(
+                f"`UAVMission.scenario` must be one of {', '.join(map(repr, SCENARIOS))}; got "
+                f"{self.scenario!r}.{did_you_mean(self.scenario, SCENARIOS)}"
+            )
+        self.validate_params()
+        graph = self._read_graph()
+        n, num_nodes = graph.num_uavs, graph.num_nodes
+        if graph.num_actions > MAX_JOINT_ACTIONS:
+            raise InvalidParameterError(
+                f"`UAVMission.graph` has {num_nodes}^{n} = {graph.num_actions} joint actions; "
+                f"at most {MAX_JOINT_ACTIONS} are supported (fewer UAVs or nodes)."
+            )
+        self.graph_ = graph
+        adjacency = np.eye(num_nodes, dtype=np.uint8)
+        for u, v in graph.edges:
+            adjacency[u, v] = adjacency[v, u] = 1
+        node_table = np.column_stack(
+            [graph.rewards, graph.probabilities, graph.windows[:, 0], graph.windows[:, 1]]
+        ).astype(np.float64)
+        layout = np.array([n, num_nodes, graph.base, graph.horizon], dtype=np.int64)
+        high = np.array(
+            [v for f in graph.fuel for v in (num_nodes - 1, f)] + [1] * num_nodes + [graph.horizon],
+            dtype=np.float64,
+        )
+        for table in (adjacency, node_table, layout, high):
+            table.flags.writeable = False
+        self._adjacency = adjacency
+        self._node_table = node_table
+        self._layout = layout
+        self._high = high
+        self._tables = (high, layout, adjacency, node_table)  # checked_transition's order
+        self._eta = float(self.traverse_failure)
+        self._num_uniforms = 2 * n
+        low = np.zeros_like(high)
+        name = self.scenario if self.graph is None else f"{num_nodes} nodes, {n} UAVs"
+        self.observation_space = spaces.Box(low=low, high=high, dtype=np.float64)
+        self.domain_spec = DomainSpec(
+            name=f"UAVMission({name})",
+            low=low,
+            high=high,
+            is_discrete=np.ones(high.shape[0], dtype=bool),
+            num_actions=graph.num_actions,
+            discount=1.0,
+            max_episode_steps=graph.horizon,
+            has_action_constraints=True,
+        )
+        self._state = graph.initial_state()
+        self.action_space = LegalDiscrete(
+            graph.num_actions, self._current_legal, self._current_legal()
+        )
+
+    def _read_graph(self) -> MissionGraph:
+        if self.graph is None:
+            return SCENARIOS[self.scenario]()
+        try:
+            return MissionGraph.from_dict(self.graph)
+        except InvalidParameterError as error:
+            raise InvalidParameterError(
+                f"`UAVMission.graph` is not a valid mission graph: {error}"
+            ) from None
+
+    # ------------------------------------------------------------------ episode
+
+    def reset(
+        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[np.ndarray, dict[str, Any]]:
+        """Start with every UAV at the base with its initial fuel, nothing visited, t = 0."""
+        super().reset(seed=seed)
+        self._state = self.graph_.initial_state()
+        return self._state.copy(), {}
+
+    def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
+        """Fly every UAV one step; ``info["cost"]`` is 1.0 on a crash (Section 5.3.5)."""
+        a = self.check_action(action)
+        uniforms = self.np_random.random(self._num_uniforms)  # as mission_step draws them
+        state, reward, terminated, cost, status = checked_transition(
+            self._state, a, *self._tables, self._eta, uniforms
+        )
+        if status != -1:
+            raise InvalidParameterError(
+                f"UAVMission.step: action {a} {self.describe_action(a)} is illegal in the "
+                f"current state (each UAV stays or moves to a neighbour, with fuel left); legal "
+                f"actions: {self._current_legal().tolist()}."
+            )
+        self._state = state
+        return state.copy(), reward, terminated, False, {"cost": cost}
+
+    def _current_legal(self) -> np.ndarray:
+        return checked_legal_actions(self._state, self._high, self._layout, self._adjacency)[0]
+
+    def describe_action(self, action: int) -> str:
+        """Return the joint action as destinations, e.g. ``(UAV 0 to node 1, UAV 1 to node 0)``."""
+        nodes = self.graph_.decode_action(action)
+        return "(" + ", ".join(f"UAV {i} to node {d}" for i, d in enumerate(nodes)) + ")"
+
+    # ------------------------------------------------------------------ states
+
+    def _as_array(self, state: Any, where: str) -> np.ndarray:
+        try:
+            return np.asarray(state, dtype=np.float64)
+        except (TypeError, ValueError):
+            raise InvalidParameterError(
+                f"UAVMission.{where} expects a numeric state vector; got {state!r}."
+            ) from None
+
+    def _state_error(self, array: np.ndarray, where: str) -> InvalidParameterError:
+        """The error for ``array`` not being a mission state: its shape or its bad dimension."""
+        if array.shape != self._high.shape:
+            return InvalidParameterError(
+                f"UAVMission.{where} expects a state of shape {self._high.shape} (the layout of "
+                f"conjure.domains.mission_graph); got shape {array.shape}."
+            )
+        bad = state_from_observation(array, self._high)[1]
+        return InvalidParameterError(
+            f"UAVMission.{where}: {self._dimension_name(bad)} must be an integer in "
+            f"[0, {self._high[bad]:g}]; got {array[bad]!r}."
+        )
+
+    def _checked_state(self, state: Any, where: str) -> np.ndarray:
+        """``state`` as an int64 vector, or a clear error naming the bad dimension."""
+        array = self._as_array(state, where)
+        if array.shape == self._high.shape:
+            ints, bad = state_from_observation(array, self._high)
+            if bad < 0:
+                return ints
+        raise self._state_error(array, where)
+
+    def _dimension_name(self, k: int) -> str:
+        n = self.graph_.num_uavs
+        if k < 2 * n:
+            return f"dimension {k} ({'fuel' if k % 2 else 'location'} of UAV {k // 2})"
+        if k < self._high.shape[0] - 1:
+            return f"dimension {k} (visited bit of node {k - 2 * n})"
+        return f"dimension {k} (time step)"
+
+    def legal_actions(self, state: np.ndarray) -> np.ndarray:
+        """Return the sorted legal joint actions of ``state`` (one compiled pass)."""
+        array = self._as_array(state, "legal_actions")
+        if array.shape == self._high.shape:
+            legal, bad = checked_legal_actions(array, self._high, self._layout, self._adjacency)
+            if bad < 0:
+                return legal
+        raise self._state_error(array, "legal_actions")
+
+    def is_constrained(self, state: np.ndarray) -> bool:
+        """Whether ``state`` is a crash: a UAV away from the base without fuel or at t = H."""
+        return bool(is_crashed(self._checked_state(state, "is_constrained"), self._layout))
+
+    def simulate(
+        self, state: np.ndarray, action: int, noise: float, rng: np.random.Generator
+    ) -> tuple[np.ndarray, float, bool]:
+        """Draw ⟨s', r, terminated⟩ from ``state`` with traverse failure η = ``noise``.
+
+        The same compiled step as `step`; the episode and ``np_random`` are not touched.
+        """
+        if not (isinstance(noise, (float, int)) and 0.0 <= noise <= 1.0):
+            raise InvalidParameterError(
+                f"UAVMission.simulate: noise must be a float in [0, 1]; got {noise!r}."
+            )
+        if not isinstance(rng, np.random.Generator):
+            raise InvalidParameterError(
+                f"UAVMission.simulate: rng must be a numpy.random.Generator; got {rng!r}."
+            )
+        observation = self._as_array(state, "simulate")
+        a = self.check_action(action)
+        if observation.shape == self._high.shape:
+            uniforms = rng.random(self._num_uniforms)
+            next_obs, reward, terminated, _, status = checked_transition(
+                observation, a, *self._tables, float(noise), uniforms
+            )
+            if status == -1:
+                return next_obs, reward, terminated
+            if status == ILLEGAL:
+                raise InvalidParameterError(
+                    f"UAVMission.simulate: action {a} {self.describe_action(a)} is illegal in "
+                    f"state {observation.tolist()}."
+                )
+        raise self._state_error(observation, "simulate")
+
+    def nominal_next_state(self, state: np.ndarray, action: int) -> np.ndarray:
+        """Return s' if every traversal succeeds and every target draw fails (as CBBA plans)."""
+        ints = self._checked_state(state, "nominal_next_state")
+        a = self.check_action(action)
+        if not is_legal(ints, a, self._layout, self._adjacency):
+            raise InvalidParameterError(
+                f"UAVMission.nominal_next_state: action {a} {self.describe_action(a)} is "
+                f"illegal in state {ints.tolist()}."
+            )
+        return nominal_next_state(ints, a, self._layout).astype(np.float64)
+
+    def count_unintended(
+        self, state: np.ndarray, action: int, next_state: np.ndarray
+    ) -> tuple[int, int]:
+        """(#UAVs that tried to traverse an edge and did not move, #UAVs that tried; Section 5.5.2).
+
+        A transition from a terminal state counts as no move.
+        """
+        ints = self._checked_state(state, "count_unintended")
+        after = self._checked_state(next_state, "count_unintended")
+        num_failed, num_tried = count_unintended(
+            ints, self.check_action(action), after, self._layout
+        )
+        return int(num_failed), int(num_tried)
+
+    def state_action_count(self) -> int:
+        """|S × A| as the thesis counts it (≈1.2e8 for UAV 7-2, ≈9.1e9 for 10-2; spec 2.2)."""
+        return self.graph_.state_action_count()
+
+    # ------------------------------------------------------------------ exact solution
+
+    def exact_solution(self) -> MissionSolution:
+        """Solve the mission exactly at this η by backward induction over reachable states.
+
+        Section 5.3.5 ("the optimal solutions were obtained using dynamic programming"; about a
+        day for UAV 7-2 in the thesis, footnote 4). Solutions are cached per graph and η.
+        Feasible while one time layer, 2^m Π_i (F_i + 1) N^n keys (m targets), stays within
+        2·10⁷: UAV 7-2 has 7.7e4 and UAV 10-2 1.0e6.
+        """
+        graph = self.graph_
+        cache_key = (json.dumps(graph.to_dict(), sort_keys=True), self._eta)
+        if cache_key in _SOLUTIONS:
+            _SOLUTIONS.move_to_end(cache_key)
+            return _SOLUTIONS[cache_key]
+        targets = graph.targets
+        num_keys = layer_size(graph.num_nodes, graph.fuel, targets.size)
+        if num_keys > MAX_LAYER_KEYS:
+            raise InvalidParameterError(
+                f"UAVMission.exact_solution: one time layer of this graph has 2^{targets.size} · "
+                f"Π(F_i + 1) · {graph.num_nodes}^{graph.num_uavs} = {num_keys:.3g} states, more "
+                f"than the {MAX_LAYER_KEYS:.0e} that fit in memory; use a smaller graph."
+            )
+        target_bit = np.full(graph.num_nodes, -1, dtype=np.int64)
+        target_bit[targets] = np.arange(targets.size)
+        fuel_caps = np.array(graph.fuel, dtype=np.int64)
+        sizes, keys, best, worst, best_actions, worst_actions = solve_mission(
+            graph.initial_state().astype(np.int64),
+            self._layout,
+            self._adjacency,
+            self._node_table,
+            self._eta,
+            fuel_caps,
+            target_bit,
+            targets.astype(np.int64),
+            num_keys,
+        )
+        times = np.repeat(np.arange(graph.horizon, dtype=np.int64), sizes)
+        solution = MissionSolution(
+            optimal_return=float(best[0]),
+            worst_return=float(worst[0]),
+            layer_sizes=sizes,
+            keys=times * num_keys + keys,
+            values=best,
+            worst_values=worst,
+            actions=best_actions,
+            worst_actions=worst_actions,
+            num_layer_keys=num_keys,
+            layout=self._layout,
+            fuel_caps=fuel_caps,
+            target_bit=target_bit,
+        )
+        _SOLUTIONS[cache_key] = solution
+        if len(_SOLUTIONS) > _CACHE_SIZE:
+            _SOLUTIONS.popitem(last=False)
+        return solution
+
+    def value_bounds(self) -> tuple[float, float]:
+        """(worst, best) expected return from s₀ at this η, between which optimality is scaled.
+
+        Figure 5-6b; from `exact_solution` (cached).
+        """
+        solution = self.exact_solution()
+        return solution.worst_return, solution.optimal_return
+
+
+@dataclass(frozen=True, eq=False)
+class MissionSolution:
+    """The exact optimal and worst policies of a UAV mission (Section 5.3.5, Figure 5-6b).
+
+    Rows are the non-terminal states reachable from s₀, by time and then by key (see
+    `conjure.domains._mission_dp`); terminal states have value 0. Built by
+    `UAVMission.exact_solution`.
+
+    Parameters
+    ----------
+    optimal_return, worst_return : float
+        V*(s₀) and the worst policy's V(s₀).
+    layer_sizes : ndarray of int64, shape (H,)
+        Number of reachable non-terminal states at t = 0 .. H − 1.
+    keys : ndarray of int64
+        t · num_layer_keys + the state's key within its layer, ascending.
+    values, worst_values : ndarray of float64
+        V*(s) and V_worst(s) of each row.
+    actions, worst_actions : ndarray of int64
+        An optimal and a worst joint action of each row (lowest index among ties).
+    num_layer_keys : int
+        Number of keys of one time layer, 2^m Π_i (F_i + 1) N^n.
+    layout, fuel_caps, target_bit : ndarray of int64
+        The state encoding: ``[n, N, base, H]``, each UAV's initial fuel, and each node's bit
+        among the visited targets (−1 for a node without reward).
+    """
+
+    optimal_return: float
+    worst_return: float
+    layer_sizes: np.ndarray
+    keys: np.ndarray
+    values: np.ndarray
+    worst_values: np.ndarray
+    actions: np.ndarray
+    worst_actions: np.ndarray
+    num_layer_keys: int
+    layout: np.ndarray
+    fuel_caps: np.ndarray
+    target_bit: np.ndarray
+
+    @property
+    def num_states(self) -> int:
+        """Number of reachable non-terminal states."""
+        return int(self.keys.shape[0])
+
+    def _row(self, state: np.ndarray) -> int:
+        ints = np.asarray(state, dtype=np.int64)
+        key = int(ints[-1]) * self.num_layer_keys + state_key(
+            ints, self.layout, self.fuel_caps, self.target_bit
+        )
+        row = int(np.searchsorted(self.keys, key))
+        if row == self.keys.shape[0] or self.keys[row] != key:
+            raise InvalidParameterError(
+                f"MissionSolution: state {ints.tolist()} is terminal or not reachable from s₀."
+            )
+        return row
+
+    def value(self, state: np.ndarray) -> float:
+        """V*(s); 0 for a terminal state."""
+        if is_terminal(np.asarray(state, dtype=np.int64), self.layout):
+            return 0.0
+        return float(self.values[self._row(state)])
+
+    def action(self, state: np.ndarray) -> int:
+        """An optimal joint action π*(s) of a reachable non-terminal state."""
+        return int(self.actions[self._row(state)])
+
+    def worst_action(self, state: np.ndarray) -> int:
+        """A joint action of the worst policy in a reachable non-terminal state."""
+        return int(self.worst_actions[self._row(state)])

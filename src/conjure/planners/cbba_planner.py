@@ -1,0 +1,282 @@
+"""CBBA as iCCA's cooperative planner on UAV missions (Section 5.3.1 and Algorithm 27).
+
+π^p(s) is the first move of the CBBA plan made from s on the deterministic (expected-value)
+model of the mission: every UAV steps along a shortest path to the first target of its CBBA
+path. The thesis replans "on each step of the simulation ... to cope with the stochasticity of
+the environment" (Section 5.5.2), so every call plans from the state it is given.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from conjure.core.cooperative import CooperativePlanner
+from conjure.core.errors import IncompatibleComponentsError, InvalidParameterError
+from conjure.core.interfaces import check_is_set_up
+from conjure.core.params import Interval, Options
+from conjure.domains.mission_graph import MissionGraph
+from conjure.planners._cbba_kernels import is_mission_state, plan_mission
+from conjure.planners.cbba import Allocation, default_max_rounds
+
+__all__ = ["CBBAPlanner", "MissionPlan"]
+
+
+@dataclass(frozen=True, eq=False)
+class MissionPlan:
+    """The CBBA plan of one mission state and the joint action it implies (Section 5.3.1).
+
+    Parameters
+    ----------
+    time : int
+        The state's time step t.
+    task_nodes : ndarray of int64
+        The nodes CBBA was given as tasks (task k is node ``task_nodes[k]``).
+    fuel : ndarray of float64, shape (n,)
+        The fuel each UAV was planned with (after Algorithm 27's loop for the conservative
+        variant; the real fuel for the aggressive one).
+    cbba_runs : int
+        How many times CBBA ran (Algorithm 27's loop; 1 for the aggressive variant).
+    allocation : Allocation
+        CBBA's result, in task indices.
+    destinations : ndarray of int64, shape (n,)
+        Each UAV's next node (π^p(s) decoded).
+    action : int
+        The joint action ``MissionGraph.encode_action(destinations)``.
+    """
+
+    time: int
+    task_nodes: np.ndarray
+    fuel: np.ndarray
+    cbba_runs: int
+    allocation: Allocation
+    destinations: np.ndarray
+    action: int
+
+    @property
+    def paths(self) -> tuple[np.ndarray, ...]:
+        """Each UAV's target nodes in the order it visits them."""
+        return tuple(self.task_nodes[path] for path in self.allocation.paths)
+
+    @property
+    def arrivals(self) -> tuple[np.ndarray, ...]:
+        """The planned arrival time at each target of `paths`."""
+        return self.allocation.arrivals
+
+    @property
+    def assignment(self) -> dict[int, int]:
+        """Target node → the UAV assigned to it."""
+        return {
+            int(self.task_nodes[task]): int(agent)
+            for task, agent in enumerate(self.allocation.assignment)
+            if agent >= 0
+        }
+
+
+class CBBAPlanner(CooperativePlanner):
+    """π^p of iCCA on UAV missions: aggressive or conservative CBBA (Section 5.3.1, Algorithm 27).
+
+    CBBA (Choi, Brunet & How 2009; `conjure.planners.cbba.CBBA`) runs on the deterministic view
+    of the mission T̂, where every random event takes its expected value (Section 5.3.1: "an
+    80% chance ... achieving a reward of 100 ... is assumed to be successful all the time with
+    the corresponding reward of 80"). From a state s:
+
+    - tasks: the unvisited target nodes j with r_j p_j > 0 whose window is still open, worth
+      r_j p_j; travel times are the Floyd-Warshall hop counts of the mission graph;
+    - agents: the UAVs at their nodes with their fuel (aggressive: all of it; conservative:
+      Algorithm 27); a path is feasible when every target is reached inside its window and
+      the UAV is back at the base by the horizon within that fuel;
+    - π^p(s): each UAV steps along a shortest path (ties: the lowest-numbered neighbour) to
+      the first target of its path, or stays there while early; a UAV with no target goes
+      back to (or stays at) the base.
+
+    Algorithm 27 (conservative CBBA): MaxFuel ← the UAVs' fuel; plan with fuel − reserve
+    (clamped at 0); while some UAV has an empty plan, give each such UAV one more unit of fuel,
+    up to MaxFuel, and run CBBA again. Aggressive CBBA is one CBBA run with the full fuel.
+
+    Parameters
+    ----------
+    variant : {"conservative", "aggressive"}, default "conservative"
+        Algorithm 27 or plain CBBA with all remaining fuel (Section 5.5.2).
+    fuel_reserve : int, default 3
+        >= 0, the fuel Algorithm 27 holds back at first (line 2).
+    fuel_weight : float, default 1.0
+        ρ >= 0 (finite): CBBA's fuel penalty per hop from a UAV to a target (the ACL code's
+        constant fuel cost; 1 is the mission's fuel cost per move).
+    cache_size : int, default 65536
+        >= 0, the most states whose action is remembered (0: no cache).
+
+    Attributes
+    ----------
+    graph_ : MissionGraph
+        The mission of the model's domain.
+    next_hop_ : ndarray of int64, shape (N, N)
+        The next node on a shortest path from each node to each node.
+    distances_ : ndarray of float64, shape (N, N)
+        The graph's hop counts, CBBA's travel times.
+    node_tasks_ : ndarray of float64, shape (N, 4)
+        Every node as a CBBA task: [node, r_j p_j, window start, window end].
+    cache_ : dict of bytes to int
+        The remembered actions, by state bytes.
+
+    Notes
+    -----
+    - Choice: the loop condition of Algorithm 27, printed "while not ok or MaxFuel =
+      UAVs.fuel", runs until every UAV has a plan or every UAV without one already has its
+      full fuel, and returns the last plan (``domains-and-icca`` spec section 1.7, item 4).
+    - Choice: the score is Σ r_j p_j minus ρ·(hops from the UAV to each of its targets); this
+      fuel term is constant per UAV-target pair, so marginal gains still diminish and CBBA
+      still equals sequential greedy (the ACL code's device). Equal bids go to the lower UAV.
+    - Choice: fuel burnt = return time − departure time: loitering costs fuel away from the
+      base, so a UAV at the base waits there (free) until it must leave to keep its return
+      time; elsewhere it leaves at once and waits at a target if early (Section 5.3.5).
+    - Choice: a visit at time t has already been drawn in a state at time t, so the first
+      target is reached at t + 1 at the earliest (a UAV standing on an unvisited target
+      loiters one step to try again, inside its window).
+    - Choice: ``update`` returns False. CBBA's deterministic model takes every move as
+      succeeding, so the noise estimate η̂ never enters the plan; AM-iCCA's switch from the
+      conservative to the aggressive variant when η̂ drops (Section 5.5.2) belongs to the
+      cooperative learner, which holds one planner of each variant.
+    - The cache maps the state's float64 bytes (``state.tobytes()``) to the joint action and
+      forgets the oldest entry when full; plans are deterministic, so it never changes an
+      answer.
+
+    Complexity: one CBBA run costs Θ(rounds·n·m·L²) with m <= N targets and paths of L <= m;
+    Algorithm 27 runs it at most 1 + n·reserve times. About 20-30 µs per uncached plan and
+    0.5 µs per cached one on UAV 7-2 and 10-2 (``benchmarks/cbba_speed.py``).
+
+    Examples
+    --------
+    >>> from types import SimpleNamespace
+    >>> from conjure.domains.mission_graph import uav_7_2
+    >>> graph = uav_7_2()
+    >>> model = SimpleNamespace(domain_=SimpleNamespace(graph_=graph))
+    >>> planner = CBBAPlanner(variant="aggressive").setup(model, seed=0)
+    >>> plan = planner.plan(graph.initial_state())
+    >>> [p.tolist() for p in plan.paths]
+    [[3, 5], [2, 4, 6]]
+    >>> plan.destinations.tolist()
+    [1, 2]
+    """
+
+    parameter_constraints = {
+        "variant": Options(("conservative", "aggressive")),
+        "fuel_reserve": Interval(int, 0, None),
+        "fuel_weight": Interval(float, 0.0, math.inf, closed="left"),
+        "cache_size": Interval(int, 0, None),
+    }
+
+    def __init__(
+        self,
+        *,
+        variant: str = "conservative",
+        fuel_reserve: int = 3,
+        fuel_weight: float = 1.0,
+        cache_size: int = 65536,
+    ):
+        self.variant = variant
+        self.fuel_reserve = fuel_reserve
+        self.fuel_weight = fuel_weight
+        self.cache_size = cache_size
+
+    def setup(self, model: Any, seed: int | np.random.SeedSequence = 0) -> CBBAPlanner:
+        """Read the mission graph of ``model.domain_`` (CBBA is deterministic: no seed used)."""
+        self.validate_params()
+        graph = getattr(getattr(model, "domain_", None), "graph_", None)
+        if not isinstance(graph, MissionGraph):
+            domain = getattr(model, "domain_", None)
+            raise IncompatibleComponentsError(
+                f"CBBAPlanner plans UAV missions: its model's domain needs a MissionGraph "
+                f"`graph_`; got {type(domain).__name__} (was the model set up with UAVMission?)."
+            )
+        self.graph_ = graph
+        self.next_hop_ = _next_hops(graph)
+        self.distances_ = graph.distances.astype(np.float64)
+        values = graph.rewards * graph.probabilities
+        self.node_tasks_ = np.column_stack(
+            [np.arange(graph.num_nodes), values, graph.windows.astype(np.float64)]
+        )
+        self.settings_ = np.array([1.0, 0.0, float(self.fuel_weight)])  # min first leg, λ, ρ
+        self.is_conservative_ = self.variant == "conservative"
+        self.max_rounds_ = default_max_rounds(graph.num_uavs, graph.num_nodes, graph.num_nodes, 1)
+        self.cache_: dict[bytes, int] = {}
+        self.is_set_up_ = True
+        return self
+
+    def action(self, state: np.ndarray) -> int:
+        """π^p(s): the joint first move of the CBBA plan made from ``state`` (cached)."""
+        check_is_set_up(self, "action")
+        state = np.asarray(state, dtype=np.float64)
+        key = state.tobytes()
+        action = self.cache_.get(key)
+        if action is None:
+            action = self._plan(state)[0]
+            if self.cache_size > 0:
+                if len(self.cache_) >= self.cache_size:
+                    del self.cache_[next(iter(self.cache_))]
+                self.cache_[key] = action
+        return action
+
+    def plan(self, state: np.ndarray) -> MissionPlan:
+        """The full CBBA plan made from ``state`` (not cached), for inspection."""
+        check_is_set_up(self, "plan")
+        state = np.asarray(state, dtype=np.float64)
+        action, (destinations, task_nodes, fuel, runs, result) = self._plan(state)
+        return MissionPlan(
+            time=int(state[-1]),
+            task_nodes=task_nodes,
+            fuel=fuel,
+            cbba_runs=int(runs),
+            allocation=Allocation.from_kernel(result),
+            destinations=destinations,
+            action=action,
+        )
+
+    def update(self, model: Any) -> bool:
+        """Return False: the noise estimate never enters CBBA's deterministic plan."""
+        check_is_set_up(self, "update")
+        return False
+
+    def _plan(self, state: np.ndarray) -> tuple[int, tuple]:
+        self._check_state(state)
+        graph = self.graph_
+        out = plan_mission(
+            state, self.distances_, self.next_hop_, self.node_tasks_, graph.num_uavs,
+            graph.base, float(graph.horizon), self.settings_, self.is_conservative_,
+            float(self.fuel_reserve), self.max_rounds_,
+        )  # fmt: skip
+        destinations = out[0]
+        action = 0
+        for i in range(destinations.shape[0] - 1, -1, -1):
+            action = action * graph.num_nodes + int(destinations[i])
+        return action, out
+
+    def _check_state(self, state: np.ndarray) -> None:
+        graph = self.graph_
+        if state.shape != (graph.state_size,):
+            raise InvalidParameterError(
+                f"CBBAPlanner was set up for {graph.state_size}-long mission states; got shape "
+                f"{state.shape}. Was it set up with another mission's model?"
+            )
+        if not is_mission_state(state, graph.num_uavs, graph.num_nodes):
+            raise InvalidParameterError(
+                f"CBBAPlanner got an invalid mission state {state.tolist()}: locations must be "
+                f"nodes in [0, {graph.num_nodes - 1}], fuel and time ints >= 0."
+            )
+
+
+def _next_hops(graph: MissionGraph) -> np.ndarray:
+    """next_hop[u, g]: the lowest-numbered neighbour of u one hop closer to g (u itself at g)."""
+    n = graph.num_nodes
+    distances, neighbours = graph.distances, graph.neighbours
+    table = np.empty((n, n), dtype=np.int64)
+    for u in range(n):
+        for g in range(n):
+            table[u, g] = u
+            if u != g:
+                row = neighbours[u][neighbours[u] >= 0]
+                table[u, g] = int(row[distances[row, g] == distances[u, g] - 1][0])
+    return table

@@ -1,0 +1,149 @@
+"""Cooperative Learning-3 (AM-iCCA): iCCA with an adaptive model (Geramifard 2012, Alg. 26)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from conjure.core.cooperative import CooperativePlanner, RiskAnalyzer
+from conjure.core.interfaces import (
+    Agent,
+    DomainSpec,
+    Representation,
+    Transition,
+    check_is_set_up,
+)
+from conjure.core.params import InstanceOf, Interval
+from conjure.models.approximate_model import ApproximateModel
+from conjure.safety.cooperative_learner import CooperativeLearner
+
+__all__ = ["AdaptiveCooperativeLearner"]
+
+
+class AdaptiveCooperativeLearner(CooperativeLearner):
+    """Algorithm 24 plus model adaptation: re-estimate T̂, replan, restart the knownness counts.
+
+    Geramifard (2012), Algorithm 26 and Section 5.5 ("AM-iCCA"). Lines 1-9 are
+    `CooperativeLearner`'s; after the learner's update, T̂ learns from the observed move
+    (line 10), and once T̂ drifted more than ΔT from the model the planner last planned with,
+    the planner replans (lines 11-13); if π^p changed, every count restarts at zero "so that
+    the learner start watching the new policy (mentor) from the scratch" (lines 14-15). The
+    risk analyser always uses the current T̂. With a `SwitchingPlanner` this is GridWorld-2's
+    and UAV 7-2's conservative → aggressive switch once η̂ < 25% (Section 5.5.2).
+
+    Per transition (``learn``)::
+
+        learner.update(s, r, a)                         # line 9
+        model.update(s, r, a)                           # line 10: T̂
+        if ‖T̂^p − T̂‖ > ΔT:                              # line 11
+            T̂^p ← T̂; planner.update()                   # lines 12-13
+            if π^p changed: reset all counts to zero    # lines 14-15
+
+    Parameters
+    ----------
+    learner, planner, risk, index, num_known_visits
+        As in `CooperativeLearner`.
+    model : ApproximateModel
+        T̂; give it ``is_adaptive=True`` (Section 5.5.2: ``initial_noise=0.4``,
+        ``prior_weight=100``), otherwise nothing adapts.
+    replan_threshold : float, default 0.0
+        ΔT ≥ 0: replan when |η̂^p − η̂| > ΔT; 0 replans whenever η̂ changed.
+    trusted_knownness : float or None, default None
+        Section 5.5.3's extension: from this knownness in [0, 1] on, the learner's action is
+        executed without a safety check (line 5 skipped), so that a wrong model cannot filter
+        the learner forever (GridWorld-3). ``None``: always check (Algorithm 26 as printed).
+
+    Attributes
+    ----------
+    planned_noise_ : float
+        η̂^p, the noise estimate of the model π^p was last planned with (T̂^p).
+    num_policy_changes_ : int
+        How often π^p changed (and the counts were reset).
+
+    Notes
+    -----
+    - Choice: ‖T̂^p − T̂‖ = |η̂^p − η̂|: the model's only parameter is the noise η̂ (spec 5).
+    - Choice: ΔT defaults to 0, so a `SwitchingPlanner` switches on the very step η̂ crosses
+      its threshold (spec 5: "recompute when the estimate crosses 25%"); with a
+      `ModelPlanner` every replan costs a planning run, so raise ΔT (e.g. 0.01) there.
+    - Choice: `trusted_knownness` also applies to greedy acting.
+
+    Complexity
+    ----------
+    `CooperativeLearner`'s plus Θ(1) for T̂, and a planning run on each replan.
+
+    Examples
+    --------
+    >>> from conjure.agents import SARSA
+    >>> from conjure.domains import GridWorld
+    >>> from conjure.experiments import run
+    >>> from conjure.planners import ShortestPathPlanner, SwitchingPlanner
+    >>> from conjure.representations import Tabular
+    >>> from conjure.safety import MonteCarloRiskAnalyzer
+    >>> am_icca = AdaptiveCooperativeLearner(
+    ...     learner=SARSA(representation=Tabular()),
+    ...     planner=SwitchingPlanner(conservative=ShortestPathPlanner.conservative(),
+    ...                              aggressive=ShortestPathPlanner.aggressive()),
+    ...     risk=MonteCarloRiskAnalyzer(),
+    ...     model=ApproximateModel(domain=GridWorld.gridworld_2(), initial_noise=0.4,
+    ...                            is_adaptive=True))
+    >>> result = run(domain=GridWorld.gridworld_2(), agent=am_icca, budget_steps=300, seed=0)
+    >>> am_icca.planner_.is_aggressive_  # the wind (20%) was found calmer than 25%
+    True
+    """
+
+    parameter_constraints = {
+        **CooperativeLearner.parameter_constraints,
+        "replan_threshold": Interval(float, 0.0, None),
+        "trusted_knownness": Interval(float, 0.0, 1.0) | InstanceOf(type(None)),
+    }
+
+    def __init__(
+        self,
+        *,
+        learner: Agent,
+        planner: CooperativePlanner,
+        risk: RiskAnalyzer,
+        model: ApproximateModel,
+        index: Representation | None = None,
+        num_known_visits: int = 10,
+        replan_threshold: float = 0.0,
+        trusted_knownness: float | None = None,
+    ):
+        super().__init__(
+            learner=learner,
+            planner=planner,
+            risk=risk,
+            model=model,
+            index=index,
+            num_known_visits=num_known_visits,
+        )
+        self.replan_threshold = replan_threshold
+        self.trusted_knownness = trusted_knownness
+
+    def setup(
+        self, spec: DomainSpec, seed: int | np.random.SeedSequence
+    ) -> AdaptiveCooperativeLearner:
+        """Set up as `CooperativeLearner`; no policy change yet."""
+        super().setup(spec, seed)
+        self.num_policy_changes_ = 0
+        return self
+
+    def _extra_state(self) -> dict[str, int]:
+        return {"num_policy_changes": self.num_policy_changes_}
+
+    def _is_trusted(self, knownness: float) -> bool:
+        return self.trusted_knownness is not None and knownness >= self.trusted_knownness
+
+    def learn(self, transition: Transition) -> float:
+        """Algorithm 26, lines 9-15: update the learner and T̂; replan; reset counts if π^p moved."""
+        check_is_set_up(self, "learn")
+        delta = self.learner_.learn(transition)  # line 9
+        model = self.model_
+        model.update(transition.state, transition.action, transition.next_state)  # line 10
+        if abs(model.noise_ - self.planned_noise_) > self.replan_threshold:  # line 11
+            self.planned_noise_ = float(model.noise_)  # line 12: T̂^p ← T̂
+            if self.planner_.update(model):  # line 13; line 14: π^p changed
+                self.risk_.update()
+                self.counts_[...] = 0  # line 15
+                self.num_policy_changes_ += 1
+        return delta

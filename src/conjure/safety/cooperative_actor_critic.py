@@ -1,0 +1,148 @@
+"""Cooperative Learning-1 (iCCA with Actor-Critic), Geramifard (2012), Algorithm 23."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from conjure.agents import ActorCritic
+from conjure.core.cooperative import CooperativePlanner, RiskAnalyzer
+from conjure.core.interfaces import Representation, check_is_set_up
+from conjure.core.params import InstanceOf, Interval
+from conjure.models.approximate_model import ApproximateModel
+from conjure.policies import greedy_action
+from conjure.safety.cooperative_agent import CooperativeAgent
+
+__all__ = ["CooperativeActorCritic"]
+
+
+class CooperativeActorCritic(CooperativeAgent):
+    """An Actor-Critic biased toward π^p whose unsafe actions are replaced and penalised.
+
+    Geramifard (2012), Algorithm 23 and Sections 5.3.2-5.3.4 ("iCCA"). The actor's
+    preferences ρ(s, a) start biased toward the planner: ρ(s, π^p(s)) += λ (Section 5.3.2).
+    Each step the actor proposes a^l ~ π^l(s) (Gibbs over ρ); if the risk analyser finds it
+    unsafe, the planner's action is executed instead and ρ(s, a^l) −= λ, "to reduce the
+    probability of the learner suggesting the same action". Actor-Critic then learns from the
+    executed action (Algorithm 12, lines 7-10)::
+
+        a^p ← π^p(s);  a^l ~ π^l(s);  a ← a^l           # lines 1-3
+        if not safe(s, a): a ← a^p; ρ(s, a^l) −= λ      # lines 4-6
+        ActorCritic.learn(s, r, a)                      # line 7
+
+    Parameters
+    ----------
+    learner : ActorCritic
+        The actor-critic (Algorithm 12); the thesis's is tabular with a Gibbs actor, τ = 1.
+    planner : CooperativePlanner
+        π^p (GridWorld-1: ``ModelPlanner()`` on the noise-free model; UAVs: CBBA).
+    risk : RiskAnalyzer
+        The ``safe`` test (GridWorld-1: `NominalRiskAnalyzer`; UAVs: `FuelRiskAnalyzer`).
+    model : ApproximateModel
+        T̂, a model of the learning domain's map or graph.
+    index : Representation or None, default None
+        Gives each state its row in the first-visit table; ``None`` means ``Tabular()``, or
+        ``HashedTabular()`` on state spaces of more than a million cells (UAV missions).
+    bias : float, default 100.0
+        λ ≥ 0, the planner bias and the unsafe-action penalty (Section 5.3.5: 100).
+
+    Attributes
+    ----------
+    visited_ : ndarray of bool, shape (index features,)
+        Whether the bias has been applied to the state.
+    learner_, planner_, risk_, model_, index_
+        The set-up parts.
+
+    Notes
+    -----
+    ======  ===========  ===============================================
+    Symbol  Name         Meaning
+    ======  ===========  ===============================================
+    ρ(s,a)  preferences  the actor's preferences, ωᵀψ(s, a)
+    λ       bias         planner bias and penalty for unsafe proposals
+    π^p     planner      the cooperative planner's policy
+    ======  ===========  ===============================================
+
+    - Choice (spec 5): the bias is applied lazily, on the first visit of a state (the thesis
+      biases "state-action pairs sampled from π^p"); greedy acting treats unvisited states as
+      biased, without recording the visit.
+    - Choice: the penalty falls on the learner's unsafe action a^l (the text of Section 5.3.4;
+      Algorithm 23's line 6 writes ρ(s, a) after a was replaced).
+    - Choice: ρ(s, a) ± λ changes the actor's weights by ±λψ(s)/‖ψ(s)‖²
+      (`ActorCritic.shift_preference`): exactly ρ(s, a) with the thesis's tabular actor.
+    - Choice: greedy acting (policy checks) takes argmax ρ and replaces an unsafe action by
+      π^p(s): "For iCCA, unsafe moves again were replaced by the cooperative planner's
+      solution" (Section 5.3.5).
+
+    Complexity
+    ----------
+    Actor-Critic's Θ(n|A| + m|A|) per step, plus the planner's action and one risk analysis.
+
+    Examples
+    --------
+    >>> from conjure.domains import GridWorld
+    >>> from conjure.experiments import run
+    >>> from conjure.planners import ModelPlanner
+    >>> from conjure.representations import Tabular
+    >>> from conjure.safety import NominalRiskAnalyzer
+    >>> icca = CooperativeActorCritic(
+    ...     learner=ActorCritic(representation=Tabular()), planner=ModelPlanner(),
+    ...     risk=NominalRiskAnalyzer(), model=ApproximateModel(domain=GridWorld(noise=0.0)))
+    >>> result = run(domain=GridWorld(), agent=icca, budget_steps=500, seed=0)
+    >>> s = np.array([0.0, 0.0])
+    >>> bool(icca.learner_.preferences(s)[icca.planner_.action(s)] > 99.0)  # λ = 100
+    True
+    """
+
+    parameter_constraints = {
+        **CooperativeAgent.parameter_constraints,
+        "learner": InstanceOf(ActorCritic, "an ActorCritic (Algorithm 12)"),
+        "bias": Interval(float, 0.0, None),
+    }
+
+    def __init__(
+        self,
+        *,
+        learner: ActorCritic,
+        planner: CooperativePlanner,
+        risk: RiskAnalyzer,
+        model: ApproximateModel,
+        index: Representation | None = None,
+        bias: float = 100.0,
+    ):
+        self.learner = learner
+        self.planner = planner
+        self.risk = risk
+        self.model = model
+        self.index = index
+        self.bias = bias
+
+    def _build_tables(self, num_states: int, num_actions: int) -> None:
+        self.visited_ = np.zeros(num_states, dtype=bool)
+
+    def _table_arrays(self) -> dict[str, np.ndarray]:
+        return {"visited": self.visited_}
+
+    def act(
+        self, state: np.ndarray, greedy: bool = False, legal_actions: np.ndarray | None = None
+    ) -> int:
+        """Algorithm 23, lines 1-6: the actor's action unless unsafe, then the planner's."""
+        check_is_set_up(self, "act")
+        learner = self.learner_
+        planner_action = self.planner_.action(state)  # line 1
+        row = self.state_row(state, store=not greedy)
+        if greedy:
+            preferences = learner.preferences(state)
+            if row < 0 or not self.visited_[row]:  # −1: never seen
+                preferences[planner_action] += self.bias
+            learner_action = int(greedy_action(preferences, self._actions(legal_actions)))
+            if self.risk_.is_safe(state, learner_action, self.eval_rng_):
+                return learner_action
+            return planner_action
+        if not self.visited_[row]:  # Section 5.3.2: bias ρ toward π^p on the first visit
+            self.visited_[row] = True
+            learner.shift_preference(state, planner_action, self.bias)
+        learner_action = learner.act(state, False, legal_actions)  # line 2
+        if self.risk_.is_safe(state, learner_action):  # line 4
+            return learner_action  # line 3
+        learner.shift_preference(state, learner_action, -self.bias)  # line 6
+        return planner_action  # line 5

@@ -1,0 +1,162 @@
+"""Cooperative Learning-2: any online learner guided by a planner (Geramifard 2012, Alg. 24)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from conjure.core.cooperative import CooperativePlanner, RiskAnalyzer
+from conjure.core.interfaces import Agent, Representation, check_is_set_up
+from conjure.core.params import Interval
+from conjure.models.approximate_model import ApproximateModel
+from conjure.safety.cooperative_agent import CooperativeAgent
+
+__all__ = ["CooperativeLearner"]
+
+
+class CooperativeLearner(CooperativeAgent):
+    """Follow π^p until a state-action is known, then let the learner act if its action is safe.
+
+    Geramifard (2012), Algorithm 24 and Section 5.4 (with SARSA: "CSARSA"). Motivated by
+    R_max's known states and the mentor/protégé analogy: the planner (mentor) acts until the
+    pair ⟨s, π^p(s)⟩ has been seen often enough; then, with probability equal to its
+    knownness, the learner (protégé) proposes an action, which is executed if the risk
+    analyser finds it safe. Any online learner fits (SARSA, QLearning, ActorCritic, with any
+    representation, OnlineIFDD included): only its ``act`` and ``learn`` are used.
+
+    Per step (``act``; ``learn`` is line 9)::
+
+        a ← π^p(s)                                      # line 1
+        knownness ← min{1, count(s, a) / 𝒦}             # line 2
+        if rand() < knownness:                          # line 3
+            a′ ← π^l(s)                                  # line 4
+            if safe(s, a′): a ← a′                       # lines 5-6
+        else: count(s, a) ← count(s, a) + 1             # line 8
+        learner.update(s, r, a)                         # line 9
+
+    Parameters
+    ----------
+    learner : Agent
+        The online learner π^l (e.g. ``SARSA(representation=Tabular())``).
+    planner : CooperativePlanner
+        π^p (e.g. ``ModelPlanner()``: value iteration on T̂).
+    risk : RiskAnalyzer
+        The ``safe`` test (e.g. `NominalRiskAnalyzer`, `MonteCarloRiskAnalyzer`).
+    model : ApproximateModel
+        T̂, a model of the learning domain's map or graph; static here (see
+        `AdaptiveCooperativeLearner` for Algorithm 26).
+    index : Representation or None, default None
+        Gives each state its row in the count table: one active feature per state. ``None``
+        means ``Tabular()``, or ``HashedTabular()`` (lazily indexed, capacity 100,000) on state
+        spaces of more than a million cells such as UAV missions.
+    num_known_visits : int, default 10
+        𝒦 ≥ 1, the knownness parameter: ⟨s, a⟩ is fully known after 𝒦 planner visits
+        (Section 5.4.1 picks 𝒦 from {10, 20, 50}).
+
+    Attributes
+    ----------
+    counts_ : ndarray of int32, shape (index features, |A|)
+        count(s, a): how often the planner acted in s with a unconsulted.
+    learner_, planner_, risk_, model_, index_
+        The set-up parts.
+
+    Notes
+    -----
+    ======  =================  ==============================================
+    Symbol  Name               Meaning
+    ======  =================  ==============================================
+    π^p     planner            the cooperative planner's policy
+    π^l     learner            the learner's (exploratory) policy
+    𝒦       num_known_visits   visits after which a pair is known
+    ======  =================  ==============================================
+
+    - Choice (spec 5): the count grows only when the planner's action is executed without
+      consulting the learner (line 8), not when the learner was consulted but unsafe.
+    - Choice: the knownness draw is skipped when knownness is 0 (never consult) or 1
+      (always consult); it is drawn from the agent's own generator otherwise.
+    - Choice: greedy acting (policy checks) consults the learner only in fully known pairs
+      (knownness = 1, R_max's "known"), takes its greedy action, and still replaces an unsafe
+      one by π^p(s) as Section 5.3.5 evaluates iCCA. Before learning the greedy policy is
+      therefore the planner's, and the learner takes over state by state as it learns there.
+    - Choice: a learner action equal to π^p(s) is safe without analysis (`RiskAnalyzer`).
+
+    Complexity
+    ----------
+    Θ(1) plus the planner's action, the learner's act/learn and, when the learner is
+    consulted, one risk analysis (Θ(𝓜𝓗) for Algorithm 25).
+
+    Examples
+    --------
+    >>> from conjure.agents import SARSA
+    >>> from conjure.domains import GridWorld
+    >>> from conjure.experiments import run
+    >>> from conjure.planners import ModelPlanner
+    >>> from conjure.representations import Tabular
+    >>> from conjure.safety import NominalRiskAnalyzer
+    >>> csarsa = CooperativeLearner(
+    ...     learner=SARSA(representation=Tabular()), planner=ModelPlanner(),
+    ...     risk=NominalRiskAnalyzer(), model=ApproximateModel(domain=GridWorld(noise=0.0)))
+    >>> result = run(domain=GridWorld(), agent=csarsa, budget_steps=500, seed=0)
+    >>> int(csarsa.counts_.sum()) > 0  # the planner acted unconsulted
+    True
+    """
+
+    parameter_constraints = {
+        **CooperativeAgent.parameter_constraints,
+        "num_known_visits": Interval(int, 1, None),
+    }
+
+    def __init__(
+        self,
+        *,
+        learner: Agent,
+        planner: CooperativePlanner,
+        risk: RiskAnalyzer,
+        model: ApproximateModel,
+        index: Representation | None = None,
+        num_known_visits: int = 10,
+    ):
+        self.learner = learner
+        self.planner = planner
+        self.risk = risk
+        self.model = model
+        self.index = index
+        self.num_known_visits = num_known_visits
+
+    def _build_tables(self, num_states: int, num_actions: int) -> None:
+        self.counts_ = np.zeros((num_states, num_actions), dtype=np.int32)
+
+    def _table_arrays(self) -> dict[str, np.ndarray]:
+        return {"counts": self.counts_}
+
+    def knownness(self, state: np.ndarray, action: int) -> float:
+        """min{1, count(s, a)/𝒦} (Algorithm 24, line 2)."""
+        check_is_set_up(self, "knownness")
+        return min(1.0, self.counts_[self.state_row(state), action] / self.num_known_visits)
+
+    def act(
+        self, state: np.ndarray, greedy: bool = False, legal_actions: np.ndarray | None = None
+    ) -> int:
+        """Algorithm 24, lines 1-8: the planner's action, or the learner's if known and safe."""
+        check_is_set_up(self, "act")
+        planner_action = self.planner_.action(state)  # line 1
+        row = self.state_row(state, store=not greedy)
+        count = self.counts_[row, planner_action] if row >= 0 else 0  # −1: never seen
+        knownness = min(1.0, count / self.num_known_visits)  # line 2
+        if greedy:
+            consult = knownness >= 1.0
+        else:
+            consult = knownness >= 1.0 or (knownness > 0.0 and self.rng_.random() < knownness)
+        if not consult:  # line 3 failed
+            if not greedy:
+                self.counts_[row, planner_action] += 1  # line 8
+            return planner_action
+        learner_action = self.learner_.act(state, greedy, legal_actions)  # line 4
+        if self._is_trusted(knownness) or self.risk_.is_safe(
+            state, learner_action, self.eval_rng_ if greedy else None
+        ):  # line 5
+            return learner_action  # line 6
+        return planner_action
+
+    def _is_trusted(self, knownness: float) -> bool:
+        """Whether the learner's action may skip the safety check (Section 5.5.3; never here)."""
+        return False

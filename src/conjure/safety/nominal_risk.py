@@ -1,0 +1,56 @@
+"""The deterministic risk analyser of GridWorld-1 (Geramifard 2012, Section 5.3.5)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from conjure.core.cooperative import RiskAnalyzer
+from conjure.core.interfaces import check_is_set_up
+
+__all__ = ["NominalRiskAnalyzer"]
+
+
+class NominalRiskAnalyzer(RiskAnalyzer):
+    """Unsafe iff the noise-free outcome of the action is a constrained state.
+
+    Geramifard (2012), Sections 5.3.3 and 5.3.5: "For GridWorld-1, based on the noise-free
+    model, an action was assumed safe if it does not deliberately move the UAV to one of the
+    off-limit grid cells." The deterministic risk model of Section 5.3.3: risk(s, a) is 1 if
+    ``model.nominal_next_state(s, a)`` is constrained, else 0. It judges any `NoisyDomain`
+    (a pit, a crash).
+
+    Attributes
+    ----------
+    rng_ : numpy.random.Generator
+        Unused: the analyser is deterministic.
+
+    Notes
+    -----
+    - Choice: risk is 0 or 1, so ``risk_tolerance`` is 1: safe iff the nominal outcome is not
+      constrained.
+
+    Complexity
+    ----------
+    Θ(1): one noise-free step.
+
+    Examples
+    --------
+    >>> from conjure.domains import GridWorld
+    >>> from conjure.models.approximate_model import ApproximateModel
+    >>> from conjure.planners import ShortestPathPlanner
+    >>> domain = GridWorld.gridworld_1()  # pits at (2, 0) and (6, 2)
+    >>> model = ApproximateModel(domain=domain).setup(domain.domain_spec, seed=0)
+    >>> planner = ShortestPathPlanner().setup(model, seed=0)
+    >>> analyser = NominalRiskAnalyzer().setup(model, planner, seed=0)
+    >>> analyser.is_safe(np.array([1.0, 0.0]), 1)  # down, into the pit at (2, 0)
+    False
+    """
+
+    def __init__(self) -> None:
+        pass
+
+    def risk(self, state: np.ndarray, action: int, rng: np.random.Generator | None = None) -> float:
+        """1.0 if the noise-free successor is constrained, else 0.0."""
+        check_is_set_up(self, "risk")
+        model = self.model_
+        return float(model.is_constrained(model.nominal_next_state(state, action)))

@@ -1,0 +1,388 @@
+import copy
+import re
+import textwrap
+import warnings
+
+import gymnasium as gym
+import numpy as np
+import pytest
+from click.testing import CliRunner
+from gymnasium.utils.env_checker import check_env
+
+import conjure.domains  # noqa: F401  (registers the Gymnasium ids)
+from conjure.core.errors import InvalidParameterError
+from conjure.domains import UAVMission
+from conjure.domains._mission_kernels import mission_step
+from conjure.experiments.cli import main
+from conjure.testing.checks import check_pickle_round_trip, check_seeded_rollout
+
+
+def line(fuel, horizon, *, reward=10.0, probability=0.5, window=None, num_nodes=2):
+    """A path 0 - 1 - ... with one target at the far end (node num_nodes - 1)."""
+    target = {"reward": reward, "probability": probability}
+    if window is not None:
+        target["window"] = window
+    return {
+        "num_nodes": num_nodes,
+        "edges": [[k, k + 1] for k in range(num_nodes - 1)],
+        "fuel": list(fuel),
+        "horizon": horizon,
+        "targets": {num_nodes - 1: target},
+    }
+
+
+def state(*uavs, visited=(), num_nodes=2, t=0):
+    """A state vector: uavs as (location, fuel), the visited nodes, the time."""
+    v = [1.0 if j in visited else 0.0 for j in range(num_nodes)]
+    return np.array([x for uav in uavs for x in uav] + v + [t], dtype=np.float64)
+
+
+def rollout(domain, policy, num_episodes, seed):
+    """Returns of ``policy(domain, obs, rng)`` over episodes of ``domain.step``."""
+    rng = np.random.default_rng(seed)
+    returns = np.empty(num_episodes)
+    obs, _ = domain.reset(seed=seed)
+    for e in range(num_episodes):
+        total, terminated = 0.0, False
+        while not terminated:
+            obs, reward, terminated, _, _ = domain.step(policy(domain, obs, rng))
+            total += reward
+        returns[e] = total
+        obs, _ = domain.reset()
+    return returns
+
+
+# ---------------------------------------------------------------------------------- interface
+
+
+@pytest.mark.parametrize(
+    ("env_id", "dims", "actions", "horizon"),
+    [("conjure/UAV-7-2-v0", 12, 49, 8), ("conjure/UAV-10-2-v0", 15, 100, 11)],
+)
+def test_gymnasium_ids_and_spec(env_id, dims, actions, horizon):
+    env = gym.make(env_id)
+    obs, _ = env.reset(seed=0)
+    spec = env.unwrapped.domain_spec
+    assert (spec.num_dims, spec.num_actions, spec.discount, spec.max_episode_steps) == (
+        dims,
+        actions,
+        1.0,
+        horizon,
+    )
+    assert spec.has_action_constraints and spec.is_discrete.all()
+    assert obs[-1] == 0 and obs[1] == obs[3] == spec.high[1]  # full tanks, t = 0
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        check_env(env.unwrapped, skip_render_check=True)
+
+
+def test_graph_attribute_and_state_action_counts():
+    small, large = UAVMission(), UAVMission(scenario="uav-10-2")
+    assert small.graph_.num_nodes == 7 and large.graph_.num_nodes == 10
+    assert small.state_action_count() == 120_472_576  # "more than 100 million" (T:3113)
+    assert large.state_action_count() == pytest.approx(9.1e9, rel=0.01)  # "about 9 billion"
+    assert UAVMission(graph=line([3], 4)).graph_.num_nodes == 2
+
+
+def test_seeded_rollouts_and_pickle_with_noise():
+    domain = UAVMission(traverse_failure=0.3)
+    check_seeded_rollout(domain)
+    check_pickle_round_trip(domain)
+
+
+# ---------------------------------------------------------------------------------- dynamics
+
+
+def test_legal_actions_stay_or_move_to_a_neighbour_with_fuel():
+    domain = UAVMission()
+    obs, _ = domain.reset(seed=0)
+    encode = domain.graph_.encode_action
+    expected = sorted(encode([a, b]) for a in (0, 1, 2) for b in (0, 1, 2))
+    assert domain.legal_actions(obs).tolist() == expected
+    empty = obs.copy()
+    empty[1] = 0  # UAV 0 at the base without fuel: it can only stay
+    assert domain.legal_actions(empty).tolist() == [encode([0, b]) for b in (0, 1, 2)]
+    with pytest.raises(InvalidParameterError, match=r"action 3 \(UAV 0 to node 3"):
+        domain.step(encode([3, 0]))  # node 3 is not a neighbour of the base
+    with pytest.raises(InvalidParameterError, match=r"dimension 0 \(location of UAV 0\)"):
+        domain.legal_actions(np.where(np.arange(obs.size) == 0, 7.0, obs))
+
+
+def test_fuel_burn_and_free_loitering_at_the_base():
+    domain = UAVMission()
+    domain.reset(seed=0)
+    encode = domain.graph_.encode_action
+    obs, reward, terminated, _, info = domain.step(encode([1, 0]))  # node 1 has no value
+    assert obs[:4].tolist() == [1, 5, 0, 6] and reward == -1.0 and obs[-1] == 1
+    assert not terminated and info["cost"] == 0.0
+    obs, reward, *_ = domain.step(encode([1, 0]))  # loitering away from the base burns fuel
+    assert obs[:4].tolist() == [1, 4, 0, 6] and reward == -1.0
+    obs, reward, *_ = domain.step(encode([0, 0]))
+    assert obs[:4].tolist() == [0, 3, 0, 6] and reward == -1.0 and not obs[4:-1].any()
+
+
+def test_window_is_tested_at_arrival_and_loitering_retries():
+    domain = UAVMission(graph=line([4], 5, probability=1.0, window=[2, 3]))
+    domain.reset(seed=0)
+    obs, reward, *_ = domain.step(1)  # arrives at t = 1, before the window
+    assert reward == -1.0 and obs[3] == 0
+    obs, reward, *_ = domain.step(1)  # loiters into t = 2: obtained
+    assert reward == 10.0 - 1.0 and obs[3] == 1
+    obs, reward, *_ = domain.step(1)  # already visited: nothing more
+    assert reward == -1.0 and obs[3] == 1
+
+
+def test_target_probability_grows_with_the_number_of_uavs():
+    domain = UAVMission(graph=line([2, 2], 2, probability=0.5))
+    rng = np.random.default_rng(0)
+    start = state((0, 2), (0, 2))
+    for action, expected in ((1, 0.5), (1 + 2, 0.75)):  # one UAV, then both, fly to node 1
+        hits = [domain.simulate(start, action, 0.0, rng)[0][5] for _ in range(4000)]
+        assert np.mean(hits) == pytest.approx(expected, abs=0.03)
+
+
+def test_traverse_failures_burn_fuel_and_are_counted():
+    domain = UAVMission(graph=line([2, 2], 2, probability=0.0), traverse_failure=0.3)
+    rng = np.random.default_rng(1)
+    start = state((0, 2), (0, 2))
+    totals = np.zeros(2, dtype=int)
+    for _ in range(3000):
+        after, reward, _ = domain.simulate(start, 1, 0.3, rng)  # UAV 0 flies, UAV 1 stays
+        assert after[1] == 1 and after[3] == 2 and reward == -1.0
+        counts = domain.count_unintended(start, 1, after)
+        assert counts == ((1, 1) if after[0] == 0 else (0, 1))
+        totals += counts
+    assert totals[0] / totals[1] == pytest.approx(0.3, abs=0.03)
+    assert domain.count_unintended(start, 0, start) == (0, 0)  # nobody tried to move
+
+
+def test_running_out_of_fuel_away_from_the_base_crashes():
+    domain = UAVMission(graph=line([1], 4, probability=1.0))
+    domain.reset(seed=0)
+    obs, reward, terminated, _, info = domain.step(1)
+    assert terminated and info["cost"] == 1.0 and domain.is_constrained(obs)
+    assert reward == -10.0 == domain.graph_.crash_penalty  # replaces fuel and target
+    assert obs.tolist() == [1, 0, 0, 0, 1]  # nothing obtained on the crashing step
+
+
+def test_the_horizon_ends_the_mission_home_or_crashed():
+    home = UAVMission(graph=line([2], 2, probability=1.0))
+    home.reset(seed=0)
+    assert home.step(1)[1] == 10.0 - 1.0
+    obs, reward, terminated, _, info = home.step(0)  # home at t = H: success
+    assert terminated and reward == -1.0 and info["cost"] == 0.0
+    assert not home.is_constrained(obs)
+    late = UAVMission(graph=line([3], 2, probability=1.0))
+    late.reset(seed=0)
+    late.step(0)
+    obs, reward, terminated, _, info = late.step(1)  # away at t = H: failure
+    assert terminated and reward == -10.0 and info["cost"] == 1.0 and late.is_constrained(obs)
+    again, reward, terminated = late.simulate(obs, 0, 0.0, np.random.default_rng(0))
+    assert again.tolist() == obs.tolist() and reward == 0.0 and terminated  # absorbs
+
+
+def test_simulate_leaves_the_episode_and_its_generator_alone():
+    domain = UAVMission(traverse_failure=0.5)
+    twin = UAVMission(traverse_failure=0.5)
+    obs, _ = domain.reset(seed=3)
+    twin.reset(seed=3)
+    rng = np.random.default_rng(0)
+    for _ in range(20):
+        domain.simulate(obs, 1, 0.5, rng)
+    assert domain.step(1)[0].tolist() == twin.step(1)[0].tolist()
+    assert domain.np_random.random() == twin.np_random.random()
+
+
+def test_step_replays_the_compiled_kernel_with_the_same_generator():
+    domain = UAVMission(traverse_failure=0.2)
+    obs, _ = domain.reset(seed=5)
+    rng = copy.deepcopy(domain.np_random)
+    state_ints = obs.astype(np.int64)
+    actions = np.random.default_rng(5)
+    terminated = False
+    while not terminated:
+        legal = domain.legal_actions(obs)
+        action = int(legal[actions.integers(legal.size)])
+        obs, reward, terminated, _, info = domain.step(action)
+        state_ints, kernel_reward, kernel_terminated, cost = mission_step(
+            state_ints, action, domain._layout, domain._node_table, 0.2, rng
+        )
+        assert state_ints.tolist() == obs.tolist()
+        assert (kernel_reward, kernel_terminated, cost) == (reward, terminated, info["cost"])
+
+
+def test_nominal_next_state_moves_and_obtains_nothing():
+    domain = UAVMission(graph=line([2], 3, probability=1.0), traverse_failure=1.0)
+    after = domain.nominal_next_state(state((0, 2)), 1)
+    assert after.tolist() == [1, 1, 0, 0, 1]
+    failed, *_ = domain.simulate(state((0, 2)), 1, 1.0, np.random.default_rng(0))
+    assert failed.tolist() == [0, 1, 0, 0, 1]
+
+
+# ---------------------------------------------------------------------------------- exact DP
+
+
+@pytest.mark.parametrize(
+    ("params", "worst", "best"),
+    [
+        # go (-1, then +10 w.p. 0.5) and come back (-1); worst: fly out at the last step
+        ({"graph": line([2], 2)}, -10.0, 0.5 * 10 - 2),
+        # retry when the first try fails: 0.5 (10 - 2) + 0.5 (0.5 * 10 - 3)
+        ({"graph": line([3], 3)}, -10.0, 5.0),
+        # two UAVs together: 10 (1 - 0.5²) - 4 beats one UAV's 5 - 2
+        ({"graph": line([2, 2], 2)}, -10.0, 3.5),
+        # window [2, 2]: wait at the base (free), arrive at t = 2, return: 10 - 2; worst: out
+        # before the window and back (-2), out again at the last step (-10)
+        ({"graph": line([3], 3, probability=1.0, window=[2, 2])}, -12.0, 8.0),
+        # η = 0.5: out 0.5 (9 + 0.5 (-1) + 0.5 (-10)) + 0.5 (-1) = 1.25; worst: stay, then
+        # fly out at the last step: 0.5 (-10) + 0.5 (-1)
+        ({"graph": line([2], 2, probability=1.0), "traverse_failure": 0.5}, -5.5, 1.25),
+    ],
+)
+def test_exact_values_of_hand_solved_missions(params, worst, best):
+    assert UAVMission(**params).value_bounds() == pytest.approx((worst, best))
+
+
+def test_solutions_are_cached_per_graph_and_noise():
+    first = UAVMission().exact_solution()
+    assert UAVMission().exact_solution() is first
+    assert UAVMission(traverse_failure=0.05).exact_solution() is not first
+
+
+def test_uav_7_2_optimum_bounds_static_policies():
+    domain = UAVMission()
+    worst, best = domain.value_bounds()
+    encode = domain.graph_.encode_action
+    tour = [[1, 2], [3, 4], [5, 6], [3, 4], [1, 2], [0, 0], [0, 0], [0, 0]]  # both full tanks
+
+    def stay_home(d, obs, rng):
+        return 0
+
+    def hand_tour(d, obs, rng):
+        return encode(tour[int(obs[-1])])
+
+    def random_legal(d, obs, rng):
+        legal = d.legal_actions(obs)
+        return int(legal[rng.integers(legal.size)])
+
+    for policy in (stay_home, hand_tour, random_legal):
+        returns = rollout(domain, policy, 1000, seed=0)
+        margin = 3 * returns.std() / np.sqrt(returns.size)
+        assert worst - margin <= returns.mean() <= best + margin, policy.__name__
+    assert worst < 0.0 < best
+
+
+@pytest.mark.parametrize("traverse_failure", [0.0, 0.05])
+def test_simulated_optimal_and_worst_policies_earn_their_values(traverse_failure):
+    domain = UAVMission(traverse_failure=traverse_failure)
+    solution = domain.exact_solution()
+    for choose, value in (
+        (solution.action, solution.optimal_return),
+        (solution.worst_action, solution.worst_return),
+    ):
+        returns = rollout(domain, lambda d, obs, rng, f=choose: f(obs), 2000, seed=1)
+        margin = 4 * returns.std() / np.sqrt(returns.size) + 1e-9
+        assert returns.mean() == pytest.approx(value, abs=margin)
+    start = domain.graph_.initial_state()
+    assert solution.value(start) == solution.optimal_return
+    assert solution.layer_sizes[0] == 1 and solution.num_states == solution.layer_sizes.sum()
+
+
+def test_solution_lookups_of_terminal_and_unreachable_states():
+    domain = UAVMission(graph=line([2], 2))
+    solution = domain.exact_solution()
+    assert solution.value(state((1, 0), t=1)) == 0.0  # a crash: terminal
+    with pytest.raises(InvalidParameterError, match="not reachable"):
+        solution.action(state((1, 2), t=1))  # fuel cannot still be 2 there
+
+
+def test_exact_solution_refuses_graphs_too_large_for_memory():
+    graph = {
+        "num_nodes": 20,
+        "edges": [[k, k + 1] for k in range(19)],
+        "fuel": [30, 30],
+        "horizon": 40,
+        "targets": {k: {"reward": 1.0} for k in range(1, 16)},
+    }
+    with pytest.raises(InvalidParameterError, match="exact_solution: one time layer"):
+        UAVMission(graph=graph).exact_solution()
+
+
+# ---------------------------------------------------------------------------------- bad input
+
+BAD_GRAPHS = [
+    ({"num_nodes": 3, "edges": [[0, 1]], "fuel": [2], "horizon": 3}, "disconnected"),
+    ({"num_nodes": 3, "edges": [[1, 2]], "fuel": [2], "horizon": 3}, "no edge"),
+    ({"num_nodes": 2, "edges": [[0, 1]], "fuel": [-1], "horizon": 3}, r"fuel\[0\]"),
+    ({**line([2], 3), "targets": {1: {"reward": 1, "probability": 1.5}}}, "probabilities"),
+    ({**line([2], 3), "targets": {1: {"reward": 1, "window": [3, 1]}}}, "a > b"),
+    ({**line([2], 3), "edges": "01"}, "list"),
+    (
+        {**line([2, 2, 2, 2], 3), "num_nodes": 40, "edges": [[k, k + 1] for k in range(39)]},
+        "40\\^4 = 2560000 joint actions",
+    ),
+]
+
+
+@pytest.mark.parametrize(("graph", "message"), BAD_GRAPHS)
+def test_bad_graphs_are_refused_with_the_value(graph, message):
+    with pytest.raises(InvalidParameterError, match=r"UAVMission\.graph") as error:
+        UAVMission(graph=graph)
+    assert re.search(message, str(error.value))
+
+
+@pytest.mark.parametrize(
+    ("params", "message"),
+    [
+        ({"scenario": "uav-7-3"}, "Did you mean 'uav-7-2'"),
+        ({"traverse_failure": 1.5}, r"traverse_failure` must be a float in \[0, 1\]; got 1.5"),
+        ({"traverse_failure": -0.1}, "got -0.1"),
+        ({"graph": [1, 2]}, "mission-graph mapping"),
+    ],
+)
+def test_bad_parameters_name_the_value(params, message):
+    with pytest.raises(InvalidParameterError, match=message):
+        UAVMission(**params)
+
+
+def test_bad_states_actions_and_generators_are_refused_clearly():
+    domain = UAVMission(graph=line([2], 3))
+    rng = np.random.default_rng(0)
+    start = state((0, 2))
+    with pytest.raises(InvalidParameterError, match=r"dimension 1 \(fuel of UAV 0\)"):
+        domain.simulate(state((0, 3)), 0, 0.0, rng)
+    with pytest.raises(InvalidParameterError, match="time step"):
+        domain.is_constrained(state((0, 2), t=0.5))
+    with pytest.raises(InvalidParameterError, match="shape"):
+        domain.nominal_next_state(np.zeros(3), 0)
+    with pytest.raises(InvalidParameterError, match="numeric state"):
+        domain.legal_actions(["a"] * 5)
+    with pytest.raises(InvalidParameterError, match="illegal"):
+        domain.simulate(state((0, 0)), 1, 0.0, rng)
+    with pytest.raises(InvalidParameterError, match="noise"):
+        domain.simulate(start, 0, 2.0, rng)
+    with pytest.raises(InvalidParameterError, match="Generator"):
+        domain.simulate(start, 0, 0.0, 0)
+    with pytest.raises(InvalidParameterError, match=r"action must be an int in \[0, 1\]"):
+        domain.step(2)
+
+
+def test_bad_graph_in_a_yaml_config_is_one_clean_error(tmp_path):
+    config = textwrap.dedent(
+        """\
+        name: uav
+        domain:
+          kind: UAVMission
+          params:
+            graph: {num_nodes: 3, edges: [[0, 1]], fuel: [2], horizon: 3}
+        agents:
+          sarsa: {kind: SARSA, params: {representation: {kind: Tabular}}}
+        budget_steps: 10
+        """
+    )
+    path = tmp_path / "uav.yaml"
+    path.write_text(config)
+    result = CliRunner().invoke(main, ["run", str(path), "--out", str(tmp_path / "out")])
+    assert result.exit_code == 2 and "Traceback" not in result.output
+    assert "`UAVMission.graph` is not a valid mission graph" in result.output
+    assert "disconnected" in result.output

@@ -1,0 +1,101 @@
+import tempfile
+
+import numpy as np
+import pytest
+from safety_fakes import FakeLearner, FixedRiskAnalyzer, cell, gridworld_model
+
+from conjure.agents import SARSA
+from conjure.domains import GridWorld
+from conjure.experiments.loop import LearningLoop
+from conjure.models.approximate_model import ApproximateModel
+from conjure.planners import ShortestPathPlanner, SwitchingPlanner
+from conjure.representations import Tabular
+from conjure.safety import AdaptiveCooperativeLearner, MonteCarloRiskAnalyzer
+
+
+def am_icca(**params):
+    return AdaptiveCooperativeLearner(
+        learner=SARSA(representation=Tabular()),
+        planner=SwitchingPlanner(
+            conservative=ShortestPathPlanner.conservative(),
+            aggressive=ShortestPathPlanner.aggressive(),
+        ),
+        risk=MonteCarloRiskAnalyzer(),
+        model=ApproximateModel(
+            domain=GridWorld.gridworld_2(), initial_noise=0.4, prior_weight=100.0, is_adaptive=True
+        ),
+        **params,
+    )
+
+
+def learn_in_calm_gridworld2(agent, seed=0):
+    """A loop on GridWorld-2 without wind: every move is intended, so after m learning steps
+    η̂ = 40 / (100 + m)."""
+    domain = GridWorld.gridworld_2(noise=0.0)
+    agent.setup(domain.domain_spec, seed=seed)
+    return LearningLoop(domain, agent, seed=seed)
+
+
+def test_counts_reset_exactly_when_the_planner_switches():
+    # η̂ = 40 / (100 + m) < 0.25 first at m = 61 (Section 5.5.2's prior 0.4, weight 100).
+    agent = am_icca()
+    loop = learn_in_calm_gridworld2(agent)
+    for _ in range(60):
+        loop.advance(1)
+        assert agent.counts_.sum() > 0 and agent.num_policy_changes_ == 0
+    assert agent.model_.noise_ == pytest.approx(0.25)
+    loop.advance(1)
+    assert agent.planner_.is_aggressive_ and agent.num_policy_changes_ == 1
+    assert agent.counts_.sum() == 0  # line 15: all counts restart
+    assert agent.planned_noise_ == pytest.approx(40 / 161)
+    for _ in range(100):
+        loop.advance(1)
+    assert agent.num_policy_changes_ == 1 and agent.counts_.sum() > 0
+
+
+def test_replanning_waits_for_the_model_to_drift_more_than_delta_t():
+    # ΔT = 0.05 (by hand): replans when η̂ < 0.35 (m = 15: 40/115), then < 0.2978 (m = 35:
+    # 40/135), then < 0.2463 (m = 63: 40/163, below 0.25): the switch comes two moves late.
+    agent = am_icca(replan_threshold=0.05)
+    loop = learn_in_calm_gridworld2(agent)
+    replanned_at = []
+    for m in range(1, 70):
+        before = agent.planned_noise_
+        loop.advance(1)
+        if agent.planned_noise_ != before:
+            replanned_at.append(m)
+    assert replanned_at == [15, 35, 63]
+    assert agent.num_policy_changes_ == 1 and agent.planner_.is_aggressive_
+
+
+def test_trusted_knownness_skips_the_safety_check():
+    # Section 5.5.3: from knownness 1 the learner's (here always unsafe) action is executed.
+    domain = GridWorld(map_name="4x5", noise=0.0)
+    start = cell(0, 0)
+    for trusted, expected in ((None, 1), (1.0, 3)):
+        agent = AdaptiveCooperativeLearner(
+            learner=FakeLearner(action=3),
+            planner=ShortestPathPlanner(),
+            risk=FixedRiskAnalyzer(value=1.0),
+            model=gridworld_model(),
+            num_known_visits=1,
+            trusted_knownness=trusted,
+        ).setup(domain.domain_spec, seed=0)
+        agent.act(start)  # the planner's action (down, 1) becomes known
+        assert agent.act(start) == expected
+        assert agent.act(start, greedy=True) == expected
+
+
+def test_a_restored_agent_continues_with_the_switched_planner():
+    agent = am_icca()
+    loop = learn_in_calm_gridworld2(agent)
+    loop.advance(80)
+    with tempfile.TemporaryDirectory() as directory:
+        agent.save(directory)
+        restored = AdaptiveCooperativeLearner.restore(directory)
+    assert restored.planner_.is_aggressive_ and restored.num_policy_changes_ == 1
+    assert restored.model_.noise_ == agent.model_.noise_
+    assert restored.model_.num_moves_ == 80
+    np.testing.assert_array_equal(restored.counts_, agent.counts_)
+    states = [np.array([2.0, c]) for c in range(11, 22)]
+    assert [restored.act(s) for s in states] == [agent.act(s) for s in states]

@@ -1,0 +1,86 @@
+import pytest
+from safety_fakes import FixedRiskAnalyzer, cell, gridworld_model
+
+from conjure.agents import SARSA, ActorCritic
+from conjure.core.errors import InvalidParameterError
+from conjure.domains import GridWorld
+from conjure.planners import ShortestPathPlanner
+from conjure.representations import Tabular
+from conjure.safety import CooperativeActorCritic
+
+START = cell(0, 0)  # the 4x5 map's start; the planner heads down (1)
+PLANNER_ACTION = 1
+
+
+def icca(risk_value=0.0, bias=100.0, seed=0):
+    domain = GridWorld(map_name="4x5", noise=0.0)
+    agent = CooperativeActorCritic(
+        learner=ActorCritic(representation=Tabular()),
+        planner=ShortestPathPlanner(),
+        risk=FixedRiskAnalyzer(value=risk_value),
+        model=gridworld_model(),
+        bias=bias,
+    )
+    return agent.setup(domain.domain_spec, seed=seed)
+
+
+def test_the_planners_action_is_biased_by_lambda_on_the_first_visit_only():
+    agent = icca(bias=100.0)
+    assert agent.learner_.preferences(START).tolist() == [0.0] * 4
+    assert agent.act(START) == PLANNER_ACTION  # Gibbs: e^100 against 1
+    assert agent.learner_.preferences(START).tolist() == [0.0, 100.0, 0.0, 0.0]
+    agent.act(START)
+    assert agent.learner_.preferences(START).tolist() == [0.0, 100.0, 0.0, 0.0]
+    assert agent.visited_.sum() == 1
+
+
+def test_an_unsafe_learner_action_is_replaced_and_penalised_by_lambda():
+    agent = icca(risk_value=1.0, bias=0.5)  # every non-planner action is unsafe
+    penalised = []
+    for _ in range(40):
+        before = agent.learner_.preferences(START).copy()
+        assert agent.act(START) == PLANNER_ACTION  # lines 4-5
+        change = agent.learner_.preferences(START) - before
+        penalised += [a for a in range(4) if change[a] == pytest.approx(-0.5)]
+        assert sum(change != 0) <= 2  # the first visit's bias, or one penalty (line 6)
+    assert penalised and PLANNER_ACTION not in penalised
+    preferences = agent.learner_.preferences(START)
+    assert preferences[PLANNER_ACTION] == 0.5
+    assert sum(preferences[a] for a in (0, 2, 3)) == pytest.approx(-0.5 * len(penalised))
+
+
+def test_greedy_acting_treats_unvisited_states_as_biased_and_replaces_unsafe_actions():
+    agent = icca(bias=100.0)
+    assert agent.act(START, greedy=True) == PLANNER_ACTION
+    assert agent.visited_.sum() == 0  # nothing recorded
+    agent.learner_.shift_preference(START, 3, 1000.0)  # the actor now prefers right
+    assert agent.act(START, greedy=True) == 3
+    unsafe = icca(risk_value=1.0)
+    unsafe.learner_.shift_preference(START, 3, 1000.0)
+    assert unsafe.act(START, greedy=True) == PLANNER_ACTION
+
+
+def test_the_learner_must_be_an_actor_critic():
+    agent = CooperativeActorCritic(
+        learner=SARSA(representation=Tabular()),
+        planner=ShortestPathPlanner(),
+        risk=FixedRiskAnalyzer(),
+        model=gridworld_model(),
+    )
+    with pytest.raises(InvalidParameterError, match="learner"):
+        agent.setup(GridWorld(map_name="4x5").domain_spec, seed=0)
+
+
+def test_the_shipped_gridworld1_example_runs_icca_as_the_planner_at_first():
+    from pathlib import Path
+
+    from conjure.experiments.config import load_config
+    from conjure.experiments.run import run_config
+
+    path = Path(__file__).resolve().parents[2] / "examples" / "gridworld_icca.yaml"
+    config = load_config(path, ["budget_steps=300", "num_policy_checks=1", "eval_episodes=5"])
+    returns = {
+        label: run_config(config, agent_name=label, seed=0).curve["return"].iloc[0]
+        for label in ("actor_critic", "icca", "vi_planner")
+    }
+    assert returns["icca"] == returns["vi_planner"] > returns["actor_critic"]

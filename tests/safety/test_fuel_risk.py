@@ -1,0 +1,63 @@
+import pytest
+
+from conjure.core.errors import IncompatibleComponentsError
+from conjure.domains import GridWorld
+from conjure.domains.mission_graph import uav_7_2
+from conjure.models.approximate_model import ApproximateModel
+from conjure.safety import FuelRiskAnalyzer
+from conjure.testing.mission_stub import HomePlanner, MissionStub
+
+
+def set_up(domain):
+    model = ApproximateModel(domain=domain).setup(domain.domain_spec, seed=0)
+    return FuelRiskAnalyzer().setup(model, HomePlanner().setup(model, seed=0), seed=0)
+
+
+def mission_state(graph, locations, fuels, time):
+    state = graph.initial_state()
+    state[0 : 2 * graph.num_uavs : 2] = locations
+    state[1 : 2 * graph.num_uavs : 2] = fuels
+    state[-1] = time
+    return state
+
+
+def test_unsafe_iff_a_uav_cannot_fly_home_after_the_move():
+    # UAV 7-2 [R]: node 3 is two hops from the base (0 - 1 - 3), node 5 three (0 - 1 - 3 - 5).
+    domain = MissionStub(graph=uav_7_2())
+    graph = domain.graph_
+    analyser = set_up(domain)
+    state = mission_state(graph, [1, 0], [3, 6], time=1)
+    out = graph.encode_action([3, 0])  # UAV 1 to node 3: fuel 2 = distance 2
+    assert analyser.risk(state, out) == 0.0 and analyser.is_safe(state, out)
+    farther = mission_state(graph, [3, 0], [2, 6], time=2)
+    assert analyser.risk(farther, graph.encode_action([5, 0])) == 1.0  # fuel 1 < distance 3
+    assert analyser.is_safe(farther, graph.encode_action([1, 0]))  # heading home
+    # Loitering away from the base burns fuel (2 -> 1 < 2 hops); at the base it burns none.
+    assert analyser.risk(farther, graph.encode_action([3, 0])) == 1.0
+    empty_at_base = mission_state(graph, [3, 0], [2, 0], time=2)
+    assert analyser.risk(empty_at_base, graph.encode_action([1, 0])) == 0.0
+
+
+def test_the_time_left_to_the_horizon_also_counts():
+    # [choice] spec 2.1: unsafe when the horizon (8) comes before the way home.
+    domain = MissionStub(graph=uav_7_2())
+    graph = domain.graph_
+    analyser = set_up(domain)
+    state = mission_state(graph, [1, 0], [6, 6], time=5)  # plenty of fuel, t = 5
+    assert analyser.risk(state, graph.encode_action([3, 0])) == 0.0  # t = 6, 2 hops left
+    late = mission_state(graph, [1, 0], [6, 6], time=6)
+    assert analyser.risk(late, graph.encode_action([3, 0])) == 1.0  # t = 7, 2 hops > 1 step
+
+
+def test_an_analyser_of_missions_refuses_a_grid_world():
+    domain = GridWorld(map_name="4x5")
+    model = ApproximateModel(domain=domain).setup(domain.domain_spec, seed=0)
+    with pytest.raises(IncompatibleComponentsError, match="GridWorld has none"):
+        FuelRiskAnalyzer().setup(model, planner=None, seed=0)
+
+
+def test_is_unsafe_outcome_reads_the_state_layout():
+    graph = uav_7_2()
+    assert not FuelRiskAnalyzer.is_unsafe_outcome(graph, graph.initial_state())
+    crashed = mission_state(graph, [2, 0], [0, 6], time=3)
+    assert FuelRiskAnalyzer.is_unsafe_outcome(graph, crashed)

@@ -1,0 +1,120 @@
+import numpy as np
+import pytest
+
+from conjure.core.cooperative import CooperativePlanner
+from conjure.core.errors import InvalidParameterError
+from conjure.domains import GridWorld
+from conjure.models.approximate_model import ApproximateModel
+from conjure.planners import ShortestPathPlanner
+from conjure.safety import MonteCarloRiskAnalyzer
+
+LEFT, RIGHT = 2, 3
+CORRIDOR = np.array([[4, 0, 2, 3]])  # pit, free, start, goal
+START = np.array([0.0, 2.0])
+
+
+class Undecomposed(GridWorld):
+    """A grid world that hides its noise decomposition: rollouts run through model.sample."""
+
+    def noise_decomposition(self):
+        return None
+
+
+def analyser_on(domain, planner=None, seed=0, **params):
+    model = ApproximateModel(domain=domain).setup(domain.domain_spec, seed=0)
+    planner = (planner or ShortestPathPlanner()).setup(model, seed=0)
+    return MonteCarloRiskAnalyzer(**params).setup(model, planner, seed=seed)
+
+
+def exact_risk(eta):
+    """Moving left from the start, then right (π^p) until the goal or the pit, by hand.
+
+    In the corridor the wind picks left or right with probability η/2 each. From cell 1 the
+    pit is reached with p1 = η/2 + (1 − η/2) p2, from cell 2 with p2 = (η/2) p1; the first
+    move (left) reaches cell 1 with probability 1 − η/2 (else the goal).
+    """
+    q = eta / 2
+    p1 = q / (1 - (1 - q) * q)
+    return (1 - q) * p1
+
+
+@pytest.mark.parametrize("make", [GridWorld.from_grid, Undecomposed.from_grid])
+def test_risk_matches_the_hand_computed_probability(make):
+    analyser = analyser_on(make(CORRIDOR, noise=0.4), num_rollouts=20_000)
+    assert analyser.is_compiled_ == (make == GridWorld.from_grid)
+    assert exact_risk(0.4) == pytest.approx(0.190476, abs=1e-6)
+    assert analyser.risk(START, LEFT) == pytest.approx(exact_risk(0.4), abs=0.012)
+
+
+def test_the_horizon_bounds_each_rollout():
+    domain = GridWorld.from_grid(CORRIDOR, noise=0.4)
+    # One transition can never reach the pit two cells away.
+    assert analyser_on(domain, horizon=1, num_rollouts=2000).risk(START, LEFT) == 0.0
+    # Two: reach cell 1 (1 − η/2 = 0.8), then the wind blows left (η/2 = 0.2): 0.16.
+    two = analyser_on(domain, horizon=2, num_rollouts=20_000).risk(START, LEFT)
+    assert two == pytest.approx(0.8 * 0.2, abs=0.011)
+    assert analyser_on(domain).horizon_ == domain.domain_spec.max_episode_steps
+
+
+def test_the_current_noise_estimate_is_sampled():
+    domain = GridWorld.from_grid(CORRIDOR, noise=0.4)
+    model = ApproximateModel(domain=domain, initial_noise=0.4, prior_weight=0.0, is_adaptive=True)
+    model = model.setup(domain.domain_spec, seed=0)
+    analyser = MonteCarloRiskAnalyzer(num_rollouts=200)
+    analyser.setup(model, ShortestPathPlanner().setup(model, seed=0), seed=0)
+    assert analyser.risk(START, LEFT) > 0.0
+    model.load_counts(num_unintended=0, num_moves=10)  # η̂ = 0: the nominal path is safe
+    assert analyser.risk(START, LEFT) == 0.0
+
+
+def test_estimates_are_deterministic_for_a_seed_and_an_explicit_generator_is_used():
+    domain = GridWorld.gridworld_2()
+    first, second = (analyser_on(domain, seed=7) for _ in range(2))
+    states = [np.array([2.0, c]) for c in range(11, 22)]
+    risks = [first.risk(s, a) for s in states for a in range(4)]
+    assert risks == [second.risk(s, a) for s in states for a in range(4)]
+    before = first.rng_.bit_generator.state
+    first.risk(states[0], 0, np.random.default_rng(1))
+    assert first.rng_.bit_generator.state == before
+
+
+def test_safe_iff_the_risk_is_below_the_tolerance():
+    # With 𝓜 = 5 and ε = 0.2 an action is safe iff none of its five rollouts fails.
+    domain = GridWorld.from_grid(CORRIDOR, noise=0.4)
+    by_risk, by_safe = analyser_on(domain, seed=3), analyser_on(domain, seed=3)
+    risks = [by_risk.risk(START, LEFT) for _ in range(50)]
+    assert [by_safe.is_safe(START, LEFT) for _ in range(50)] == [r < 0.2 for r in risks]
+    assert 0.0 in risks and any(r > 0 for r in risks)
+
+
+class FlippablePlanner(CooperativePlanner):
+    """Heads right (to the goal) or left (to the pit)."""
+
+    def __init__(self):
+        pass
+
+    def setup(self, model, seed):
+        self.direction_ = RIGHT
+        self.is_set_up_ = True
+        return self
+
+    def action(self, state):
+        return self.direction_
+
+
+def test_a_changed_planner_is_tabulated_again_after_update():
+    domain = GridWorld.from_grid(np.array([[4, 0, 2, 0, 3]]), noise=0.0)
+    analyser = analyser_on(domain, planner=FlippablePlanner())
+    state = np.array([0.0, 2.0])
+    assert analyser.risk(state, RIGHT) == 0.0
+    analyser.planner_.direction_ = LEFT
+    assert analyser.risk(state, RIGHT) == 0.0  # still the tabulated π^p
+    analyser.update()
+    assert analyser.risk(state, RIGHT) == 1.0  # right, then left three times into the pit
+
+
+def test_bad_parameters_are_refused():
+    with pytest.raises(InvalidParameterError, match="risk_tolerance"):
+        MonteCarloRiskAnalyzer(risk_tolerance=0.0).validate_params()
+    with pytest.raises(InvalidParameterError, match="num_rollouts"):
+        MonteCarloRiskAnalyzer(num_rollouts=0).validate_params()
