@@ -31,7 +31,7 @@ def main() -> None:
 
     def outcome(state: tuple, action: int, uniform: float) -> tuple[tuple, float, bool]:
         ints = np.array(state, dtype=np.int64)
-        _, reward, done = rescue_step(
+        _, reward, done, _ = rescue_step(
             ints, action, uniform, *graph, people, success,
             horizon, fuel_penalty, failure_penalty, mask,
         )  # fmt: skip
