@@ -69,7 +69,6 @@ def record_errors(
     stats: np.ndarray,
     low: np.ndarray,
     high: np.ndarray,
-    rank_scale: np.ndarray,
     min_width: np.ndarray,
     is_discrete: np.ndarray,
     split_threshold: float,
@@ -80,7 +79,7 @@ def record_errors(
 
     ``weight`` is |δ|. Among the tiles whose Ξ exceeds ς and whose split at μ leaves both
     halves at least ``min_width`` wide, returns (dimension, tile slot, split point) of the one
-    with the least σ² · ``rank_scale[dimension]`` (1 for line 12 as printed). Returns
+    with the least σ² (line 12 as printed). Returns
     (-1, -1, 0) when no tile passes ς, when every one that does is blocked by the floor
     (counted in ``counters[1]``), or when ``can_split`` is False. ``counters[0]`` counts the
     steps with a tile past ς.
@@ -113,7 +112,7 @@ def record_errors(
         tolerance = min_width[i] * (1.0 - 1e-9)
         if not (point - lo >= tolerance and hi - point >= tolerance and lo < point < hi):
             continue  # Section 4.2.1: a half would cover less than the floor
-        score = stats[i, j, 2] * rank_scale[i]
+        score = stats[i, j, 2]
         if best_dim < 0 or score < best_score:  # line 12: argmin σ² (first on ties)
             best_dim, best_slot, best_score = i, j, score
     if num_candidates == 0 or not can_split:
