@@ -289,15 +289,6 @@ def investigations():
     """Sweeps testing the causes of Fig. 4-5(c)/(d)'s differences from the thesis."""
     base, slow = BASE["rescue"], FIXED_RATE_STEP["rescue"]
     investigate(
-        "investigate_rescue_threshold",
-        "# Rescue Mission: iFDD (Eq. 4.2) across four decades of discovery thresholds against\n"
-        "# the initial features, alpha_0 = 0.1, N_0 = 1000, 10 seeds.\n",
-        "rescue",
-        {"initial": sarsa(base, slow), "ifdd": sarsa(ifdd(base, 10.0), slow)},
-        INVESTIGATION_SEEDS[:10],
-        {f"agents.ifdd.params.representation.{XI}": IFDD_XI["rescue"]},
-    )
-    investigate(
         "investigate_rescue_no_time",
         "# Rescue Mission: initial features and iFDD without the time step t, which the\n"
         "# thesis's feature list (fuel, position, comm mode, rescue status) does not name;\n"
