@@ -2,8 +2,9 @@
 
 Policy evaluation of the fixed policy "torque against the angular velocity" from 1,000,
 2,000 and 5,000 samples, starting from 20 buckets per dimension (120 features), adding one
-conjunction per iteration chosen by Random, iFDD (Eq. 3.19), iFDD+ (Eq. 3.18) or Best (the
-pair that minimises the sample RMSE to the reference V). The reference V is LSTD with the
+conjunction per iteration chosen by Random, iFDD (Eq. 3.19), iFDD+ (Eq. 3.18 with the
+magnitude |Σδ|/√count, RLPy's form), signed iFDD+ (Eq. 3.18 as printed, Σδ/√count) or Best
+(the pair that minimises the sample RMSE to the reference V). The reference V is LSTD with the
 tabular representation (1,200 features) on 100,000 samples. The error is the RMSE between
 Ṽ and V at the sample states after each iteration (iteration 0 = the initial features).
 
@@ -36,7 +37,7 @@ from conjure.domains import InvertedPendulum
 from conjure.representations import IndependentDiscretization, Tabular
 
 SIZES = (1000, 2000, 5000)
-METHODS = ("random", "ifdd", "ifdd_plus", "best")
+METHODS = ("random", "ifdd", "ifdd_plus", "ifdd_plus_signed", "best")
 
 
 def damping_policy(state: np.ndarray) -> int:
@@ -139,7 +140,13 @@ def main() -> None:
     summary.to_csv(args.out / "fig_3_15_summary.csv", index=False)
 
     fig, axes = plt.subplots(1, len(SIZES), figsize=(4.2 * len(SIZES), 3.6), sharey=True)
-    names = {"random": "Random", "ifdd": "iFDD", "ifdd_plus": "iFDD+", "best": "Best"}
+    names = {
+        "random": "Random",
+        "ifdd": "iFDD (Eq. 3.19)",
+        "ifdd_plus": "iFDD+ |Σδ|/√n",
+        "ifdd_plus_signed": "iFDD+ Σδ/√n (Eq. 3.18)",
+        "best": "Best",
+    }
     for ax, size in zip(axes, SIZES, strict=True):
         for method in METHODS:
             part = summary[(summary["samples"] == size) & (summary["method"] == method)]

@@ -19,6 +19,16 @@ GRID = DomainSpec(
 )
 STATES = [np.array([x, y], dtype=float) for x in (0, 1) for y in (0, 1)]
 V2 = {(0, 0): 0.0, (0, 1): 2.0, (1, 0): 2.0, (1, 1): 0.0}  # Section 3.2.1's V2
+GRID3 = DomainSpec(
+    name="xy3",
+    low=[0.0, 0.0],
+    high=[2.0, 2.0],
+    is_discrete=[True, True],
+    num_actions=1,
+    discount=0.9,
+    max_episode_steps=10,
+)
+STATES3 = [np.array([x, y], dtype=float) for x in range(3) for y in range(3)]
 
 
 def terminal_samples(values, repeats=(1, 1, 1, 1)):
@@ -62,22 +72,12 @@ def test_relevance_follows_the_td_error():
     # 3 × 3 grid, V = 9 at (2, 2) and 0 elsewhere, one sample per state. The additive fit's
     # residual is 9(1[x=2] − 1/3)(1[y=2] − 1/3): 4 at (2, 2), −2 beside it, 1 elsewhere, so
     # Eq. 3.19 and Eq. 3.18 both pick x=2 ∧ y=2 (features 2 and 5), which makes V exact.
-    spec = DomainSpec(
-        name="xy3",
-        low=[0.0, 0.0],
-        high=[2.0, 2.0],
-        is_discrete=[True, True],
-        num_actions=1,
-        discount=0.9,
-        max_episode_steps=10,
-    )
-    states = [np.array([x, y], dtype=float) for x in range(3) for y in range(3)]
-    values = [9.0 if (s == 2).all() else 0.0 for s in states]
-    samples = [Transition(s, 0, v, s, 0, True) for s, v in zip(states, values, strict=True)]
+    values = [9.0 if (s == 2).all() else 0.0 for s in STATES3]
+    samples = [Transition(s, 0, v, s, 0, True) for s, v in zip(STATES3, values, strict=True)]
     for expansion in ("ifdd", "ifdd_plus", "best"):
-        agent = make(expansion, num_expansions=1).setup(spec).fit(samples, reference=values)
+        agent = make(expansion, num_expansions=1).setup(GRID3).fit(samples, reference=values)
         assert agent.parents_[0].tolist() == [2, 5], expansion
-        assert np.allclose(agent.values(states), values, atol=1e-8)
+        assert np.allclose(agent.values(STATES3), values, atol=1e-8)
         if expansion != "best":
             assert np.isclose(agent.scores_[0], 4.0)
         else:
@@ -178,3 +178,17 @@ def test_pendulum_fdlstd_beats_initial_features_and_random():
             assert mean[name] < 0.85 * mean["random"], (num_samples, mean)
         assert mean["ifdd_plus"] < mean["ifdd"], (num_samples, mean)
         assert mean["best"] <= mean["ifdd_plus"] + 1e-12, (num_samples, mean)
+
+
+def test_signed_iFDD_plus_follows_eq_3_18_as_printed():
+    # V = −9 at (2, 2) of a 3 × 3 grid: the additive fit leaves δ = −4 there, +2 beside it and
+    # −1 elsewhere (the negation of test_relevance_follows_the_td_error). Eq. 3.18 as printed,
+    # argmax Σδ/√count, picks a +2 cell: x=0 ∧ y=2 (features 0, 5) by the tie rule; RLPy's
+    # |Σδ|/√count picks the −4 cell x=2 ∧ y=2 (features 2, 5).
+    samples = [Transition(s, 0, -9.0 * (s == 2).all(), s, 0, True) for s in STATES3]
+    signed = make("ifdd_plus_signed", num_expansions=1).setup(GRID3).fit(samples)
+    assert signed.parents_[0].tolist() == [0, 5]
+    assert np.isclose(signed.scores_[0], 2.0)
+    magnitude = make("ifdd_plus", num_expansions=1).setup(GRID3).fit(samples)
+    assert magnitude.parents_[0].tolist() == [2, 5]
+    assert np.isclose(magnitude.scores_[0], 4.0)

@@ -157,15 +157,29 @@ def test_least_variance_tile_splits_at_its_weighted_mean():
     np.testing.assert_array_equal(weights[3:], [[10.0, 20.0, 30.0], [10.0, 20.0, 30.0]])
 
 
-def test_variances_are_compared_relative_to_the_dimension_range():
+def test_the_tile_of_least_variance_splits_as_printed():
     spec = box_spec([0.0, 0.0], [10.0, 1.0])
     rep = ARiFDD(discovery_threshold=0.0, split_threshold=1.5).setup(spec, seed=0)
     step(rep, [5.0, 0.5], 1.0)
-    # raw variances: dimension 0 = 1.0 (range 10), dimension 1 = 0.04 (range 1);
-    # relative: 0.01 < 0.04, so dimension 0 splits although its raw variance is larger
+    # Algorithm 22 line 12, argmin σ²: dimension 0 has σ² = 1.0, dimension 1 σ² = 0.04, so
+    # dimension 1 splits (relative to the ranges, 0.01 vs 0.04, dimension 0 would)
     ((_, expansion),) = feed(rep, [([4.0, 0.3], 1.0), ([6.0, 0.7], 1.0)])
-    assert expansion.parents.tolist() == [[0, -1], [0, -1]]
-    assert rep.basic_tiles_["high"][0] == pytest.approx(5.0)
+    assert expansion.parents.tolist() == [[1, -1], [1, -1]]
+    assert rep.basic_tiles_["high"][1] == pytest.approx(0.5)
+
+
+def test_a_tile_the_floor_blocks_is_skipped_for_the_next_least_variance():
+    spec = box_spec([0.0, 0.0], [10.0, 10.0])
+    rep = ARiFDD(initial_tiles_per_dim=[10, 1], discovery_threshold=0.0, split_threshold=1.5).setup(
+        spec, seed=0
+    )
+    step(rep, [0.4, 5.0], 1.0)  # conjoins tiles 0 and 10: one active feature from now on
+    # tile 0 = [0, 1): σ² = 0.01 at μ = 0.4, but a 0.4-wide half is below the floor of 0.5;
+    # tile 10 = [0, 10): σ² = 4 at μ = 5 splits instead
+    ((_, expansion),) = feed(rep, [([0.3, 3.0], 1.0), ([0.5, 7.0], 1.0)])
+    assert expansion.parents.tolist() == [[10, -1], [10, -1]]
+    assert rep.num_rejected_splits_ == 0
+    assert rep.active_features([0.3, 4.9]).tolist() != rep.active_features([0.3, 5.0]).tolist()
 
 
 def test_conjunctions_on_a_split_tile_are_never_activated_again():

@@ -54,6 +54,12 @@ def basic_features(
     return out
 
 
+@njit(cache=True, inline="always")
+def _split_point(mu: float, is_discrete: bool) -> float:
+    """Line 13: a continuous tile splits at μ, a discrete one between values, at ⌊μ⌋ + 1/2."""
+    return np.floor(mu) + 0.5 if is_discrete else mu
+
+
 @njit(cache=True)
 def record_errors(
     state: np.ndarray,
@@ -63,7 +69,6 @@ def record_errors(
     stats: np.ndarray,
     low: np.ndarray,
     high: np.ndarray,
-    inverse_range_sq: np.ndarray,
     min_width: np.ndarray,
     is_discrete: np.ndarray,
     split_threshold: float,
@@ -72,13 +77,16 @@ def record_errors(
 ) -> tuple[int, int, float]:
     """Algorithm 22, lines 2-13: update Ξ, μ, σ² of s's basic tiles, pick the tile to split.
 
-    ``weight`` is |δ|. Returns (dimension, tile slot, split point) of the least-variance tile
-    whose Ξ exceeds ς, or (-1, -1, 0) when there is none, or when its split is rejected
-    (a half narrower than ``min_width``, counted in ``counters[1]``) or ``can_split`` is
-    False. ``counters[0]`` counts suggested splits.
+    ``weight`` is |δ|. Among the tiles whose Ξ exceeds ς and whose split at μ leaves both
+    halves at least ``min_width`` wide, returns (dimension, tile slot, split point) of the one
+    with the least σ² (line 12 as printed). Returns
+    (-1, -1, 0) when no tile passes ς, when every one that does is blocked by the floor
+    (counted in ``counters[1]``), or when ``can_split`` is False. ``counters[0]`` counts the
+    steps with a tile past ς.
     """
     d = state.shape[0]
     best_dim, best_slot, best_score = -1, -1, 0.0
+    num_candidates = 0
     for i in range(d):  # line 3: each basic feature f of φ⁰(s)
         x = state[i]
         if not x >= low[i]:  # below the range and NaN
@@ -96,19 +104,21 @@ def record_errors(
             stats[i, j, 0] = xi_new  # line 7
             stats[i, j, 1] = mu_new  # line 8
             stats[i, j, 2] = var if var > 0.0 else 0.0
-        if stats[i, j, 0] > split_threshold and edges[i, m] > edges[i, 0]:  # lines 9-10
-            score = stats[i, j, 2] * inverse_range_sq[i]
-            if best_dim < 0 or score < best_score:  # line 12: argmin σ² (first on ties)
-                best_dim, best_slot, best_score = i, j, score
-    if best_dim < 0 or not can_split:
+        if not (stats[i, j, 0] > split_threshold and edges[i, m] > edges[i, 0]):  # lines 9-10
+            continue
+        num_candidates += 1
+        lo, hi = edges[i, j], edges[i, j + 1]
+        point = _split_point(stats[i, j, 1], is_discrete[i])
+        tolerance = min_width[i] * (1.0 - 1e-9)
+        if not (point - lo >= tolerance and hi - point >= tolerance and lo < point < hi):
+            continue  # Section 4.2.1: a half would cover less than the floor
+        score = stats[i, j, 2]
+        if best_dim < 0 or score < best_score:  # line 12: argmin σ² (first on ties)
+            best_dim, best_slot, best_score = i, j, score
+    if num_candidates == 0 or not can_split:
         return -1, -1, 0.0
     counters[0] += 1
-    i, j = best_dim, best_slot
-    lo, hi = edges[i, j], edges[i, j + 1]
-    mu = stats[i, j, 1]
-    point = np.floor(mu) + 0.5 if is_discrete[i] else mu  # line 13: split along μ_f
-    tolerance = min_width[i] * (1.0 - 1e-9)
-    if not (point - lo >= tolerance and hi - point >= tolerance and lo < point < hi):
-        counters[1] += 1  # Section 4.2.1: a half would cover less than the floor
+    if best_dim < 0:
+        counters[1] += 1  # every candidate was blocked by the floor
         return -1, -1, 0.0
-    return i, j, point
+    return best_dim, best_slot, _split_point(stats[best_dim, best_slot, 1], is_discrete[best_dim])

@@ -71,7 +71,7 @@ class ARiFDD(OnlineIFDD):
     retired_tiles_ : ndarray of int64
         The split tiles, in split order.
     num_splits_, num_rejected_splits_ : int
-        Splits done, and splits suggested (line 12) but rejected by the coverage floor.
+        Splits done, and steps at which the coverage floor blocked every candidate tile.
 
     Notes
     -----
@@ -89,14 +89,16 @@ class ARiFDD(OnlineIFDD):
     - Choice (line 9): the printed ξ of line 9 is the split threshold ς of the text and of
       the inputs; the test is strict (Ξ > ς). Ξ is never reset, so once a tile passes ς
       every later single-feature step at it suggests a split.
-    - Choice (line 12): the variances of different dimensions are compared relative to
-      their ranges, σ² / (high − low)², so the choice does not depend on the state's units;
-      ties go to the lower dimension.
-    - Choice (Section 4.2.1): the floor is tested on the split suggested by line 12; a
-      rejected suggestion splits nothing that step (no other tile is tried), as "all
-      suggested splits were rejected" with 10 cuts. A split exactly at the midpoint of a
-      1/10 tile (halves of exactly 1/20) is accepted (footnote 7), up to a 1e-9 relative
-      tolerance.
+    - Choice (line 12): the candidates are ranked by σ² itself, as printed; ties go to the
+      lower dimension. Fig. 4-11's first run (16 seeds, docs/reproduction.md) ranked by
+      σ² / (high − low)²; its ARiFDD rerun (6 seeds, 1-6 tiles) used the printed rule and
+      found the normalised one no better (identical runs on 35 of 36 tile counts × seeds,
+      AUC difference 18 ± 47 steps in favour of σ²), so it was not kept as an option.
+    - Choice (Section 4.2.1): line 12 ranks only the candidates whose split the coverage
+      floor allows (a tile it blocks is skipped, rather than re-picked after a rejection);
+      if it blocks every candidate nothing splits that step, as "all suggested splits were
+      rejected" with 10 cuts. A split exactly at the midpoint of a 1/10 tile (halves of
+      exactly 1/20) is accepted (footnote 7), up to a 1e-9 relative tolerance.
     - Choice (lines 13-15): the split tile t is retired and BOTH halves are new features
       (ids n_t and n_t + 1, lower half first), each with parents (t, −1), so θ_t is copied
       into both and values are unchanged wherever no conjunction on t was active. Their
@@ -246,7 +248,6 @@ class ARiFDD(OnlineIFDD):
             tiles.stats_,
             tiles.low_,
             tiles.high_,
-            tiles.inverse_range_sq_,
             tiles.min_width_,
             tiles.is_discrete_,
             self._split_threshold,
@@ -301,7 +302,7 @@ class ARiFDD(OnlineIFDD):
 
     @property
     def num_rejected_splits_(self) -> int:
-        """Number of suggested splits (line 12) rejected by the coverage floor."""
+        """Number of steps at which the coverage floor blocked every candidate tile."""
         check_is_set_up(self, "num_rejected_splits_")
         return int(self.base_.counters_[1])
 
@@ -401,7 +402,6 @@ class _BasicTiles(Representation):
         self.low_ = np.asarray(spec.low, dtype=np.float64).copy()
         self.high_ = np.asarray(spec.high, dtype=np.float64).copy()
         self.is_discrete_ = is_discrete
-        self.inverse_range_sq_ = np.where(span > 0, 1.0 / np.where(span > 0, span, 1.0) ** 2, 0.0)
         self.min_width_ = float(self.min_tile_fraction) * span
         self.spec_ = spec
         self.num_features_ = offset
