@@ -84,3 +84,43 @@ def test_the_shipped_gridworld1_example_runs_icca_as_the_planner_at_first():
         for label in ("actor_critic", "icca", "vi_planner")
     }
     assert returns["icca"] == returns["vi_planner"] > returns["actor_critic"]
+
+
+def test_icca_with_cbba_never_crashes_while_learning_a_deterministic_mission():
+    # Section 5.3.5, UAV 7-2 without noise: the fuel rule filters the actor, CBBA is safe, so
+    # iCCA never crashes while learning; Actor-Critic alone does, often.
+    from conjure.domains import UAVMission
+    from conjure.experiments.loop import LearningLoop
+    from conjure.models.approximate_model import ApproximateModel
+    from conjure.planners import CBBAPlanner
+    from conjure.representations import HashedTabular
+    from conjure.safety import FuelRiskAnalyzer
+
+    def crashes(agent):
+        domain = UAVMission()
+        agent.setup(domain.domain_spec, seed=0)
+        count = 0
+        step = domain.step
+
+        def counting_step(action):
+            nonlocal count
+            outcome = step(action)
+            count += int(outcome[-1]["cost"])
+            return outcome
+
+        domain.step = counting_step
+        LearningLoop(domain, agent, seed=0).advance(2000)
+        return count
+
+    def actor_critic():
+        return ActorCritic(representation=HashedTabular(capacity=20_000))
+
+    icca = CooperativeActorCritic(
+        learner=actor_critic(),
+        planner=CBBAPlanner(variant="aggressive"),
+        risk=FuelRiskAnalyzer(),
+        model=ApproximateModel(domain=UAVMission()),
+        index=HashedTabular(capacity=20_000),
+    )
+    assert crashes(icca) == 0
+    assert crashes(actor_critic()) > 50
