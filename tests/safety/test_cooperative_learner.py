@@ -125,3 +125,15 @@ def cooperative_sarsa():
         model=gridworld_model(GridWorld.gridworld_1(noise=0.0)),
         num_known_visits=1,
     )
+
+
+def test_greedy_acting_keeps_the_planner_among_the_learners_ties():
+    # An untrained SARSA has Q(s, ·) = 0: its first maximiser (up, into the wall) would loop
+    # until the cap; the planner's action is among the maximisers, so it is kept.
+    agent = csarsa(learner=SARSA(representation=Tabular()), num_known_visits=1)
+    agent.counts_[agent.state_row(START), PLANNER_ACTION] = 1  # known: the learner is asked
+    assert agent.learner_.act(START, greedy=True) == 0
+    assert agent.act(START, greedy=True) == PLANNER_ACTION
+    row = agent.learner_.representation_.active_features(START)[0]
+    agent.learner_.weights_[row, 3] = 0.5  # the learner now ranks "right" strictly higher
+    assert agent.act(START, greedy=True) == 3
