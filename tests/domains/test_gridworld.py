@@ -35,7 +35,13 @@ def test_check_env_passes_with_warnings_as_errors(make):
 
 
 @pytest.mark.parametrize(
-    "env_id", ["conjure/GridWorld-v0", "conjure/GridWorld1-v0", "conjure/GridWorld2-v0"]
+    "env_id",
+    [
+        "conjure/GridWorld-v0",
+        "conjure/GridWorld1-v0",
+        "conjure/GridWorld2-v0",
+        "conjure/GridWorld3-v0",
+    ],
 )
 def test_gymnasium_make(env_id):
     with warnings.catch_warnings():
@@ -52,6 +58,8 @@ def test_registered_variants_have_thesis_settings():
     assert (one.map_name, one.step_reward, one.noise) == ("gridworld1", -0.001, 0.3)
     assert (two.map_name, two.step_reward, two.noise) == ("gridworld2", -0.01, 0.2)
     assert GridWorld.gridworld_2(noise=0.0).noise == 0.0
+    three = gym.make("conjure/GridWorld3-v0").unwrapped
+    assert three.get_params() == GridWorld.gridworld_3().get_params()
 
 
 def test_shipped_maps_parse():

@@ -13,6 +13,7 @@ import time
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pytest
 from test_loop import FakeAgent, FakeWalk
 
@@ -34,25 +35,58 @@ class SlowWalk(FakeWalk):
 
 
 class KillerAgent(FakeAgent):
-    """FakeAgent that SIGKILLs its own process once (first setup, marked by a file).
+    """FakeAgent that SIGKILLs its own process once (first setup, marked by a file), or always.
 
     Never in process ``spare_pid`` (the test process).
     """
 
     def __init__(
-        self, *, step_size: float = 0.5, kill_marker: str | None = None, spare_pid: int = 0
+        self,
+        *,
+        step_size: float = 0.5,
+        kill_marker: str | None = None,
+        spare_pid: int = 0,
+        kill_every_time: bool = False,
     ):
         super().__init__(step_size=step_size)
         self.kill_marker = kill_marker
         self.spare_pid = spare_pid
+        self.kill_every_time = kill_every_time
 
     def setup(self, spec, seed):
-        if self.kill_marker and os.getpid() != self.spare_pid:
-            marker = Path(self.kill_marker)
-            if not marker.exists():
-                marker.write_text(str(os.getpid()))
+        if os.getpid() != self.spare_pid:
+            if self.kill_every_time:
+                os.kill(os.getpid(), signal.SIGKILL)
+            if self.kill_marker and not Path(self.kill_marker).exists():
+                Path(self.kill_marker).write_text(str(os.getpid()))
                 os.kill(os.getpid(), signal.SIGKILL)
         return super().setup(spec, seed)
+
+
+class LoggedAgent(FakeAgent):
+    """FakeAgent that appends a line to the file ``start_log`` whenever a run sets it up."""
+
+    def __init__(self, *, step_size: float = 0.5, start_log: str = ""):
+        super().__init__(step_size=step_size)
+        self.start_log = start_log
+
+    def setup(self, spec, seed):
+        with open(self.start_log, "a") as log:
+            log.write(f"{os.getpid()}\n")
+        return super().setup(spec, seed)
+
+
+class HogAgent(LoggedAgent):
+    """LoggedAgent that allocates and fills ``num_bytes`` at setup (a table too big for memory)."""
+
+    def __init__(self, *, step_size: float = 0.5, start_log: str = "", num_bytes: int = 0):
+        super().__init__(step_size=step_size, start_log=start_log)
+        self.num_bytes = num_bytes
+
+    def setup(self, spec, seed):
+        super().setup(spec, seed)
+        self.table_ = np.ones(self.num_bytes, dtype=np.uint8)
+        return self
 
 
 def kill_self(_: Any) -> None:
@@ -62,6 +96,8 @@ def kill_self(_: Any) -> None:
 def register_fakes() -> None:
     registry.AGENTS.setdefault("FakeAgent", FakeAgent)
     registry.AGENTS.setdefault("KillerAgent", KillerAgent)
+    registry.AGENTS.setdefault("LoggedAgent", LoggedAgent)
+    registry.AGENTS.setdefault("HogAgent", HogAgent)
     registry.DOMAINS.setdefault("FakeWalk", FakeWalk)
     registry.DOMAINS.setdefault("SlowWalk", SlowWalk)
 

@@ -104,6 +104,24 @@ def test_run_then_plot(config_file, tmp_path):
     plotted = runner.invoke(main, ["plot", str(out), "--metric", "num_features"])
     assert plotted.exit_code == 0, plotted.output
     assert (out / "learning_curve_num_features.png").is_file()
+    for metric in ("failure_rate", "learning_failures"):
+        plotted = runner.invoke(main, ["plot", str(out), "--metric", metric])
+        assert plotted.exit_code == 0, plotted.output
+    no_bounds = runner.invoke(main, ["plot", str(out), "--metric", "optimality"])
+    assert no_bounds.exit_code == 2 and "no finite value" in no_bounds.output
+
+
+def test_run_with_a_memory_limit_runs_in_a_worker_process(config_file, tmp_path):
+    import os
+
+    out = tmp_path / "out"
+    args = ["run", str(config_file), "--out", str(out), "--max-workers", "1", "--quiet"]
+    result = CliRunner().invoke(main, [*args, "--seeds", "1", "--max-memory", "2GiB"])
+    assert result.exit_code == 0, result.output
+    pids = {read_run(path)["meta"]["pid"] for path in (out / "runs").glob("*.json")}
+    assert len(pids) == 1 and os.getpid() not in pids
+    bad = CliRunner().invoke(main, [*args, "--max-memory", "-3GiB"])
+    assert bad.exit_code == 2 and "memory size must be positive" in bad.output
 
 
 def test_config_error_is_one_clean_line(config_file, tmp_path):

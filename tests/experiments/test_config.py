@@ -232,3 +232,14 @@ def test_a_bad_agent_label_is_named_without_dumping_every_agent():
     with pytest.raises(InvalidParameterError, match="'bad\\+label'") as error:
         parse_config(config)
     assert "'kind': 'SARSA'" not in str(error.value)
+
+
+def test_max_memory_is_a_size_that_does_not_change_run_ids(config_file):
+    config = load_config(config_file, ["max_memory=1.5GiB"])
+    assert config.max_memory == 3 * 2**29
+    assert resolve(config)["max_memory"] == 3 * 2**29
+    assert load_config(config_file).max_memory is None
+    plain = resolve_run(load_config(config_file), "sarsa", 0)
+    assert config_hash(resolve_run(config, "sarsa", 0)) == config_hash(plain)
+    with pytest.raises(InvalidParameterError, match=r"max_memory: a memory size .*got '4XB'"):
+        load_config(config_file, ["max_memory=4XB"])

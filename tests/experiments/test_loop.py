@@ -22,7 +22,9 @@ from conjure.experiments.loop import LearningLoop, profile_steps, run_episode
 class FakeWalk(Domain):
     """Walk on 0..length; action 1 moves right, 0 left; reaching ``length`` terminates.
 
-    The start state (0, 1 or 2) is drawn from ``np_random``; reward -1 per step.
+    The start state (0, 1 or 2) is drawn from ``np_random``; reward -1 per step. With
+    ``wall_cost`` every step that ends at 0 is a failure (``info["cost"] = 1``); ``bounds`` is
+    what ``value_bounds`` returns.
     """
 
     parameter_constraints: ClassVar = {"length": Interval(int, 1, None)}
@@ -34,7 +36,11 @@ class FakeWalk(Domain):
         max_episode_steps: int = 50,
         has_action_constraints: bool = False,
         truncate_at: int | None = None,
+        wall_cost: bool = False,
+        bounds: tuple[float, float] | None = None,
     ):
+        self.wall_cost = wall_cost
+        self.bounds = bounds
         self.length = length
         self.max_episode_steps = max_episode_steps
         self.has_action_constraints = has_action_constraints
@@ -64,7 +70,11 @@ class FakeWalk(Domain):
         self._t += 1
         terminated = self._x == self.length
         truncated = self.truncate_at is not None and self._t >= self.truncate_at
-        return np.array([float(self._x)]), -1.0, terminated, truncated, {}
+        info = {"cost": float(self._x == 0)} if self.wall_cost else {}
+        return np.array([float(self._x)]), -1.0, terminated, truncated, info
+
+    def value_bounds(self) -> tuple[float, float] | None:
+        return self.bounds
 
     def legal_actions(self, state: np.ndarray) -> np.ndarray:
         self.num_legal_calls += 1
@@ -102,12 +112,17 @@ class FakeAgent(Agent):
         self.num_actions_ = spec.num_actions
         self.transitions_: list[Transition] = []
         self.events_: list[str] = []
+        self.steps_at_check_: list[int] = []
         self.value_ = 0.0
         self.num_greedy_acts_ = 0
         return self
 
     def begin_episode(self) -> None:
         self.events_.append("begin")
+
+    def before_policy_check(self) -> None:
+        self.events_.append("check")
+        self.steps_at_check_.append(len(self.transitions_))
 
     def act(self, state, greedy=False, legal_actions=None) -> int:
         if greedy:
@@ -266,3 +281,47 @@ def test_profile_steps_reports_per_call_times_and_learns():
     assert len(agent.transitions_) == 300
     with pytest.raises(InvalidParameterError):
         profile_steps(domain, agent, num_steps=0)
+
+
+def test_a_domain_that_reuses_its_observation_buffer_gives_correct_transitions():
+    # The loop keeps s across domain.step; a domain writing every observation into one
+    # buffer must not turn ⟨s, a, r, s'⟩ into ⟨s', a, r, s'⟩ (nor reach a learner's cache).
+    from conjure.agents import SARSA
+    from conjure.domains import ChainMDP
+    from conjure.representations import Tabular
+    from conjure.testing.fakes import SharedObservationBuffer
+
+    chain = ChainMDP(num_states=4)
+    domain = SharedObservationBuffer(domain=ChainMDP(num_states=4))
+    agent = SARSA(representation=Tabular(), step_size=0.5).setup(domain.domain_spec, seed=0)
+    LearningLoop(domain, agent, seed=0).advance(300)
+    values = [agent.q_values(np.array([float(s)]))[0] for s in range(4)]
+    np.testing.assert_allclose(values, chain.optimal_values(), atol=1e-6)
+
+    recorder = make_agent(domain.domain_spec)
+    LearningLoop(domain, recorder, seed=0).advance(6)
+    assert [t.state[0] for t in recorder.transitions_] == [0, 1, 2, 0, 1, 2]
+    assert [t.next_state[0] for t in recorder.transitions_] == [1, 2, 3, 1, 2, 3]
+    stats_domain = SharedObservationBuffer(domain=ChainMDP(num_states=4))
+    assert run_episode(stats_domain, recorder, learn=True, seed=0).num_steps == 3
+    assert [t.state[0] for t in recorder.transitions_[-3:]] == [0, 1, 2]
+
+
+def test_episode_stats_count_failure_steps():
+    domain = FakeWalk(length=5, max_episode_steps=6, wall_cost=True)
+    left = make_agent(domain.domain_spec, greedy_action=0)
+    stats = run_episode(domain, left, seed=0)
+    start = int(domain.reset(seed=0)[0][0])
+    assert stats.num_steps == 6 and stats.num_failures == 6 - max(start - 1, 0)
+    assert run_episode(domain, make_agent(domain.domain_spec), seed=0).num_failures == 0
+
+
+def test_learning_loop_counts_failures_of_the_steps_it_took():
+    domain = FakeWalk(length=5, max_episode_steps=8, wall_cost=True)
+    agent = make_agent(domain.domain_spec)
+    loop = LearningLoop(domain, agent, seed=2)
+    loop.advance(150)
+    at_wall = sum(t.next_state[0] == 0 for t in agent.transitions_)
+    assert at_wall > 10 and loop.num_failures == at_wall
+    loop.advance(50)
+    assert loop.num_failures == sum(t.next_state[0] == 0 for t in agent.transitions_)

@@ -56,3 +56,48 @@ def test_report_errors_are_clear(tmp_path):
         from conjure.experiments.report import write_report
 
         write_report(tmp_path)
+
+
+def _safety_results(tmp_path, with_bounds: bool):
+    """Two methods x two seeds whose curves carry the safety columns of `run`."""
+    from conjure.experiments.results import save_run
+    from conjure.experiments.run import CURVE_COLUMNS
+
+    for label, failure_rate in (("careful", 0.0), ("reckless", 0.5)):
+        for seed in (0, 1):
+            curve = {column: [0.0, 1.0] for column in CURVE_COLUMNS}
+            curve.update(
+                learning_steps=[0, 100],
+                learning_failures=[0, 4 + seed],
+                failure_rate=[1.0, failure_rate],
+                optimality=[0.2, 0.9 - failure_rate] if with_bounds else [np.nan, np.nan],
+            )
+            spec = {"label": label, "seed": seed, "domain": {"kind": "GridWorld"}}
+            save_run(tmp_path, spec, curve)
+    return tmp_path
+
+
+def test_report_tables_show_failure_rate_learning_failures_and_optimality(tmp_path):
+    from conjure.experiments.report import write_report
+
+    text = write_report(_safety_results(tmp_path, with_bounds=True)).read_text()
+    assert "final failure rate ± 95% t" in text and "final optimality ± 95% t" in text
+    assert "learning failures" in text
+    assert "| reckless | 2 |" in text and "| 0.5 ± 0 |" in text  # failure rate 0.5, no spread
+    assert "| 4.5 |" in text  # learning failures, mean of 4 and 5
+    curve = write_report(tmp_path, metric="optimality", out_dir=tmp_path / "by_optimality")
+    assert "mean optimality ± 95% t" in curve.read_text()
+
+
+def test_report_and_plot_skip_all_nan_columns(tmp_path):
+    from conjure.experiments.plots import plot_results_dir
+    from conjure.experiments.report import write_report
+
+    results = _safety_results(tmp_path, with_bounds=False)
+    text = write_report(results).read_text()
+    assert "failure rate" in text and "optimality" not in text
+    with pytest.raises(InvalidParameterError, match=r"optimality.*no finite value"):
+        write_report(results, metric="optimality")
+    with pytest.raises(InvalidParameterError, match=r"optimality.*no finite value"):
+        plot_results_dir(results, metric="optimality")
+    assert plot_results_dir(results, metric="failure_rate").is_file()

@@ -19,9 +19,10 @@ from conjure.experiments.run import CURVE_COLUMNS, TIMING_COLUMNS, Result, run
 
 def fake_run(seed: int = 0, **kwargs) -> Result:
     agent_params = kwargs.pop("agent_params", {})
+    domain_params = kwargs.pop("domain_params", {})
     defaults = {"budget_steps": 1000, "num_policy_checks": 10}
     return run(
-        domain=FakeWalk(length=6, max_episode_steps=15),
+        domain=FakeWalk(length=6, max_episode_steps=15, **domain_params),
         agent=FakeAgent(**agent_params),
         seed=seed,
         **{**defaults, **kwargs},
@@ -174,3 +175,34 @@ def test_policy_checks_do_not_perturb_a_real_agent():
         return agent.weights_
 
     np.testing.assert_array_equal(trained(1), trained(9))
+
+
+def test_safety_metrics_failures_failure_rate_and_optimality():
+    walls = {"wall_cost": True, "bounds": (-15.0, -4.0)}
+    result = fake_run(num_policy_checks=4, domain_params=walls)
+    curve = result.curve
+    transitions = result.agent.transitions_
+    counts = [sum(t.next_state[0] == 0 for t in transitions[:n]) for n in curve["learning_steps"]]
+    assert curve["learning_failures"].tolist() == counts and counts[-1] > 0
+    assert curve["failure_rate"].eq(0.0).all()  # the greedy fake walks right, away from 0
+    # Greedy return -(6 - start) for starts 0..2, scaled between worst -15 and best -4.
+    np.testing.assert_allclose(curve["optimality"], (curve["return"] + 15.0) / 11.0)
+    assert curve["optimality"].between(9 / 11, 1.0).all()
+
+    lefty = fake_run(eval_episodes=3, agent_params={"greedy_action": 0}, domain_params=walls)
+    assert lefty.curve["failure_rate"].eq(1.0).all()
+    np.testing.assert_allclose(lefty.curve["optimality"], (-15.0 + 15.0) / 11.0)
+
+
+def test_optimality_is_nan_without_value_bounds_and_bad_bounds_are_refused():
+    assert fake_run().curve["optimality"].isna().all()
+    assert fake_run().curve["learning_failures"].eq(0).all()
+    with pytest.raises(InvalidParameterError, match="value_bounds"):
+        fake_run(domain_params={"bounds": (1.0, 1.0)})
+
+
+def test_before_policy_check_is_called_before_every_check():
+    result = fake_run(budget_steps=100, num_policy_checks=4)
+    checks = [i for i, event in enumerate(result.agent.events_) if event == "check"]
+    assert len(checks) == 5
+    assert result.agent.steps_at_check_ == [0, 25, 50, 75, 100]

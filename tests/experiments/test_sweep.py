@@ -19,7 +19,13 @@ from sweep_fakes import fake_sweep, isolated_fakes, run_with_fakes
 from conjure.core.errors import InvalidParameterError
 from conjure.experiments.parallel import run_sweep
 from conjure.experiments.results import RUNS_DIR, read_run, run_id
-from conjure.experiments.sweep import expand_sweep, load_sweep, parse_sweep, sweep_command
+from conjure.experiments.sweep import (
+    expand_sweep,
+    load_sweep,
+    parse_sweep,
+    resolve_sweep,
+    sweep_command,
+)
 
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parents[1]
@@ -117,6 +123,49 @@ def test_sweep_command_with_overrides(tmp_path, monkeypatch):
     assert len(list((out / RUNS_DIR).glob("*.json"))) == 2 * 2
     with pytest.raises(InvalidParameterError, match="Did you mean 'seeds'"):
         load_sweep(config, ["sedes=2"])
+
+
+def test_the_sweeps_memory_limit_fails_the_greedy_run_alone(tmp_path):
+    log = tmp_path / "hog_starts"
+    hog = {"kind": "HogAgent", "params": {"start_log": str(log), "num_bytes": 2 * 2**30}}
+    sweep = fake_sweep(
+        domains={"walk": {"kind": "FakeWalk"}},
+        agents={"a": {"kind": "FakeAgent"}, "hog": hog},
+        grid={},
+        seeds=[0, 1],
+        max_memory="1.5GiB",
+    )
+    assert resolve_sweep(sweep)["max_memory"] == 3 * 2**29
+    outcome = run_sweep(sweep, tmp_path, max_workers=2, run_fn=run_with_fakes, progress=False)
+    hogs = {run_id(r) for r in outcome.runs if r["label"] == "hog"}
+    assert set(outcome.errors) == hogs
+    assert set(outcome.results["label"]) == {"a"} and outcome.results["run_id"].nunique() == 2
+    assert all("memory limit, max_memory = 1.5 GiB" in m for m in outcome.errors.values())
+    starts = log.read_text().split()
+    assert len(starts) == 3 and str(os.getpid()) not in starts  # warm-up and 2 runs, in workers
+
+
+def test_sweep_command_takes_the_memory_limit_from_the_option_else_the_config(
+    tmp_path, monkeypatch
+):
+    import conjure.experiments.executors as executors
+
+    limits = []
+
+    def make_in_process(name, **options):
+        limits.append(options.pop("max_memory"))
+        return executors.LocalExecutor(max_workers=1)
+
+    monkeypatch.setattr(executors, "make_executor", make_in_process)
+    config = tmp_path / "s.yaml"
+    config.write_text(json.dumps(fake_sweep(grid={}, seeds=1, max_memory="3GiB")))
+    for extra in ([], ["--max-memory", "1GiB"]):
+        out = str(tmp_path / f"out{len(extra)}")
+        result = CliRunner().invoke(sweep_command, [str(config), "--out", out, "--quiet", *extra])
+        assert result.exit_code == 0, result.output
+    assert limits == [3 * 2**30, 2**30]
+    bad = CliRunner().invoke(sweep_command, [str(config), "--max-memory", "4 lots"])
+    assert bad.exit_code == 2 and "'--max-memory'" in bad.output
 
 
 DRIVER = textwrap.dedent(

@@ -5,7 +5,7 @@ import pytest
 from safety_fakes import gridworld_model
 
 from conjure.agents import SARSA
-from conjure.core.errors import IncompatibleComponentsError
+from conjure.core.errors import IncompatibleComponentsError, InvalidParameterError
 from conjure.domains import GridWorld
 from conjure.experiments.loop import LearningLoop
 from conjure.planners import ShortestPathPlanner
@@ -74,6 +74,31 @@ def test_restore_refuses_another_class(tmp_path):
     csarsa().setup(GridWorld.gridworld_2().domain_spec, seed=0).save(tmp_path)
     with pytest.raises(IncompatibleComponentsError, match="not a AdaptiveCooperativeLearner"):
         AdaptiveCooperativeLearner.restore(tmp_path)
+
+
+@pytest.mark.parametrize(
+    ("counts", "problem"),
+    [
+        (np.zeros((3, 7), dtype=np.int32), "shape"),
+        (np.zeros((110, 4), dtype=np.float64), "int32"),
+    ],
+)
+def test_a_damaged_count_table_is_refused_naming_the_file(tmp_path, counts, problem):
+    csarsa().setup(GridWorld.gridworld_2().domain_spec, seed=0).save(tmp_path)
+    with np.load(tmp_path / "arrays.npz") as data:
+        arrays = {name: data[name] for name in data.files}
+    arrays["counts"] = counts
+    np.savez(tmp_path / "arrays.npz", **arrays)
+    with pytest.raises(InvalidParameterError, match=r"arrays\.npz") as error:
+        CooperativeLearner.restore(tmp_path)
+    assert "'counts'" in str(error.value) and problem in str(error.value)
+
+
+def test_a_truncated_save_is_one_clear_error(tmp_path):
+    csarsa().setup(GridWorld.gridworld_2().domain_spec, seed=0).save(tmp_path)
+    (tmp_path / "agent.json").write_text('{"format": "conjure-agent", "vers')
+    with pytest.raises(InvalidParameterError, match=r"agent\.json"):
+        CooperativeLearner.restore(tmp_path)
 
 
 def test_missions_get_a_lazily_indexed_count_table_and_never_crash_by_choice():

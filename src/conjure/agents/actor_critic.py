@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-from typing import Any
-
 import numpy as np
 
 from conjure.agents import _kernels, persistence
@@ -187,7 +185,7 @@ class ActorCritic(LinearTDAgent):
 
     def _actor_features(self, state: np.ndarray) -> np.ndarray:
         """ψ(s), from the act cache when possible."""
-        return self._cached_features(state, self._encode_actor)
+        return self._features(state, self._encode_actor)
 
     def _actor_norm(self, psi: np.ndarray) -> float:
         return float(psi.shape[0]) if self._actor_is_binary else float(np.abs(psi).sum())
@@ -209,10 +207,9 @@ class ActorCritic(LinearTDAgent):
             )
         return arrays
 
-    def _load_state(self, state: dict[str, Any], arrays: dict[str, np.ndarray]) -> None:
-        super()._load_state(state, arrays)
-        self.actor_weights_ = np.array(arrays["actor_weights"], dtype=np.float64)
+    def _load_state(self, saved: persistence.SavedAgent) -> None:
+        super()._load_state(saved)
         if not self._is_shared:
-            self.actor_representation_.load_state_arrays(
-                persistence.unprefixed("actor_representation.", arrays)
-            )
+            self.actor_representation_.load_state_arrays(saved.with_prefix("actor_representation."))
+        shape = (self.actor_representation_.num_features_, self.spec_.num_actions)
+        self.actor_weights_ = saved.array("actor_weights", shape)

@@ -9,11 +9,19 @@ from typing import Any
 import numpy as np
 import scipy.sparse as sp
 
+from conjure.agents import persistence
+from conjure.agents.batch import BATCH_PARAMETERS, BatchAgent
 from conjure.agents.lstd import LSTD
 from conjure.core.errors import IncompatibleComponentsError, InvalidParameterError
-from conjure.core.interfaces import DomainSpec, Representation, Transition, check_is_set_up
+from conjure.core.interfaces import (
+    DomainSpec,
+    Policy,
+    Representation,
+    Transition,
+    check_is_set_up,
+)
 from conjure.core.linalg import feature_matrix, lstd_system, solve_regularized
-from conjure.core.params import Configurable, InstanceOf, Interval, Options
+from conjure.core.params import InstanceOf, Interval, Options
 from conjure.core.seeding import make_rng
 
 __all__ = ["FDLSTD"]
@@ -34,7 +42,7 @@ def _matrix(columns: list[np.ndarray], num_rows: int) -> sp.csr_matrix:
     return sp.csr_matrix(sp.csc_matrix((data, indices, indptr), shape=(num_rows, len(columns))))
 
 
-class FDLSTD(Configurable):
+class FDLSTD(BatchAgent):
     """Evaluate a fixed policy by LSTD while adding one feature conjunction per iteration.
 
     Geramifard (2012), Algorithm 16 (Section 3.3): from L₁ samples ⟨s_i, r_i, s'_i⟩ of the
@@ -61,6 +69,11 @@ class FDLSTD(Configurable):
         reference LSTD (``None``: `Tabular` with 20 buckets per dimension).
     seed : int, default 0
         Seed of the random expansion, in [0, inf).
+    policy : Policy or None, default None
+        Behaviour policy π^ε of ``act`` in a run (``None``: ε-greedy, ε = 0.1).
+    fit_every : int or None, default None
+        In a run: fit before every policy check (``None``) or after every N new samples, N in
+        [1, inf) (see `BatchAgent`).
 
     Attributes
     ----------
@@ -74,6 +87,8 @@ class FDLSTD(Configurable):
         The chosen pair's relevance (iFDD, iFDD⁺), sample RMSE (best) or NaN (random).
     weights_ : ndarray, shape (num_features_,)
         θ, so that V(s) = φ(s)ᵀθ.
+    q_weights_ : ndarray, shape (n, |A|)
+        θ̄ of Q^π over the χ of the last fit in a run (zero before it).
     num_features_ : int
         n after the expansions.
     reference_ : ndarray or None
@@ -105,6 +120,11 @@ class FDLSTD(Configurable):
       samples given to `fit`; the thesis used 100,000 samples, so pass a reference built on
       many samples when the batch is small.
     - Choice: a terminal transition contributes φ(s') = 0.
+    - Choice (as an agent in a run, as `LSTD`): each fit runs Algorithm 16 from the initial
+      features on the samples of π^ε gathered since the previous fit, then evaluates Q^π
+      over the discovered χ by LSTD-Q (Eqs. 2.34-2.36 with the sampled a'_i) and acts
+      greedily on it: one policy-improvement step per fit, the features rediscovered for
+      each policy. `fit` alone (the batch API) evaluates V only.
 
     Complexity
     ----------
@@ -125,10 +145,9 @@ class FDLSTD(Configurable):
     """
 
     parameter_constraints = {
-        "representation": InstanceOf(Representation, "a Representation"),
+        **BATCH_PARAMETERS,
         "expansion": Options(("ifdd", "ifdd_plus", "random", "best")),
         "num_expansions": Interval(int, 0, None),
-        "regularization": Interval(float, 0.0, None),
         "reference_representation": InstanceOf(
             (Representation, type(None)), "a Representation or None"
         ),
@@ -144,6 +163,8 @@ class FDLSTD(Configurable):
         regularization: float = 1e-6,
         reference_representation: Representation | None = None,
         seed: int = 0,
+        policy: Policy | None = None,
+        fit_every: int | None = None,
     ):
         self.representation = representation
         self.expansion = expansion
@@ -151,27 +172,26 @@ class FDLSTD(Configurable):
         self.regularization = regularization
         self.reference_representation = reference_representation
         self.seed = seed
+        self.policy = policy
+        self.fit_every = fit_every
 
     def setup(self, spec: DomainSpec, seed: int | np.random.SeedSequence = 0) -> FDLSTD:
         """Validate parameters and set up the initial representation χ for ``spec``."""
-        self.validate_params()
-        rep = self.representation.clone().setup(spec, seed)
+        super().setup(spec, seed)
+        rep = self.representation_
         if not rep.is_binary:
             raise IncompatibleComponentsError(
                 f"FDLSTD conjoins binary features, but {type(rep).__name__} is not binary; use "
                 f"IndependentDiscretization, TileCoding or Tabular."
             )
-        self.spec_ = spec
-        self.representation_ = rep
         self.features_ = [(f,) for f in range(rep.num_features_)]
         self.parents_ = np.zeros((0, 2), dtype=np.int64)
         self.scores_ = np.zeros(0)
         self.weights_ = np.zeros(rep.num_features_)
         self.num_features_ = rep.num_features_
         self.reference_ = None
-        self.iterations_ = 0
-        self.wall_time_s_ = 0.0
-        self.is_set_up_ = True
+        self._use_for_q([])
+        self.q_weights_ = np.zeros((rep.num_features_, spec.num_actions))
         return self
 
     # ------------------------------------------------------------------ fitting
@@ -197,14 +217,16 @@ class FDLSTD(Configurable):
             )
         return values
 
-    def fit(self, transitions: Sequence[Transition], reference: Any = None) -> FDLSTD:
+    def fit(self, transitions: Sequence[Transition] | None = None, reference: Any = None) -> FDLSTD:
         """Run Algorithm 16 on ``transitions`` of the evaluated policy and return ``self``.
 
-        ``reference`` (``"best"`` only) is V at each transition's state, or an object with
+        ``transitions`` defaults to the samples stored by ``learn``. ``reference``
+        (``"best"`` only) is V at each transition's state, or an object with
         ``values(states)``; ``None`` builds it by tabular LSTD on ``transitions``.
         """
         check_is_set_up(self, "fit")
         started = time.perf_counter()
+        transitions = self._batch(transitions)
         if not transitions:
             raise InvalidParameterError("FDLSTD.fit needs at least one transition; got none.")
         rep, discount = self.representation_, self.spec_.discount
@@ -357,3 +379,84 @@ class FDLSTD(Configurable):
     def value(self, state: np.ndarray) -> float:
         """Ṽ^π(s) = φ_χ(s)ᵀθ."""
         return float(self.values([state])[0])
+
+    # ------------------------------------------------------------------ as an agent
+
+    @property
+    def num_features(self) -> int:
+        """n, the number of features of χ (initial features and conjunctions)."""
+        check_is_set_up(self, "num_features")
+        return int(self.num_features_)
+
+    def _fit_samples(self, batch: list[Transition]) -> None:
+        super()._fit_samples(batch)  # Algorithm 16, then Q^π over the new χ
+        self._use_for_q(self.features_[self.representation_.num_features_ :])
+
+    def _feature_matrix(self, states: Sequence[np.ndarray]) -> sp.csr_matrix:
+        return self.encode(states)
+
+    def _use_for_q(self, conjunctions: list[tuple[int, ...]]) -> None:
+        """Index the conjunctions Q is defined over, for a fast single-state φ_χ(s) in ``act``.
+
+        Row j of ``_q_members`` lists conjunction j's initial features, padded with the index
+        n₀ of an always-true slot of the indicator.
+        """
+        n0 = self.representation_.num_features_
+        self._q_members = _padded(conjunctions, n0)
+        self._indicator = np.zeros(n0 + 1, dtype=bool)
+
+    def _state_features(self, state: np.ndarray) -> np.ndarray:
+        """φ_χ(s) of the χ that Q is defined over: active initial features, then conjunctions."""
+        active = self.representation_.active_features(state)
+        if not self._q_members.shape[0]:
+            return active
+        indicator = self._indicator
+        indicator[:] = False
+        indicator[active] = True
+        indicator[-1] = True
+        conjunctions = np.flatnonzero(indicator[self._q_members].all(axis=1))
+        return np.concatenate([active, conjunctions + indicator.shape[0] - 1])
+
+    def _state_arrays(self) -> dict[str, np.ndarray]:
+        n0 = self.representation_.num_features_
+        return {
+            **super()._state_arrays(),
+            "weights": self.weights_,
+            "q_weights": self.q_weights_,
+            "parents": self.parents_,
+            "scores": self.scores_,
+            "conjunctions": _padded(self.features_[n0:], n0),
+            "q_conjunctions": _padded([tuple(m[m < n0]) for m in self._q_members], n0),
+        }
+
+    def _load_state(self, saved: persistence.SavedAgent) -> None:
+        super()._load_state(saved)
+        n0, num_actions = self.representation_.num_features_, self.spec_.num_actions
+        conjunctions = _unpadded(saved, "conjunctions", n0)
+        q_conjunctions = _unpadded(saved, "q_conjunctions", n0)
+        n, n_q = n0 + len(conjunctions), n0 + len(q_conjunctions)
+        self.features_ = [(f,) for f in range(n0)] + conjunctions
+        self.num_features_ = n
+        self.parents_ = saved.indices("parents", (None, 2), n)
+        self.scores_ = saved.array("scores", (self.parents_.shape[0],), is_finite=False)
+        self.weights_ = saved.array("weights", (n,))
+        self.q_weights_ = saved.array("q_weights", (n_q, num_actions))
+        self._use_for_q(q_conjunctions)
+
+
+def _padded(conjunctions: list[tuple[int, ...]], n0: int) -> np.ndarray:
+    """Conjunctions of initial features as rows padded with n0 (for saving)."""
+    width = max((len(c) for c in conjunctions), default=2)
+    rows = np.full((len(conjunctions), width), n0, dtype=np.int64)
+    for j, conjunction in enumerate(conjunctions):
+        rows[j, : len(conjunction)] = conjunction
+    return rows
+
+
+def _unpadded(saved: persistence.SavedAgent, name: str, n0: int) -> list[tuple[int, ...]]:
+    """Read `_padded` rows back, checking that each conjoins at least two initial features."""
+    rows = saved.indices(name, (None, None), n0 + 1)
+    conjunctions = [tuple(int(f) for f in row[row < n0]) for row in rows]
+    if any(len(c) < 2 or list(c) != sorted(set(c)) for c in conjunctions):
+        raise saved.damaged("arrays.npz", f"array {name!r} holds a malformed conjunction")
+    return conjunctions

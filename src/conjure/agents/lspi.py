@@ -4,38 +4,22 @@ from __future__ import annotations
 
 import time
 from collections.abc import Sequence
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 import scipy.sparse as sp
 
 from conjure.agents import persistence
+from conjure.agents.batch import BATCH_PARAMETERS, BatchAgent, q_system
 from conjure.core.errors import IncompatibleComponentsError
-from conjure.core.interfaces import (
-    Agent,
-    DomainSpec,
-    Policy,
-    Representation,
-    Transition,
-    check_is_set_up,
-)
-from conjure.core.linalg import feature_matrix, lstd_system, row_matrix, solve_regularized
-from conjure.core.params import InstanceOf, Interval
-from conjure.core.seeding import make_rng, rng_from_state, rng_state, split_seed
-from conjure.policies import EpsilonGreedy, greedy_action
+from conjure.core.interfaces import DomainSpec, Policy, Representation, Transition, check_is_set_up
+from conjure.core.linalg import solve_regularized
+from conjure.core.params import Interval
 
 __all__ = ["LSPI"]
 
 
-def action_rows(phi: sp.csr_matrix, actions: np.ndarray, num_actions: int) -> sp.csr_matrix:
-    """Φ̄ rows φ(s_i, a_i): φ(s_i) in action a_i's slot, columns a·n + f (Eq. 2.11)."""
-    n = phi.shape[1]
-    offsets = np.asarray(actions, dtype=np.int64) * n
-    return row_matrix(phi.indices, phi.indptr, n * num_actions, phi.data, offsets)
-
-
-class LSPI(Agent):
+class LSPI(BatchAgent):
     """Reuse one batch of samples: solve LSTD-Q (Eqs. 2.34-2.36), then re-greedify every a'.
 
     Geramifard (2012), Algorithm 14: Ã = Φ̃ᵀ(Φ̃ − γP̃Φ̃)/L, b̃ = Φ̃ᵀR̃/L with P̃Φ̃ rows
@@ -46,18 +30,23 @@ class LSPI(Agent):
     representation : Representation
         φ(s) (binary features are assembled sparsely; dense ones work too).
     policy : Policy or None, default None
-        Exploration policy of ``act`` (``None``: ε-greedy, ε = 0.1); `fit` ignores it.
+        Behaviour policy π^ε of ``act`` (``None``: ε-greedy, ε = 0.1); `fit` ignores it.
     regularization : float, default 1e-6
         λ ≥ 0 added to Ã's diagonal where the inverse does not exist.
     max_iterations : int, default 20
         Cap on policy iterations ("while time left"), in [1, inf).
     tolerance : float, default 1e-6
         Also stop when max |θ_{k+1} − θ_k| < tolerance, in [0, inf).
+    fit_every : int or None, default None
+        In a run: ``None`` fits before every policy check, an int N in [1, inf) after every N
+        new samples (see `BatchAgent`).
 
     Attributes
     ----------
     weights_ : ndarray, shape (n, |A|)
         θ̄ with one column per action (Q(s, a) = φ(s)ᵀθ_a).
+    samples_ : list of Transition
+        Every sample ``learn`` stored (all of them are reused by every fit).
     iterations_ : int
         Iterations of the last `fit`.
     wall_time_s_ : float
@@ -69,8 +58,10 @@ class LSPI(Agent):
     -----
     - Choice: the loop also stops when no a'_i changes (the policy on the samples is stable).
     - Choice: terminal transitions have φ(s', a') = 0.
-    - Choice: ``learn`` only stores transitions; ``fit()`` without arguments uses them, so the
-      run loop can collect samples for a later fit.
+    - Choice (in a run, `BatchAgent`): ``learn`` stores the transitions of π^ε on the current
+      Q and every fit runs Algorithm 14 on all samples stored so far, warm-started from the
+      last θ: the "initial set of samples" of line 2 grows as the run goes on, and LSPI's
+      re-greedification of a'_i makes the older samples (of older policies) valid.
     - Choice: every action is considered legal in a'_i ← argmax unless the transition lists
       ``next_legal_actions``.
 
@@ -90,18 +81,24 @@ class LSPI(Agent):
     >>> agent = LSPI(representation=Tabular()).setup(spec, seed=0).fit(batch)
     >>> [agent.act(s, greedy=True) for s in (s0, s1)]
     [0, 0]
+
+    In a run, LSPI fits at each policy check on the samples of its ε-greedy behaviour:
+
+    >>> from conjure.domains import ChainMDP
+    >>> from conjure.experiments import run
+    >>> costly = ChainMDP(num_states=4, num_actions=2, step_reward=-1.0)  # best: stay put
+    >>> result = run(domain=costly, agent=LSPI(representation=Tabular()), budget_steps=200,
+    ...              num_policy_checks=2, seed=0)
+    >>> result.curve["return"].tolist()
+    [-3.0, 0.0, 0.0]
     """
 
     parameter_constraints = {
-        "representation": InstanceOf(Representation, "a Representation"),
-        "policy": InstanceOf((Policy, type(None)), "a Policy or None"),
-        "regularization": Interval(float, 0.0, None),
+        **BATCH_PARAMETERS,
         "max_iterations": Interval(int, 1, None),
         "tolerance": Interval(float, 0.0, None),
     }
-    expected_check_failures = {
-        "check_converges_on_chain": "a batch learner: it learns in fit(), not learn()",
-    }
+    reuses_samples = True
 
     def __init__(
         self,
@@ -111,77 +108,31 @@ class LSPI(Agent):
         regularization: float = 1e-6,
         max_iterations: int = 20,
         tolerance: float = 1e-6,
+        fit_every: int | None = None,
     ):
         self.representation = representation
         self.policy = policy
         self.regularization = regularization
         self.max_iterations = max_iterations
         self.tolerance = tolerance
+        self.fit_every = fit_every
 
-    # ------------------------------------------------------------------ lifecycle
-
-    def setup(self, spec: DomainSpec, seed: int | np.random.SeedSequence) -> LSPI:
-        """Validate parameters, set up φ and θ = 0 for ``spec``."""
-        self.validate_params()
-        seeds = split_seed(seed, ("representation", "policy"))
-        self.spec_ = spec
-        self.representation_ = self.representation.clone().setup(spec, seeds["representation"])
-        self.policy_ = (EpsilonGreedy() if self.policy is None else self.policy).clone()
-        self.policy_.validate_params()
-        self.rng_ = make_rng(seeds["policy"])
+    def setup(self, spec: DomainSpec, seed: int | np.random.SeedSequence = 0) -> LSPI:
+        """Validate parameters, set up φ, π^ε and θ = 0 for ``spec``."""
+        super().setup(spec, seed)
         self.weights_ = np.zeros((self.representation_.num_features_, spec.num_actions))
-        self.samples_: list[Transition] = []
-        self.iterations_ = 0
-        self.wall_time_s_ = 0.0
         self.history_: list[int] = []
-        self._all_actions = np.arange(spec.num_actions, dtype=np.int64)
-        self.is_set_up_ = True
         return self
 
-    def begin_episode(self) -> None:
-        """Nothing to do (no traces, no schedule)."""
-        check_is_set_up(self, "begin_episode")
-
-    @property
-    def num_features(self) -> int:
-        """n, the number of features of φ(s)."""
-        check_is_set_up(self, "num_features")
-        return int(self.representation_.num_features_)
-
-    # ------------------------------------------------------------------ acting
-
-    def q_values(self, state: np.ndarray) -> np.ndarray:
-        """Q(s, ·) = θᵀφ(s)."""
-        check_is_set_up(self, "q_values")
-        rep = self.representation_
-        if rep.is_binary:
-            return self.weights_[rep.active_features(state)].sum(axis=0)
-        return rep.feature_values(state) @ self.weights_
-
-    def act(
-        self, state: np.ndarray, greedy: bool = False, legal_actions: np.ndarray | None = None
-    ) -> int:
-        """Greedy π(s) = argmax_a Q(s, a), or the exploration policy's choice."""
-        check_is_set_up(self, "act")
-        q = self.q_values(state)
-        legal = self._all_actions if legal_actions is None else legal_actions
-        if greedy:
-            return int(greedy_action(q, legal))
-        return int(self.policy_.select(q, self.rng_, legal))
-
-    def learn(self, transition: Transition) -> float:
-        """Store ``transition`` for the next ``fit()``; returns 0 (no update happens here)."""
-        check_is_set_up(self, "learn")
-        self.samples_.append(transition)
-        return 0.0
+    def _q_weights(self) -> np.ndarray:
+        return self.weights_
 
     # ------------------------------------------------------------------ batch learning
 
     def _encode(self, transitions: Sequence[Transition]) -> dict[str, Any]:
-        rep = self.representation_
         return {
-            "phi": feature_matrix(rep, [t.state for t in transitions]),
-            "phi_next": feature_matrix(rep, [t.next_state for t in transitions]),
+            "phi": self._feature_matrix([t.state for t in transitions]),
+            "phi_next": self._feature_matrix([t.next_state for t in transitions]),
             "actions": np.array([t.action for t in transitions], dtype=np.int64),
             "next_actions": np.array([t.next_action for t in transitions], dtype=np.int64),
             "rewards": np.array([t.reward for t in transitions], dtype=np.float64),
@@ -201,16 +152,22 @@ class LSPI(Agent):
         return q.argmax(axis=1).astype(np.int64)
 
     def _system(self, data: dict[str, Any], next_actions: Any) -> tuple[sp.csr_matrix, np.ndarray]:
-        num_actions = self.spec_.num_actions
-        phi_bar = action_rows(data["phi"], data["actions"], num_actions)
-        phi_next = sp.diags(data["live"]) @ action_rows(data["phi_next"], next_actions, num_actions)
-        return lstd_system(phi_bar, sp.csr_matrix(phi_next), data["rewards"], self.spec_.discount)
+        return q_system(
+            data["phi"],
+            data["phi_next"],
+            data["actions"],
+            next_actions,
+            data["rewards"],
+            data["live"],
+            self.spec_.num_actions,
+            self.spec_.discount,
+        )
 
     def fit(self, transitions: Sequence[Transition] | None = None) -> LSPI:
         """Run Algorithm 14 on ``transitions`` (default: those stored by ``learn``)."""
         check_is_set_up(self, "fit")
         started = time.perf_counter()
-        batch = self.samples_ if transitions is None else list(transitions)
+        batch = self._batch(transitions)
         if not batch:
             raise IncompatibleComponentsError(
                 f"{type(self).__name__}.fit needs at least one transition; got none."
@@ -239,6 +196,9 @@ class LSPI(Agent):
         self.wall_time_s_ = time.perf_counter() - started
         return self
 
+    def _fit_samples(self, batch: list[Transition]) -> None:
+        self.fit(batch)
+
     def _prepare(self, batch: list[Transition]) -> dict[str, Any]:
         return self._encode(batch)
 
@@ -247,20 +207,10 @@ class LSPI(Agent):
 
     # ------------------------------------------------------------------ persistence
 
-    def save(self, path: str | Path) -> Path:
-        """Write θ, φ's arrays and the generator (`conjure.agents.persistence`)."""
-        check_is_set_up(self, "save")
-        arrays = persistence.prefixed("representation.", self.representation_.state_arrays())
-        arrays["weights"] = self.weights_
-        state = {"rng": rng_state(self.rng_), "iterations": self.iterations_}
-        return persistence.write_agent(path, self, state, arrays)
+    def _state_arrays(self) -> dict[str, np.ndarray]:
+        return {**super()._state_arrays(), "weights": self.weights_}
 
-    @classmethod
-    def restore(cls, path: str | Path) -> LSPI:
-        """Load an agent written by `save` (stored samples are not saved)."""
-        agent, state, arrays = persistence.read_agent(path, cls)
-        agent.representation_.load_state_arrays(persistence.unprefixed("representation.", arrays))
-        agent.weights_ = np.array(arrays["weights"], dtype=np.float64)
-        agent.rng_ = rng_from_state(state["rng"])
-        agent.iterations_ = int(state["iterations"])
-        return agent
+    def _load_state(self, saved: persistence.SavedAgent) -> None:
+        super()._load_state(saved)
+        shape = (self.representation_.num_features_, self.spec_.num_actions)
+        self.weights_ = saved.array("weights", shape)

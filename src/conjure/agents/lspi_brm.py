@@ -7,7 +7,8 @@ from typing import Any
 import numpy as np
 import scipy.sparse as sp
 
-from conjure.agents.lspi import LSPI, action_rows
+from conjure.agents.batch import action_rows
+from conjure.agents.lspi import LSPI
 from conjure.core.errors import IncompatibleComponentsError
 from conjure.core.interfaces import Transition
 from conjure.core.linalg import brm_system
@@ -54,18 +55,23 @@ class LSPIBRM(LSPI):
     representation : Representation
         φ(s).
     policy : Policy or None, default None
-        Exploration policy of ``act``.
+        Behaviour policy π^ε of ``act``.
     regularization : float, default 1e-6
         λ ≥ 0 added to Ã's diagonal.
     max_iterations : int, default 20
         Cap on iterations, in [1, inf).
     tolerance : float, default 1e-6
         Stop when max |Δθ| < tolerance, in [0, inf).
+    fit_every : int or None, default None
+        In a run: fit before every policy check (``None``) or after every N new samples.
 
     Notes
     -----
     - Choice: the filter matches exact states (states must repeat, e.g. discrete domains);
       the reward r_i is the first sample's.
+    - Choice (in a run): a fit that finds no ⟨s, a⟩ sampled twice yet keeps θ and waits for
+      more samples when every state dimension is discrete; on a domain with a continuous
+      dimension, where exact states never repeat, it raises the same clear error as `fit`.
     - Choice: b̃ carries the 1/L of Eq. 2.26 (Eq. 2.44 omits it; θ is unchanged up to λ).
 
     Complexity
@@ -83,6 +89,11 @@ class LSPIBRM(LSPI):
     >>> LSPIBRM(representation=Tabular(), regularization=0.0).setup(spec, 0).fit(batch).weights_
     array([[2.]])
     """
+
+    def _fit_samples(self, batch: list[Transition]) -> None:
+        if double_samples(batch)[0].size == 0 and np.all(self.spec_.is_discrete):
+            return  # no pair yet on a discrete domain: wait for more samples
+        self.fit(batch)
 
     def _prepare(self, batch: list[Transition]) -> dict[str, Any]:
         first, second = double_samples(batch)

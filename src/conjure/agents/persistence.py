@@ -1,4 +1,4 @@
-"""The saved-agent format: JSON metadata plus numpy arrays, no pickle.
+"""The saved-agent format: JSON metadata plus numpy arrays, no pickle, checked on load.
 
 A saved agent is a directory holding
 
@@ -6,10 +6,23 @@ A saved agent is a directory holding
   "state": {...}}`` where C is a component tree ``{"class": "conjure.agents.sarsa.SARSA",
   "params": {...}}`` (nested components are trees too), S is the `DomainSpec` as a dict and
   ``state`` holds counters and generator states (JSON);
-- ``arrays.npz``: the weights, traces and representation arrays, read with
+- ``arrays.npz``: the weights, traces, samples and representation arrays, read with
   ``allow_pickle=False``.
 
-Only classes from ``conjure.*`` modules are rebuilt, so loading a file never runs foreign code.
+Loading trusts nothing in the files:
+
+- only *component classes* are rebuilt: a public class, defined in a module of one of the
+  `COMPONENT_PACKAGES` (never ``conjure.experiments`` or ``conjure.testing``), that subclasses
+  `Configurable`; anything else (a function such as ``conjure.experiments.cli.main``, a
+  foreign class) is refused before its module is imported;
+- every array is checked against what the agent, set up from the saved spec and parameters,
+  expects: its shape, its dtype and, for floats, that it is finite (`SavedAgent.array`);
+- a damaged save (truncated ``arrays.npz``, broken ``agent.json``, missing keys or arrays)
+  raises one `InvalidParameterError` naming the file, never a raw ``BadZipFile`` or
+  ``JSONDecodeError``.
+
+Agents implement ``_state_metadata()``, ``_state_arrays()`` and ``_load_state(saved)`` and
+delegate ``save`` and ``restore`` to `save_agent` and `restore_agent`.
 """
 
 from __future__ import annotations
@@ -18,30 +31,57 @@ import importlib
 import json
 import os
 import tempfile
+import zipfile
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
+from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
 
 from conjure.core.errors import IncompatibleComponentsError, InvalidParameterError
-from conjure.core.interfaces import DomainSpec
+from conjure.core.interfaces import Agent, DomainSpec
 from conjure.core.params import Configurable
 
 __all__ = [
+    "COMPONENT_PACKAGES",
     "FORMAT",
     "VERSION",
+    "SavedAgent",
     "component_from_dict",
     "component_to_dict",
     "prefixed",
     "read",
     "read_agent",
-    "unprefixed",
+    "restore_agent",
+    "save_agent",
     "write",
     "write_agent",
 ]
 
 FORMAT = "conjure-agent"
 VERSION = 1
+METADATA_FILE = "agent.json"
+ARRAYS_FILE = "arrays.npz"
+#: The packages whose `Configurable` classes a saved agent may name (its parts: agents,
+#: representations, policies, step-size schedules, domains and models a planner
+#: plans in, planners and safety components).
+COMPONENT_PACKAGES = (
+    "conjure.agents",
+    "conjure.core.schedules",
+    "conjure.domains",
+    "conjure.models",
+    "conjure.planners",
+    "conjure.policies",
+    "conjure.representations",
+    "conjure.safety",
+)
+
+AgentType = TypeVar("AgentType", bound=Agent)
+
+
+# ---------------------------------------------------------------------------------- components
 
 
 def component_to_dict(component: Configurable) -> dict[str, Any]:
@@ -52,86 +92,65 @@ def component_to_dict(component: Configurable) -> dict[str, Any]:
 
 
 def component_from_dict(tree: dict[str, Any]) -> Configurable:
-    """Rebuild a component from `component_to_dict`'s output (``conjure.*`` classes only)."""
-    qualified = tree["class"]
+    """Rebuild a component from `component_to_dict`'s output (component classes only).
+
+    Examples
+    --------
+    >>> component_from_dict({"class": "conjure.policies.epsilon_greedy.EpsilonGreedy",
+    ...                      "params": {"epsilon": 0.2}})
+    EpsilonGreedy(epsilon=0.2)
+    >>> component_from_dict({"class": "conjure.experiments.cli.main", "params": {}})
+    Traceback (most recent call last):
+    ...
+    conjure.core.errors.InvalidParameterError: A saved agent may only name conjure component classes (in conjure.agents, conjure.core.schedules, conjure.domains, conjure.models, conjure.planners, conjure.policies, conjure.representations, conjure.safety); got 'conjure.experiments.cli.main'.
+    """  # noqa: E501
+    if not isinstance(tree, dict) or set(tree) != {"class", "params"}:
+        raise InvalidParameterError(
+            f"A saved component must be {{'class': ..., 'params': {{...}}}}; got {tree!r}."
+        )
+    cls = _component_class(tree["class"])
+    params = tree["params"]
+    if not isinstance(params, dict) or not set(params) <= set(cls.param_names()):
+        raise InvalidParameterError(
+            f"The saved parameters of {cls.__name__} must be a subset of "
+            f"{cls.param_names()}; got {params!r}."
+        )
+    return cls(**{name: _from_json(value) for name, value in params.items()})
+
+
+def _component_class(qualified: Any) -> type[Configurable]:
+    refused = InvalidParameterError(
+        f"A saved agent may only name conjure component classes (in "
+        f"{', '.join(COMPONENT_PACKAGES)}); got {qualified!r}."
+    )
+    if not isinstance(qualified, str):
+        raise refused
     module_name, _, class_name = qualified.rpartition(".")
-    if not module_name.startswith("conjure."):
-        raise InvalidParameterError(
-            f"A saved agent may only name conjure classes; got {qualified!r}."
-        )
-    cls = getattr(importlib.import_module(module_name), class_name)
-    params = {name: _from_json(value) for name, value in tree["params"].items()}
-    return cls(**params)
-
-
-def write(path: str | Path, metadata: dict[str, Any], arrays: dict[str, np.ndarray]) -> Path:
-    """Write ``agent.json`` and ``arrays.npz`` into directory ``path`` atomically per file."""
-    directory = Path(path)
-    directory.mkdir(parents=True, exist_ok=True)
-    document = {"format": FORMAT, "version": VERSION, **metadata}
-    _atomic_write(directory / "agent.json", json.dumps(document, indent=2).encode())
-    with tempfile.NamedTemporaryFile(dir=directory, suffix=".npz", delete=False) as handle:
-        np.savez(handle, **arrays)
-        handle.flush()
-        os.fsync(handle.fileno())
-    os.replace(handle.name, directory / "arrays.npz")
-    return directory
-
-
-def read(path: str | Path) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
-    """Read a saved agent's metadata and arrays, checking the format and version."""
-    directory = Path(path)
-    metadata_path = directory / "agent.json"
-    if not metadata_path.is_file():
-        raise InvalidParameterError(
-            f"No saved agent at {str(directory)!r}: {metadata_path.name} is missing."
-        )
-    document = json.loads(metadata_path.read_text())
-    if document.get("format") != FORMAT or document.get("version") != VERSION:
-        raise InvalidParameterError(
-            f"{str(metadata_path)!r} is not a conjure agent of format version {VERSION}; "
-            f"got format {document.get('format')!r} version {document.get('version')!r}."
-        )
-    with np.load(directory / "arrays.npz", allow_pickle=False) as data:
-        arrays = {name: data[name] for name in data.files}
-    return document, arrays
-
-
-def write_agent(
-    path: str | Path, agent: Any, state: dict[str, Any], arrays: dict[str, np.ndarray]
-) -> Path:
-    """Write a set-up agent: its component tree, its ``spec_``, ``state`` (JSON) and ``arrays``."""
-    metadata = {
-        "component": component_to_dict(agent),
-        "spec": agent.spec_.to_dict(),
-        "state": state,
-    }
-    return write(path, metadata, arrays)
-
-
-def read_agent(path: str | Path, cls: type) -> tuple[Any, dict[str, Any], dict[str, np.ndarray]]:
-    """Rebuild the agent `write_agent` saved, as a ``cls`` set up for its spec with seed 0.
-
-    Returns the agent, the saved ``state`` and the arrays; the caller loads them into it.
-    """
-    document, arrays = read(path)
-    agent = component_from_dict(document["component"])
-    if not isinstance(agent, cls):
-        raise IncompatibleComponentsError(
-            f"{str(path)!r} holds a {type(agent).__name__}, not a {cls.__name__}."
-        )
-    agent.setup(DomainSpec.from_dict(document["spec"]), seed=0)
-    return agent, document["state"], arrays
+    in_package = any(
+        module_name == package or module_name.startswith(f"{package}.")
+        for package in COMPONENT_PACKAGES
+    )
+    if not in_package or not class_name.isidentifier() or class_name.startswith("_"):
+        raise refused
+    try:
+        module = importlib.import_module(module_name)
+    except ImportError:
+        raise refused from None
+    cls = getattr(module, class_name, None)
+    is_component = (
+        isinstance(cls, type)
+        and issubclass(cls, Configurable)
+        and cls.__module__ == module_name
+        and cls.__qualname__ == class_name
+    )
+    if not is_component:
+        raise refused
+    return cls
 
 
 def prefixed(prefix: str, arrays: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
     """``arrays`` with every name prefixed (``representation.`` + name)."""
     return {prefix + name: value for name, value in arrays.items()}
-
-
-def unprefixed(prefix: str, arrays: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
-    """The arrays whose names start with ``prefix``, with the prefix removed."""
-    return {k[len(prefix) :]: v for k, v in arrays.items() if k.startswith(prefix)}
 
 
 def _to_json(value: Any) -> Any:
@@ -154,6 +173,210 @@ def _from_json(value: Any) -> Any:
     if isinstance(value, list):
         return [_from_json(item) for item in value]
     return value
+
+
+# ---------------------------------------------------------------------------------- files
+
+
+@dataclass
+class SavedAgent:
+    """The contents of a saved agent (a learner of Algorithms 10-16): JSON document and arrays.
+
+    Parameters
+    ----------
+    directory : Path
+        The saved agent's directory.
+    document : dict
+        ``agent.json``.
+    arrays : dict of str to ndarray
+        ``arrays.npz``.
+    """
+
+    directory: Path
+    document: dict[str, Any]
+    arrays: dict[str, np.ndarray]
+
+    @property
+    def state(self) -> dict[str, Any]:
+        """The ``state`` section of ``agent.json`` (counters and generator states)."""
+        state = self.document.get("state")
+        if not isinstance(state, dict):
+            raise self.damaged(METADATA_FILE, "its 'state' section is missing")
+        return state
+
+    def array(
+        self,
+        name: str,
+        shape: Sequence[int | None],
+        dtype: Any = np.float64,
+        *,
+        is_finite: bool = True,
+    ) -> np.ndarray:
+        """Return a writable copy of array ``name`` after checking it.
+
+        Parameters
+        ----------
+        name : str
+            The array's key in ``arrays.npz``.
+        shape : sequence of int or None
+            The expected shape; ``None`` leaves a dimension free.
+        dtype : numpy dtype, default float64
+            The exact expected dtype.
+        is_finite : bool, default True
+            Whether float values must be finite.
+        """
+        if name not in self.arrays:
+            raise self.damaged(ARRAYS_FILE, f"array {name!r} is missing")
+        value = self.arrays[name]
+        wanted = tuple(shape)
+        fits = value.ndim == len(wanted) and all(
+            want is None or have == want for have, want in zip(value.shape, wanted, strict=True)
+        )
+        shown = "(" + ", ".join("n" if w is None else str(w) for w in wanted)
+        shown += ",)" if len(wanted) == 1 else ")"
+        if not fits or value.dtype != np.dtype(dtype):
+            raise self.damaged(
+                ARRAYS_FILE,
+                f"array {name!r} is {value.dtype} of shape {value.shape}, but the agent set up "
+                f"from the saved spec and parameters expects {np.dtype(dtype)} of shape {shown}",
+            )
+        if is_finite and value.dtype.kind == "f" and not np.all(np.isfinite(value)):
+            raise self.damaged(ARRAYS_FILE, f"array {name!r} holds NaN or infinite values")
+        return np.array(value, copy=True)
+
+    def indices(self, name: str, shape: Sequence[int | None], upper: int) -> np.ndarray:
+        """Return int64 array ``name`` (checked as `array`) whose values must lie in [0, upper)."""
+        value = self.array(name, shape, np.int64)
+        if value.size and (value.min() < 0 or value.max() >= upper):
+            raise self.damaged(
+                ARRAYS_FILE, f"array {name!r} holds values outside [0, {upper}) (indices)"
+            )
+        return value
+
+    def with_prefix(self, prefix: str) -> dict[str, np.ndarray]:
+        """The arrays whose key starts with ``prefix``, with the prefix removed."""
+        return {k[len(prefix) :]: v for k, v in self.arrays.items() if k.startswith(prefix)}
+
+    def damaged(self, file: str, problem: str) -> InvalidParameterError:
+        """The error for a damaged save: names the file and what is wrong with it."""
+        return InvalidParameterError(
+            f"The saved agent file {str(self.directory / file)!r} is damaged or from another "
+            f"conjure version: {problem}."
+        )
+
+    @contextmanager
+    def loading(self) -> Iterator[None]:
+        """Turn any error raised while rebuilding the agent into one naming the saved files."""
+        try:
+            yield
+        except IncompatibleComponentsError:
+            raise
+        except (InvalidParameterError, KeyError, TypeError, ValueError, IndexError) as exc:
+            if str(self.directory) in str(exc):
+                raise
+            raise InvalidParameterError(
+                f"The saved agent in {str(self.directory)!r} ({METADATA_FILE}, {ARRAYS_FILE}) "
+                f"cannot be loaded: {type(exc).__name__}: {exc}"
+            ) from exc
+
+
+def write(path: str | Path, metadata: dict[str, Any], arrays: dict[str, np.ndarray]) -> Path:
+    """Write ``agent.json`` and ``arrays.npz`` into directory ``path`` atomically per file."""
+    directory = Path(path)
+    directory.mkdir(parents=True, exist_ok=True)
+    document = {"format": FORMAT, "version": VERSION, **metadata}
+    _atomic_write(directory / METADATA_FILE, json.dumps(document, indent=2).encode())
+    with tempfile.NamedTemporaryFile(dir=directory, suffix=".npz", delete=False) as handle:
+        np.savez(handle, **arrays)
+        handle.flush()
+        os.fsync(handle.fileno())
+    os.replace(handle.name, directory / ARRAYS_FILE)
+    return directory
+
+
+def read(path: str | Path) -> SavedAgent:
+    """Read and check a saved agent's metadata and arrays (format, version, readability)."""
+    directory = Path(path)
+    saved = SavedAgent(directory, {}, {})
+    metadata_path = directory / METADATA_FILE
+    if not metadata_path.is_file():
+        raise InvalidParameterError(
+            f"No saved agent at {str(directory)!r}: {metadata_path.name} is missing."
+        )
+    try:
+        document = json.loads(metadata_path.read_text())
+    except (UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise saved.damaged(METADATA_FILE, f"it is not valid JSON ({exc})") from exc
+    if not isinstance(document, dict):
+        raise saved.damaged(METADATA_FILE, "it is not a JSON object")
+    if document.get("format") != FORMAT or document.get("version") != VERSION:
+        raise InvalidParameterError(
+            f"{str(metadata_path)!r} is not a conjure agent of format version {VERSION}; "
+            f"got format {document.get('format')!r} version {document.get('version')!r}."
+        )
+    try:
+        with np.load(directory / ARRAYS_FILE, allow_pickle=False) as data:
+            arrays = {name: data[name] for name in data.files}
+    except FileNotFoundError as exc:
+        raise saved.damaged(ARRAYS_FILE, "the file is missing") from exc
+    except (zipfile.BadZipFile, OSError, ValueError, EOFError) as exc:
+        raise saved.damaged(ARRAYS_FILE, f"it cannot be read ({exc})") from exc
+    return SavedAgent(directory, document, arrays)
+
+
+def write_agent(
+    path: str | Path, agent: Any, state: dict[str, Any], arrays: dict[str, np.ndarray]
+) -> Path:
+    """Write a set-up agent: its component tree, its ``spec_``, ``state`` (JSON) and ``arrays``."""
+    metadata = {
+        "component": component_to_dict(agent),
+        "spec": agent.spec_.to_dict(),
+        "state": state,
+    }
+    return write(path, metadata, arrays)
+
+
+def read_agent(cls: type[AgentType], saved: SavedAgent) -> AgentType:
+    """Rebuild the agent in ``saved`` as a ``cls`` set up for its spec with seed 0.
+
+    Call inside ``saved.loading()``; the caller then loads the saved state into it, checking
+    each array with `SavedAgent.array`.
+    """
+    agent = component_from_dict(saved.document.get("component"))
+    if not isinstance(agent, cls):
+        raise IncompatibleComponentsError(
+            f"{str(saved.directory)!r} holds a {type(agent).__name__}, not a {cls.__name__}."
+        )
+    spec = saved.document.get("spec")
+    if not isinstance(spec, dict):
+        raise saved.damaged(METADATA_FILE, "its 'spec' section is missing")
+    agent.setup(DomainSpec.from_dict(spec), seed=0)
+    return agent
+
+
+def save_agent(agent: Any, path: str | Path) -> Path:
+    """Write a set-up linear agent: component tree, spec, ``_state_metadata`` and arrays.
+
+    The arrays are the representation's (``representation.*``) and the agent's own
+    (``_state_arrays``).
+    """
+    arrays = prefixed("representation.", agent.representation_.state_arrays())
+    arrays.update(agent._state_arrays())
+    return write_agent(path, agent, agent._state_metadata(), arrays)
+
+
+def restore_agent(cls: type[AgentType], path: str | Path) -> AgentType:
+    """Rebuild a linear agent of class ``cls`` saved by `save_agent`, checking what it loads.
+
+    The agent is built from the saved component tree, set up for the saved spec, given the
+    representation's arrays and then its own state (``agent._load_state(saved)``).
+    """
+    saved = read(path)
+    with saved.loading():
+        agent = read_agent(cls, saved)
+        agent.representation_.load_state_arrays(saved.with_prefix("representation."))
+        agent._load_state(saved)
+    return agent
 
 
 def _atomic_write(path: Path, payload: bytes) -> None:

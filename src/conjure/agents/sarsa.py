@@ -2,11 +2,9 @@
 
 from __future__ import annotations
 
-from typing import Any
-
 import numpy as np
 
-from conjure.agents import _kernels
+from conjure.agents import _kernels, persistence
 from conjure.agents.linear_td import LinearTDAgent
 from conjure.core.interfaces import DomainSpec, Expansion, Policy, Representation, Transition
 from conjure.core.params import Interval, Options
@@ -197,20 +195,25 @@ class SARSA(LinearTDAgent):
             arrays["traces"] = self.traces_
         return arrays
 
-    def _load_state(self, state: dict[str, Any], arrays: dict[str, np.ndarray]) -> None:
-        super()._load_state(state, arrays)
+    def _load_state(self, saved: persistence.SavedAgent) -> None:
+        super()._load_state(saved)
         if not self._has_traces:
             return
         self._make_traces()
+        n, num_actions = self.weights_.shape
         if not self._is_binary:
-            self.traces_[:] = arrays["traces"]
+            self.traces_[:] = saved.array("traces", (n, num_actions))
             return
-        features, actions = arrays["trace_features"], arrays["trace_actions"]
+        features = saved.indices("trace_features", (None,), n)
         count = features.shape[0]
+        actions = saved.indices("trace_actions", (count,), num_actions)
+        values = saved.array("trace_values", (count,))
+        if np.unique(features * num_actions + actions).shape[0] != count:
+            raise saved.damaged("arrays.npz", "two eligibility traces share a (feature, action)")
         while self.trace_values_.shape[0] < count:
             self._grow_trace_capacity()
         self.trace_features_[:count] = features
         self.trace_actions_[:count] = actions
-        self.trace_values_[:count] = arrays["trace_values"]
+        self.trace_values_[:count] = values
         self.trace_slots_[features, actions] = np.arange(count)
         self.trace_count_[0] = count

@@ -325,10 +325,13 @@ class Policy(Configurable):
 
 
 class Agent(Configurable):
-    """An online learner: ``setup``, ``act``, ``learn``, ``save`` and ``restore``.
+    """A learner: ``setup``, ``act``, ``learn``, ``before_policy_check``, ``save``, ``restore``.
 
-    The run loop calls ``begin_episode`` at every reset, ``act`` for every state it sees and
-    ``learn`` with each `Transition`; it never knows which algorithm it drives.
+    The run loop calls ``begin_episode`` at every reset, ``act`` for every state it sees,
+    ``learn`` with each `Transition` and ``before_policy_check`` before each greedy
+    evaluation; it never knows which algorithm it drives. Online learners update in ``learn``;
+    batch learners (Algorithms 13-16) store the transitions there and fit on them in
+    ``before_policy_check`` (or every N samples).
     """
 
     def setup(self, spec: DomainSpec, seed: int | np.random.SeedSequence) -> Agent:
@@ -348,6 +351,13 @@ class Agent(Configurable):
     def learn(self, transition: Transition) -> float:
         """Update from one transition and return the TD error δ."""
         raise NotImplementedError
+
+    def before_policy_check(self) -> None:
+        """Prepare the greedy policy the run loop is about to evaluate; a no-op by default.
+
+        Batch learners fit on the samples gathered since their last fit here, so a policy
+        check evaluates what they learned; online learners have nothing to do.
+        """
 
     @property
     def num_features(self) -> int:

@@ -5,6 +5,7 @@ Examples
 ::
 
     conjure run examples/pendulum.yaml --seeds 4 --set agents.tile_coding.params.step_size=0.05
+    conjure run examples/pendulum.yaml --max-workers 2 --max-memory 2GiB
     conjure list
     conjure plot results/pendulum --metric num_features
 
@@ -23,6 +24,7 @@ from rich.console import Console
 from rich.table import Table
 
 from conjure.core.errors import ConjureError
+from conjure.experiments.memory import max_memory_option
 
 __all__ = ["main"]
 
@@ -63,6 +65,7 @@ def main() -> None:
     help="Override a config value, e.g. agents.sarsa.params.step_size=0.05 (repeatable).",
 )
 @click.option("--max-workers", type=click.IntRange(min=1), default=None, help="Worker processes.")
+@max_memory_option
 @click.option("--quiet", is_flag=True, help="No progress bar or summary table.")
 def run_command(
     config: Path,
@@ -70,6 +73,7 @@ def run_command(
     out_dir: Path | None,
     overrides: tuple[str, ...],
     max_workers: int | None,
+    max_memory: int | None,
     quiet: bool,
 ) -> None:
     """Run the experiment CONFIG (a YAML file); finished runs in the folder are reused."""
@@ -82,7 +86,12 @@ def run_command(
     out_dir = out_dir or Path("results") / experiment.name
     console = Console()
     outcome = run_experiment(
-        experiment, out_dir, max_workers=max_workers, progress=not quiet, console=console
+        experiment,
+        out_dir,
+        max_workers=max_workers,
+        max_memory=max_memory,
+        progress=not quiet,
+        console=console,
     )
     if not outcome.results.empty:
         figure = plot_learning_curves(

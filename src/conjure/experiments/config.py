@@ -16,6 +16,7 @@ An experiment YAML looks like::
     eval_episodes: 1              # default 1
     seeds: 4                      # a count (seeds 0..3) or an explicit list [0, 7, 9]
     max_workers: 2                # optional
+    max_memory: 4GiB              # optional: each run's memory limit (default none)
     metric: episode_length        # the curve column summarised and plotted; default return
 
 `load_config` reads it, applies ``--set dotted.path=value`` overrides, validates the tree
@@ -39,11 +40,12 @@ from pathlib import Path
 from typing import Annotated, Any
 
 import yaml
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
+from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, ValidationError, field_validator
 
 from conjure.core.errors import InvalidParameterError
 from conjure.core.params import Configurable, did_you_mean
 from conjure.experiments import registry
+from conjure.experiments.memory import parse_memory_size
 
 __all__ = [
     "ComponentConfig",
@@ -115,6 +117,8 @@ class ComponentConfig(BaseModel):
 
 
 PositiveInt = Annotated[int, Field(strict=True, ge=1)]
+#: A memory size in bytes, written as ``4GiB``, ``512MiB`` or a byte count (`parse_memory_size`).
+MemorySize = Annotated[int | None, BeforeValidator(parse_memory_size)]
 
 
 class ExperimentConfig(BaseModel):
@@ -130,6 +134,7 @@ class ExperimentConfig(BaseModel):
     eval_episodes: PositiveInt = 1
     seeds: int | list[int] = 1
     max_workers: PositiveInt | None = None
+    max_memory: MemorySize = None
     metric: str = "return"
 
     @field_validator("metric")
@@ -397,6 +402,7 @@ def resolve(config: ExperimentConfig | Mapping[str, Any]) -> dict[str, Any]:
         "eval_episodes": config.eval_episodes,
         "seeds": config.seed_list(),
         "max_workers": config.max_workers,
+        "max_memory": config.max_memory,
     }
 
 

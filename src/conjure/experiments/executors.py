@@ -6,47 +6,71 @@ when the task never returned (its worker died more often than allowed). The swee
 (`conjure.experiments.parallel.execute_runs`) is the only caller: the function it maps catches
 a run's own exceptions, so a run that raises fails alone on every engine.
 
-=========== ==================================== ==========================================
-executor    where                                a killed worker
-=========== ==================================== ==========================================
-``local``   a process pool on this machine       pool restarted, its unfinished tasks rerun
-``dask``    ``--address`` of a scheduler, or a   the nanny restarts it; the scheduler
-            `distributed.LocalCluster` it starts reruns the task (``allowed-failures``)
-``ray``     ``--address`` of a Ray cluster, or   the task is retried (``max_retries``)
-            a local Ray instance it starts
-=========== ==================================== ==========================================
+=========== ============================== ============================== =====================
+executor    where                          a killed worker                ``max_memory``
+=========== ============================== ============================== =====================
+``local``   a process pool on this machine its task alone is rerun; the   ``RLIMIT_AS`` in each
+                                           other workers carry on         worker: a run over it
+                                                                          gets a `MemoryError`
+``dask``    ``--address`` of a scheduler,  the nanny restarts it; the     the `LocalCluster`'s
+            or a `distributed.LocalCluster` scheduler reruns the task     ``memory_limit``: the
+            it starts                      (``allowed-failures``)         nanny restarts a
+                                                                          worker past 95% of it
+``ray``     ``--address`` of a Ray         the task is retried            not enforced (warns)
+            cluster, or a local Ray        (``max_retries``)
+            instance it starts
+=========== ============================== ============================== =====================
 
 Notes
 -----
 - Choice: the local pool starts workers with "forkserver" (or "spawn"), never "fork": a
   forked numba or BLAS runtime can deadlock.
 - Choice: a task is retried at most ``max_retries`` times after its worker died (default 3,
-  as Ray and Dask default to); then it is reported as a `TaskFailure`. The local pool cannot
-  tell which task killed its worker, so every task running at that moment counts a retry.
+  as Ray and Dask default to); then it is reported as a `TaskFailure` naming how the worker
+  died (``killed by SIGKILL`` is what the kernel's out-of-memory killer does). Each local
+  worker runs one task at a time, so a death is charged to the task that worker held only.
 - Choice: local pool workers watch the driver's pid and exit when it is gone, so a driver
   killed with -9 leaves no orphaned workers behind.
 - Choice: ``max_workers=1`` on the local executor runs every task in the calling process,
   with no pool (simplest to debug); there a task that kills its process kills the driver.
+  With ``max_memory`` (or ``in_process=False``) it uses one worker process instead: the limit
+  cannot be set on the caller without limiting it too.
+- Choice: ``max_memory`` is not enforced on Ray: a Ray worker maps about 8 GiB of address space
+  before any task (measured with Ray 2.60), so ``RLIMIT_AS`` cannot bound a run there, and
+  Ray's own ``memory`` option only reserves capacity for scheduling. Ray's memory monitor
+  kills (and retries) tasks when a node runs low on memory. A Dask cluster reached through
+  ``address`` or ``client`` keeps the memory limit its workers were started with
+  (``dask worker --memory-limit``). Both warn when given ``max_memory``.
 """
 
 from __future__ import annotations
 
-import concurrent.futures as cf
 import logging
 import multiprocessing
 import os
+import pickle
+import signal
 import threading
 import time
 import traceback
 import uuid
+import warnings
 from abc import ABC, abstractmethod
+from collections import deque
 from collections.abc import Callable, Iterator, Sequence
-from concurrent.futures.process import BrokenProcessPool
+from contextlib import suppress
 from dataclasses import dataclass
+from multiprocessing.connection import Connection, wait
 from typing import Any, ClassVar
 
 from conjure.core.errors import InvalidParameterError
 from conjure.core.params import did_you_mean
+from conjure.experiments.memory import (
+    check_memory_limit,
+    format_memory_size,
+    limit_memory,
+    parse_memory_size,
+)
 
 __all__ = [
     "EXECUTORS",
@@ -93,6 +117,9 @@ class Executor(ABC):
         A running cluster to use (Dask scheduler or Ray head); ``None`` starts a local one.
     max_retries : int, default 3
         How many times a task whose worker died is rerun before it is reported as failed.
+    max_memory : int, str or None
+        Each worker's memory limit, in bytes or as ``"4GiB"`` (`conjure.experiments.memory`);
+        ``None`` (default): none. How each engine enforces it is in the module's table.
 
     Notes
     -----
@@ -104,7 +131,12 @@ class Executor(ABC):
     name: ClassVar[str] = ""
 
     def __init__(
-        self, *, max_workers: int | None = None, address: str | None = None, max_retries: int = 3
+        self,
+        *,
+        max_workers: int | None = None,
+        address: str | None = None,
+        max_retries: int = 3,
+        max_memory: int | str | None = None,
     ):
         if max_workers is not None and (isinstance(max_workers, bool) or max_workers < 1):
             raise InvalidParameterError(
@@ -114,6 +146,10 @@ class Executor(ABC):
             raise InvalidParameterError(
                 f"`{type(self).__name__}.max_retries` must be an int >= 0; got {max_retries!r}."
             )
+        try:
+            self.max_memory = parse_memory_size(max_memory)
+        except InvalidParameterError as exc:
+            raise InvalidParameterError(f"`{type(self).__name__}.max_memory`: {exc}.") from None
         self.max_workers = max_workers
         self.address = address
         self.max_retries = max_retries
@@ -185,8 +221,198 @@ def _exit_with_driver(driver_pid: int) -> None:
     threading.Thread(target=watch, name="conjure-driver-watch", daemon=True).start()
 
 
+def _serve(connection: Connection, driver_pid: int, max_memory: int | None) -> None:
+    """A pool worker: run each task received, ``(index, pickled (fn, item))``, one at a time.
+
+    Sends back ``(index, outcome)``; ``None`` received (or the driver gone) ends the worker.
+    """
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the driver's to handle
+    _exit_with_driver(driver_pid)
+    if max_memory is not None:
+        limit_memory(max_memory)
+    while True:
+        try:
+            task = connection.recv()
+        except EOFError:  # the driver is gone
+            return
+        if task is None:
+            return
+        index, payload = task
+        try:
+            fn, item = pickle.loads(payload)
+            outcome = fn(item)
+        except Exception as exc:
+            outcome = _failure(exc, "task raised")
+        try:
+            connection.send((index, outcome))
+        except Exception as exc:  # e.g. an unpicklable result
+            connection.send((index, _failure(exc, "task failed")))
+
+
+def _death_cause(exitcode: int | None, max_memory: int | None) -> str:
+    """Say how a worker process ended, e.g. ``killed by SIGKILL (...)``."""
+    if exitcode is not None and exitcode < 0:
+        try:
+            cause = f"killed by {signal.Signals(-exitcode).name}"
+        except ValueError:
+            cause = f"killed by signal {-exitcode}"
+        if -exitcode == signal.SIGKILL:
+            cause += " (the signal the kernel's out-of-memory killer sends)"
+    else:
+        cause = f"exited with status {exitcode}"
+    if max_memory is not None:
+        cause += f"; its memory limit was {format_memory_size(max_memory)} (RLIMIT_AS)"
+        if exitcode == -signal.SIGABRT:
+            cause += ", and native code (LLVM, numba) aborts when an allocation fails under it"
+    return cause
+
+
+@dataclass
+class _Worker:
+    """A pool worker process, its end of the pipe, and the index of the task it runs."""
+
+    process: Any
+    connection: Connection
+    task: int | None = None
+
+
+class _ProcessPool:
+    """Worker processes that run one task each at a time, so a death is its task's alone.
+
+    Unlike `concurrent.futures.ProcessPoolExecutor`, which breaks as a whole when one worker
+    dies, this pool knows which task each worker holds: a dead worker's task is rerun (or
+    reported after ``max_retries`` reruns), a new worker takes its place, and the others
+    carry on undisturbed.
+    """
+
+    def __init__(self, num_workers: int, *, max_memory: int | None):
+        methods = multiprocessing.get_all_start_methods()
+        method = "forkserver" if "forkserver" in methods else "spawn"
+        self._context = multiprocessing.get_context(method)
+        if method == "forkserver":  # workers fork from a warm server
+            self._context.set_forkserver_preload(["conjure.experiments.run"])
+        self.num_workers = num_workers
+        self.max_memory = max_memory
+        self._workers: list[_Worker] = []
+
+    def map_unordered(
+        self, fn: Callable[[Any], Any], items: Sequence[Any], *, max_retries: int
+    ) -> Iterator[tuple[int, Any]]:
+        pending = deque(range(len(items)))
+        deaths = [0] * len(items)
+        while pending or any(worker.task is not None for worker in self._workers):
+            yield from self._dispatch(fn, items, pending)
+            for worker in self._ready():
+                index = worker.task
+                assert index is not None
+                has_outcome, outcome = self._receive(worker)
+                if has_outcome:
+                    yield index, outcome
+                    continue
+                cause = self._bury(worker)
+                deaths[index] += 1
+                if deaths[index] <= max_retries:
+                    pending.appendleft(index)
+                    continue
+                message = f"worker died {deaths[index]} times running this task, last {cause}"
+                yield index, TaskFailure(message, message + "\n")
+
+    def _dispatch(
+        self, fn: Callable[[Any], Any], items: Sequence[Any], pending: deque[int]
+    ) -> Iterator[tuple[int, TaskFailure]]:
+        """Hand pending tasks to idle workers; yield the tasks that cannot be pickled."""
+        while pending and (worker := self._idle_worker()) is not None:
+            index = pending.popleft()
+            try:
+                payload = pickle.dumps((fn, items[index]))
+            except Exception as exc:
+                yield index, _failure(exc, "task could not be sent to a worker")
+                continue
+            try:
+                worker.connection.send((index, payload))
+            except OSError:  # it died idle: not this task's doing
+                pending.appendleft(index)
+                self._bury(worker)
+                continue
+            worker.task = index
+
+    def _idle_worker(self) -> _Worker | None:
+        """Return an idle live worker, starting one if the pool is not full; else ``None``."""
+        for worker in list(self._workers):
+            if worker.task is None:
+                if worker.process.is_alive():
+                    return worker
+                self._bury(worker)
+        if len(self._workers) >= self.num_workers:
+            return None
+        ours, theirs = self._context.Pipe()
+        process = self._context.Process(
+            target=_serve,
+            args=(theirs, os.getpid(), self.max_memory),
+            name=f"conjure-worker-{len(self._workers)}",
+        )
+        process.start()
+        theirs.close()
+        self._workers.append(_Worker(process, ours))
+        return self._workers[-1]
+
+    def _ready(self) -> list[_Worker]:
+        """Wait until a busy worker has sent an outcome or died; return those workers."""
+        busy = [worker for worker in self._workers if worker.task is not None]
+        ready = set(wait([w.connection for w in busy] + [w.process.sentinel for w in busy]))
+        return [w for w in busy if w.connection in ready or w.process.sentinel in ready]
+
+    @staticmethod
+    def _receive(worker: _Worker) -> tuple[bool, Any]:
+        """Read a worker's outcome: ``(True, outcome)``, or ``(False, None)`` if it died."""
+        try:
+            if not worker.connection.poll():
+                return False, None
+            _, outcome = worker.connection.recv()
+        except (EOFError, OSError):
+            return False, None
+        except Exception as exc:  # an outcome this process cannot unpickle
+            outcome = _failure(exc, "task outcome could not be read")
+        worker.task = None
+        return True, outcome
+
+    def _bury(self, worker: _Worker) -> str:
+        """Reap a dead (or silent) worker, drop it from the pool, and say how it ended."""
+        worker.process.join(timeout=5.0)
+        if worker.process.is_alive():
+            worker.process.kill()
+            worker.process.join()
+        worker.connection.close()
+        self._workers.remove(worker)
+        return _death_cause(worker.process.exitcode, self.max_memory)
+
+    def close(self) -> None:
+        """Stop every worker: idle ones are told to exit, busy ones (abandoned) are killed."""
+        for worker in self._workers:
+            if worker.task is None:
+                with suppress(OSError):
+                    worker.connection.send(None)
+            else:
+                worker.process.kill()
+        for worker in list(self._workers):
+            self._bury(worker)
+
+
 class LocalExecutor(Executor):
     """A process pool on this machine (the default; needs no service).
+
+    Each worker process runs one task at a time, so a worker that dies (the kernel's
+    out-of-memory killer, a crash in native code) is charged to the task it was running only:
+    that task is rerun or reported, and the other workers carry on.
+
+    Parameters
+    ----------
+    in_process : bool or None
+        Run the tasks one by one in the calling process instead of a pool. ``None``
+        (default): only when ``max_workers`` is 1 and there is no ``max_memory``. ``False``
+        always uses worker processes, so a task that kills its process cannot kill the caller.
+    **options
+        As `Executor`.
 
     Examples
     --------
@@ -197,12 +423,23 @@ class LocalExecutor(Executor):
 
     name = "local"
 
+    def __init__(self, *, in_process: bool | None = None, **options: Any):
+        super().__init__(**options)
+        if in_process and self.max_memory is not None:
+            raise InvalidParameterError(
+                "LocalExecutor: in_process=True cannot take max_memory (the limit would bind "
+                "the calling process too)."
+            )
+        self.in_process = in_process
+
     def _start(self) -> None:
         if self.address is not None:
             raise InvalidParameterError(
                 f"The local executor takes no address; got {self.address!r}. Use "
                 f"--executor dask or --executor ray to reach a cluster."
             )
+        if self.max_memory is not None:
+            check_memory_limit(self.max_memory)
 
     def _shutdown(self) -> None:
         pass
@@ -211,87 +448,54 @@ class LocalExecutor(Executor):
         self, fn: Callable[[Any], Any], items: Sequence[Any]
     ) -> Iterator[tuple[int, Any]]:
         self.start()
-        workers = max(1, min(self.num_workers, len(items)))
-        if workers == 1:
+        in_process = self.in_process
+        if in_process is None:
+            in_process = self.num_workers == 1 and self.max_memory is None
+        if in_process:
             for index, item in enumerate(items):
                 try:
                     yield index, fn(item)
                 except Exception as exc:
                     yield index, _failure(exc, "task raised")
             return
-        methods = multiprocessing.get_all_start_methods()
-        context = multiprocessing.get_context("forkserver" if "forkserver" in methods else "spawn")
-        if context.get_start_method() == "forkserver":  # workers fork from a warm server
-            context.set_forkserver_preload(["conjure.experiments.run"])
-        pending = dict(enumerate(items))
-        attempts = dict.fromkeys(pending, 0)
-        while pending:
-            pool = cf.ProcessPoolExecutor(
-                min(workers, len(pending)),
-                mp_context=context,
-                initializer=_exit_with_driver,
-                initargs=(os.getpid(),),
-            )
-            futures = {pool.submit(fn, item): index for index, item in pending.items()}
-            is_broken = False
-            try:
-                for future in cf.as_completed(futures):
-                    index = futures[future]
-                    try:
-                        outcome = future.result()
-                    except BrokenProcessPool:
-                        is_broken = True
-                        break
-                    except Exception as exc:  # e.g. an unpicklable result
-                        outcome = _failure(exc, "task failed")
-                    del pending[index]
-                    yield index, outcome
-                if is_broken:  # a worker died: keep what finished, rerun the rest
-                    for future, index in futures.items():
-                        if index not in pending:
-                            continue
-                        if future.done() and not future.cancelled() and not future.exception():
-                            del pending[index]
-                            yield index, future.result()
-                            continue
-                        attempts[index] += 1
-                        if attempts[index] > self.max_retries:
-                            exc = future.exception() if future.done() else None
-                            del pending[index]
-                            yield (
-                                index,
-                                _failure(
-                                    exc or BrokenProcessPool("worker died"),
-                                    f"worker died {attempts[index]} times",
-                                ),
-                            )
-            finally:
-                pool.shutdown(wait=not is_broken, cancel_futures=True)
+        pool = _ProcessPool(min(self.num_workers, len(items)), max_memory=self.max_memory)
+        try:
+            yield from pool.map_unordered(fn, items, max_retries=self.max_retries)
+        finally:
+            pool.close()
 
 
 class DaskExecutor(Executor):
     """Dask distributed: a scheduler at ``address``, or a `LocalCluster` it starts.
+
+    Parameters
+    ----------
+    client : distributed.Client or None
+        A client of a cluster you started yourself (then ``address`` is not used).
+    **options
+        As `Executor`.
 
     Notes
     -----
     For SLURM (or PBS, SGE, ...), start the cluster with dask-jobqueue and pass its scheduler
     address, or build the `distributed.Client` yourself and pass it as ``client``.
     Choice: the local cluster has one single-threaded worker process per CPU (runs hold the
-    GIL), no dashboard, and ``distributed.scheduler.allowed-failures = max_retries``.
+    GIL), no dashboard, ``distributed.scheduler.allowed-failures = max_retries``, and
+    ``memory_limit = max_memory`` per worker (default Dask's: the machine's memory divided
+    among the workers); Dask's nanny restarts a worker whose resident memory passes 95% of it.
     """
 
     name = "dask"
 
-    def __init__(
-        self,
-        *,
-        max_workers: int | None = None,
-        address: str | None = None,
-        max_retries: int = 3,
-        client: Any = None,
-    ):
-        super().__init__(max_workers=max_workers, address=address, max_retries=max_retries)
+    def __init__(self, *, client: Any = None, **options: Any):
+        super().__init__(**options)
         self.client = client
+        if self.max_memory is not None and not self.is_local:
+            warnings.warn(
+                "DaskExecutor: max_memory applies to the LocalCluster it starts; an existing "
+                "cluster keeps its workers' memory limit (dask worker --memory-limit).",
+                stacklevel=2,
+            )
 
     @property
     def is_local(self) -> bool:
@@ -315,6 +519,7 @@ class DaskExecutor(Executor):
                 processes=True,
                 dashboard_address=None,
                 silence_logs=logging.ERROR,
+                memory_limit=self.max_memory or "auto",
             )
         self.client = Client(self._cluster)
 
@@ -345,6 +550,10 @@ class DaskExecutor(Executor):
                     outcome = future.result()
                 except Exception as exc:  # KilledWorker after allowed-failures, lost data
                     outcome = _failure(exc, "dask task failed")
+                    if self.max_memory is not None and self._cluster is not None:
+                        outcome.message += (
+                            f" (workers' memory limit: {format_memory_size(self.max_memory)})"
+                        )
                 future.release()
                 yield index, outcome
         finally:
@@ -359,6 +568,11 @@ def _call(fn: Callable[[Any], Any], item: Any) -> Any:
 class RayExecutor(Executor):
     """Ray: the cluster at ``address`` (``"auto"`` finds a local head), or a local instance.
 
+    Parameters
+    ----------
+    **options
+        As `Executor`; ``max_memory`` is not enforced on Ray (see the module notes), and warns.
+
     Notes
     -----
     Choice: tasks request one CPU each and are retried ``max_retries`` times if their worker
@@ -368,6 +582,15 @@ class RayExecutor(Executor):
     """
 
     name = "ray"
+
+    def __init__(self, **options: Any):
+        super().__init__(**options)
+        if self.max_memory is not None:
+            warnings.warn(
+                "RayExecutor does not enforce max_memory (see conjure.experiments.executors); "
+                "Ray's memory monitor kills and retries tasks when a node runs low on memory.",
+                stacklevel=2,
+            )
 
     def _start(self) -> None:
         import ray
@@ -426,7 +649,11 @@ _EXTRAS = {"dask": ("distributed", "dask"), "ray": ("ray", "ray")}
 
 
 def make_executor(
-    name: str = "local", *, address: str | None = None, max_workers: int | None = None
+    name: str = "local",
+    *,
+    address: str | None = None,
+    max_workers: int | None = None,
+    max_memory: int | str | None = None,
 ) -> Executor:
     """Return the executor called ``name`` (``local``, ``dask`` or ``ray``), not yet started.
 
@@ -449,4 +676,4 @@ def make_executor(
                 f"The {name} executor needs {module!r}; install it with "
                 f"`pip install 'conjure[{extra}]'`."
             ) from None
-    return EXECUTORS[name](max_workers=max_workers, address=address)
+    return EXECUTORS[name](max_workers=max_workers, address=address, max_memory=max_memory)

@@ -7,22 +7,27 @@ Two entry points share one step order (Algorithm 11, lines 3-8 as an interaction
   exactly that many learning steps, ending and starting episodes as needed, and can stop in the
   middle of an episode (for a policy check, or when the budget runs out) and later continue it.
 
-Per step: ``s', r, terminated, truncated = domain.step(a)``; ``a' = agent.act(s')`` (skipped on
-termination, where ``a' = 0``); ``agent.learn(Transition(s, a, r, s', a', terminated, legal'))``;
-the episode ends at termination, truncation or the cap ``domain_spec.max_episode_steps``.
+Per step: ``s', r, terminated, truncated, info = domain.step(a)``; ``a' = agent.act(s')``
+(skipped on termination, where ``a' = 0``);
+``agent.learn(Transition(s, a, r, s', a', terminated, legal'))``; the step is a failure when
+``info.get("cost", 0) > 0`` (`Domain.is_constrained`); the episode ends at termination,
+truncation or the cap ``domain_spec.max_episode_steps``.
 
 Notes
 -----
 - Choice: the loop is the library's hot path (target about 20 µs per SARSA + tile-coding step,
   all included), so it binds methods to locals, allocates nothing per step but the
-  `Transition`, and never times single steps; throughput is measured around whole
-  ``advance`` calls by `conjure.experiments.run`.
+  `Transition` and the observation's copy (below), and never times single steps;
+  throughput is measured around whole ``advance`` calls by `conjure.experiments.run`.
   `profile_steps` gives the per-call microseconds of ``step``, ``act`` and ``learn`` (STYLE
   §2) in a separate, slower loop.
 - Choice: ``domain.legal_actions`` is called only when ``domain_spec.has_action_constraints``;
   otherwise agents receive ``legal_actions=None`` (every action).
 - Choice: on truncation (cap or a Gymnasium ``TimeLimit``) the agent still chooses a' for s' so
   that SARSA bootstraps from it; only termination zeroes the target.
+- Choice: the loop copies every observation it receives (about 0.2 µs): a domain or wrapper
+  may return one buffer overwritten in place, and s must survive ``domain.step`` for the
+  `Transition` (and a batch learner's stored samples) to be right.
 """
 
 from __future__ import annotations
@@ -39,11 +44,16 @@ __all__ = ["EpisodeStats", "LearningLoop", "profile_steps", "run_episode"]
 
 
 class EpisodeStats(NamedTuple):
-    """One episode's return Σ r_t, discounted return Σ γ^t r_t (from t = 0) and length."""
+    """One episode's return Σ r_t, discounted return Σ γ^t r_t (from t = 0), length and failures.
+
+    ``num_failures`` counts the steps whose ``info["cost"]`` was positive (entering a failure
+    state, `Domain.is_constrained`).
+    """
 
     episode_return: float
     discounted_return: float
     num_steps: int
+    num_failures: int = 0
 
 
 def _check_cap(max_steps: int | None, domain: Domain) -> int:
@@ -80,7 +90,8 @@ def run_episode(
     Returns
     -------
     EpisodeStats
-        The return, the discounted return (γ from the domain spec) and the number of steps.
+        The return, the discounted return (γ from the domain spec), the number of steps and
+        the number of failures.
     """
     cap = _check_cap(max_steps, domain)
     spec = domain.domain_spec
@@ -89,15 +100,18 @@ def run_episode(
     greedy = not learn
     step, act, legal_actions = domain.step, agent.act, domain.legal_actions
 
-    state, _ = domain.reset(seed=seed)
+    state = domain.reset(seed=seed)[0].copy()
     if learn:
         agent.begin_episode()
     legal = legal_actions(state) if is_constrained else None
     action = act(state, greedy, legal)
-    total, discounted, weight, num_steps = 0.0, 0.0, 1.0, 0
+    total, discounted, weight, num_steps, num_failures = 0.0, 0.0, 1.0, 0, 0
     while num_steps < cap:
-        next_state, reward, terminated, truncated, _ = step(action)
+        next_state, reward, terminated, truncated, info = step(action)
+        next_state = next_state.copy()
         num_steps += 1
+        if info.get("cost", 0.0) > 0.0:
+            num_failures += 1
         total += reward
         discounted += weight * reward
         weight *= discount
@@ -113,7 +127,7 @@ def run_episode(
         if terminated or truncated:
             break
         state, action = next_state, next_action
-    return EpisodeStats(float(total), float(discounted), num_steps)
+    return EpisodeStats(float(total), float(discounted), num_steps, num_failures)
 
 
 class LearningLoop:
@@ -136,6 +150,8 @@ class LearningLoop:
         Learning episodes started so far (the current one included).
     num_completed_episodes : int
         Learning episodes finished so far.
+    num_failures : int
+        Learning steps so far whose ``info["cost"]`` was positive (entering a failure state).
     is_mid_episode : bool
         Whether the next ``advance`` continues an unfinished episode.
 
@@ -150,6 +166,7 @@ class LearningLoop:
         self.agent = agent
         self.total_steps = 0
         self.num_episodes = 0
+        self.num_failures = 0
         self._seed = seed
         self._state: np.ndarray | None = None
         self._action = 0
@@ -182,18 +199,19 @@ class LearningLoop:
         is_constrained = domain.domain_spec.has_action_constraints
         cap = self._cap
         state, action, episode_steps = self._state, self._action, self._episode_steps
-        done = 0
+        done = failures = 0
         try:
             while done < num_steps:
                 if state is None:
-                    state, _ = reset(seed=self._seed)
+                    state = reset(seed=self._seed)[0].copy()
                     self._seed = None
                     self.num_episodes += 1
                     begin_episode()
                     legal = legal_actions(state) if is_constrained else None
                     action = act(state, False, legal)
                     episode_steps = 0
-                next_state, reward, terminated, truncated, _ = step(action)
+                next_state, reward, terminated, truncated, info = step(action)
+                next_state = next_state.copy()
                 episode_steps += 1
                 if terminated:
                     next_action, next_legal = 0, None
@@ -206,6 +224,8 @@ class LearningLoop:
                     )
                 )
                 done += 1
+                if info.get("cost", 0.0) > 0.0:
+                    failures += 1
                 if terminated or truncated or episode_steps >= cap:
                     state = None
                 else:
@@ -216,6 +236,7 @@ class LearningLoop:
             raise
         finally:
             self.total_steps += done
+            self.num_failures += failures
             self._state, self._action, self._episode_steps = state, action, episode_steps
         return self.total_steps
 
@@ -248,7 +269,7 @@ def profile_steps(
     started = clock()
     for _ in range(num_steps):
         if state is None:
-            state, _ = domain.reset(seed=seed)
+            state = domain.reset(seed=seed)[0].copy()
             seed = None
             agent.begin_episode()
             legal = domain.legal_actions(state) if is_constrained else None
@@ -260,6 +281,7 @@ def profile_steps(
         t0 = clock()
         next_state, reward, terminated, truncated, _ = domain.step(action)
         step_time += clock() - t0
+        next_state = next_state.copy()
         episode_steps += 1
         if terminated:
             next_action, next_legal = 0, None

@@ -15,10 +15,13 @@ Notes
   the driver loses only the runs in flight; killing a worker reruns its run.
 - Choice: a failed run (any exception, or a worker that died more than ``max_retries`` times)
   writes ``errors/<run_id>.txt`` and does not stop the others; a rerun of the command retries
-  it. A diverged run also keeps the curve it recorded (``errors/<run_id>.partial.csv``).
+  it. A diverged run also keeps the curve it recorded (``errors/<run_id>.partial.csv``). A
+  run over its memory limit (``max_memory``) fails with a `MemoryError` whose message names
+  the limit; it is not retried.
 - Choice: before workers on this machine start, one tiny run per distinct component structure
   (the tree of kinds) compiles the numba kernels once and fills their on-disk cache; workers
-  then load compiled code instead of compiling it again.
+  then load compiled code instead of compiling it again. The tiny runs run in one worker
+  process (under the memory limit, if any), never in the driver.
 """
 
 from __future__ import annotations
@@ -48,6 +51,7 @@ from rich.table import Table
 from conjure.core.errors import DivergenceError
 from conjure.experiments.config import ExperimentConfig, dump_yaml
 from conjure.experiments.executors import Executor, LocalExecutor, TaskFailure
+from conjure.experiments.memory import explain_memory_error
 from conjure.experiments.results import (
     RESOLVED_FILE,
     error_path,
@@ -143,10 +147,15 @@ def _run_task(run_spec: dict[str, Any], run_fn: RunFunction = run_resolved) -> d
         result = run_fn(run_spec)
     except Exception as exc:  # recorded and reported, never fatal to other runs
         partial = getattr(exc, "partial_result", None) if isinstance(exc, DivergenceError) else None
+        message = f"{type(exc).__name__}: {exc}".splitlines()[0]
+        error = traceback.format_exc()
+        if isinstance(exc, MemoryError):
+            message = explain_memory_error(message)
+            error = f"{message}\n\n{error}"
         return {
             "curve": None,
-            "error": traceback.format_exc(),
-            "message": f"{type(exc).__name__}: {exc}".splitlines()[0],
+            "error": error,
+            "message": message,
             "partial": None if partial is None else partial.curve.to_dict(orient="list"),
             "meta": meta,
         }
@@ -164,23 +173,29 @@ def _structure(spec: Any) -> Any:
     return None
 
 
-def warm_up(runs: Sequence[Mapping[str, Any]], run_fn: RunFunction = run_resolved) -> int:
-    """Compile (and cache) numba code here with one tiny run per component structure.
+def warm_up(
+    runs: Sequence[Mapping[str, Any]],
+    run_fn: RunFunction = run_resolved,
+    max_memory: int | None = None,
+) -> int:
+    """Compile (and cache) numba code with one tiny run per component structure.
 
-    Returns the number of warm-up runs (errors are ignored: the real run records them).
+    The tiny runs run one after another in one worker process (under ``max_memory``, if
+    given): one that crashes or outgrows memory must not take the driver down. Returns the
+    number of tiny runs (their errors and deaths are ignored: the real runs record them).
     """
-    seen: set[Any] = set()
+    tiny: dict[Any, dict[str, Any]] = {}
     for spec in runs:
         key = (_structure(spec.get("domain")), _structure(spec.get("agent")))
-        if key in seen:
-            continue
-        seen.add(key)
-        tiny = {**spec, "budget_steps": _WARMUP_STEPS, "num_policy_checks": 1, "eval_episodes": 1}
-        try:
-            run_fn(tiny)
-        except Exception:
-            continue
-    return len(seen)
+        if key not in tiny:
+            changes = {"budget_steps": _WARMUP_STEPS, "num_policy_checks": 1, "eval_episodes": 1}
+            tiny[key] = {**spec, **changes}
+    with LocalExecutor(
+        max_workers=1, max_retries=0, max_memory=max_memory, in_process=False
+    ) as executor:
+        for _ in executor.map_unordered(run_fn, list(tiny.values())):
+            pass
+    return len(tiny)
 
 
 def _describe(spec: Mapping[str, Any]) -> str:
@@ -282,7 +297,7 @@ def prepare_executor(
 ) -> None:
     """Warm numba's cache with ``todo``'s structures if workers are local processes; start it."""
     if todo and executor.is_local and min(executor.num_workers, len(todo)) > 1:
-        warm_up(todo, run_fn)
+        warm_up(todo, run_fn, executor.max_memory)
     executor.start()
 
 
@@ -324,6 +339,7 @@ def run_sweep(
     *,
     executor: Executor | None = None,
     max_workers: int | None = None,
+    max_memory: int | str | None = None,
     run_fn: RunFunction = run_resolved,
     progress: bool = True,
     console: Console | None = None,
@@ -338,9 +354,12 @@ def run_sweep(
         The results folder; finished runs in it are reused. The fresh-seed rerun of the
         selected settings goes to ``out_dir/selected``, the choice to ``selection.csv``.
     executor : Executor or None
-        Default a `LocalExecutor` with ``max_workers`` (else the sweep's, else the CPU count).
+        Default a `LocalExecutor` with ``max_workers`` (else the sweep's, else the CPU count)
+        and ``max_memory`` (else the sweep's). A given executor keeps its own limits.
     max_workers : int or None
         See ``executor``.
+    max_memory : int, str or None
+        Each run's memory limit (``"4GiB"``; `conjure.experiments.memory`); see ``executor``.
     run_fn : callable, default `run_resolved`
         See `execute_runs`.
     progress : bool, default True
@@ -358,7 +377,10 @@ def run_sweep(
     sweep = parse_sweep(sweep)
     out_dir = Path(out_dir)
     console = console or Console()
-    executor = executor or LocalExecutor(max_workers=max_workers or sweep.max_workers)
+    executor = executor or LocalExecutor(
+        max_workers=max_workers or sweep.max_workers,
+        max_memory=max_memory or sweep.max_memory,
+    )
     owns = not executor.is_started
     runs = expand_sweep(sweep)
     out_dir.mkdir(parents=True, exist_ok=True)
@@ -416,6 +438,7 @@ def run_experiment(
     progress: bool = True,
     console: Console | None = None,
     executor: Executor | None = None,
+    max_memory: int | str | None = None,
 ) -> ExperimentResult:
     """Run every (agent label, seed) pair of an experiment under ``out_dir``: a one-domain sweep.
 
@@ -434,6 +457,9 @@ def run_experiment(
         Where to print (default: standard output).
     executor : Executor or None
         Where to run (default a `LocalExecutor`).
+    max_memory : int, str or None
+        Each run's memory limit, e.g. ``"4GiB"``; default ``config.max_memory``, else none. A
+        run that exceeds it fails alone (`conjure.experiments.memory`).
 
     Returns
     -------
@@ -447,6 +473,7 @@ def run_experiment(
         out_dir,
         executor=executor,
         max_workers=max_workers,
+        max_memory=max_memory,
         progress=progress,
         console=console,
     )

@@ -13,7 +13,7 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
 from conjure.core.errors import InvalidParameterError
-from conjure.experiments.results import RESULTS_FILE, t_confidence
+from conjure.experiments.results import RESULTS_FILE, has_finite_values, t_confidence
 
 __all__ = ["METRIC_LABELS", "plot_learning_curves", "plot_results_dir"]
 
@@ -21,10 +21,13 @@ METRIC_LABELS = {
     "return": "Greedy return",
     "discounted_return": "Greedy discounted return",
     "episode_length": "Greedy episode length (steps)",
+    "failure_rate": "Greedy failure rate (episodes with a failure)",
+    "optimality": "Optimality (return scaled between worst and best)",
     "num_features": "Number of features",
     "steps_per_second": "Learning steps per second",
     "wall_time_s": "Learning wall time (s)",
     "learning_episodes": "Learning episodes",
+    "learning_failures": "Failures during learning (cumulative)",
 }
 
 
@@ -51,14 +54,19 @@ def plot_learning_curves(
     """
     needed = {"label", "seed", "learning_steps", metric}
     missing = needed - set(results_frame.columns)
+    known = ", ".join(c for c in METRIC_LABELS if has_finite_values(results_frame, c))
     if missing:
-        known = ", ".join(c for c in METRIC_LABELS if c in results_frame.columns)
         raise InvalidParameterError(
             f"Cannot plot {metric!r}: the results lack column(s) {', '.join(sorted(missing))}."
             f" Plottable metrics: {known or '(none)'}."
         )
     if results_frame.empty:
         raise InvalidParameterError("Cannot plot an empty results table (no finished runs).")
+    if not has_finite_values(results_frame, metric):
+        raise InvalidParameterError(
+            f"Cannot plot {metric!r}: it has no finite value in these results (optimality "
+            f"needs a domain with value_bounds()). Plottable metrics: {known or '(none)'}."
+        )
     figure = Figure(figsize=(7, 4.5), dpi=120)
     FigureCanvasAgg(figure)
     axes = figure.add_subplot()

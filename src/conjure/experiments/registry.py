@@ -19,7 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from conjure.agents import LSPI, LSPIBRM, SARSA, ActorCritic, QLearning
+from conjure.agents import FDLSTD, LSPI, LSPIBRM, LSTD, SARSA, ActorCritic, QLearning
 from conjure.core.errors import InvalidParameterError
 from conjure.core.params import Configurable, did_you_mean
 from conjure.core.schedules import ConstantStepSize, EpisodicDecay, FeatureNormalizedDecay
@@ -123,8 +123,10 @@ AGENTS: dict[str, type[Configurable]] = {
     "AdaptiveCooperativeLearner": AdaptiveCooperativeLearner,
     "CooperativeActorCritic": CooperativeActorCritic,
     "CooperativeLearner": CooperativeLearner,
+    "FDLSTD": FDLSTD,
     "LSPI": LSPI,
     "LSPIBRM": LSPIBRM,
+    "LSTD": LSTD,
     "PlannerAgent": PlannerAgent,
     "QLearning": QLearning,
     "SARSA": SARSA,

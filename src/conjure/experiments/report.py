@@ -38,6 +38,7 @@ from conjure.experiments.results import (
     RESULTS_FILE,
     RUNS_DIR,
     final_rows,
+    has_finite_values,
     load_results,
     t_confidence,
     write_atomic,
@@ -161,22 +162,39 @@ def _rate(value: float) -> str:
     return "n/a" if not math.isfinite(value) else f"{value:,.0f}"
 
 
+#: The safety columns of the final table (Section 5.4), shown when they have a finite value.
+SAFETY_COLUMNS = {"failure_rate": "failure rate", "optimality": "optimality"}
+
+
+def _mean_interval(values: pd.Series) -> str:
+    mean, half = t_confidence(values.to_numpy(dtype=float))
+    return f"{_number(mean)} ± {_number(half)}"
+
+
+def _finite_mean(values: pd.Series) -> float:
+    """The mean of the finite values (NaN, without a warning, when there is none)."""
+    return t_confidence(values.to_numpy(dtype=float))[0]
+
+
 def _final_table(finals: pd.DataFrame, metric: str) -> pd.DataFrame:
+    safety = [c for c in SAFETY_COLUMNS if c != metric and has_finite_values(finals, c)]
+    has_failures = has_finite_values(finals, "learning_failures")
     rows = []
     for method, group in finals.groupby("method", sort=False):
         values = group[metric].to_numpy(dtype=float)
-        mean, half = t_confidence(values)
         point, low, high = iqm_interval([values])
-        rows.append(
-            {
-                "method": method,
-                "runs": len(values),
-                f"mean {metric} ± 95% t": f"{_number(mean)} ± {_number(half)}",
-                f"IQM {metric} [95% bootstrap]": f"{_number(point)} [{_number(low)}, "
-                f"{_number(high)}]",
-                "final features": _number(float(group["num_features"].mean())),
-            }
-        )
+        row = {
+            "method": method,
+            "runs": len(values),
+            f"mean {metric} ± 95% t": _mean_interval(group[metric]),
+            f"IQM {metric} [95% bootstrap]": f"{_number(point)} [{_number(low)}, {_number(high)}]",
+            "final features": _number(float(group["num_features"].mean())),
+        }
+        for column in safety:
+            row[f"final {SAFETY_COLUMNS[column]} ± 95% t"] = _mean_interval(group[column])
+        if has_failures:
+            row["learning failures"] = _number(_finite_mean(group["learning_failures"]))
+        rows.append(row)
     return pd.DataFrame(rows)
 
 
@@ -187,11 +205,9 @@ def _timing_table(finals: pd.DataFrame) -> pd.DataFrame:
             {
                 "method": method,
                 "runs": len(group),
-                "run wall time (s)": _number(float(np.nanmean(group["run_seconds"]))),
+                "run wall time (s)": _number(_finite_mean(group["run_seconds"])),
                 "learning wall time (s)": _number(float(group["wall_time_s"].mean())),
-                "learning steps/s": _rate(
-                    float(np.nanmean(group["steps_per_second"].to_numpy(dtype=float)))
-                ),
+                "learning steps/s": _rate(_finite_mean(group["steps_per_second"])),
             }
         )
     return pd.DataFrame(rows)
@@ -234,6 +250,12 @@ def write_report(
         raise InvalidParameterError(
             f"Unknown metric {metric!r}; the results have columns {', '.join(results.columns)}."
         )
+    if not has_finite_values(results, metric):
+        raise InvalidParameterError(
+            f"The metric {metric!r} has no finite value in the results of "
+            f"{str(results_dir)!r} (optimality needs a domain with value_bounds()); report "
+            f"another metric with --metric."
+        )
     results = results.assign(method=_method_names(results))
     name = resolved.get("name", results_dir.name)
     errors = sorted((results_dir / ERRORS_DIR).glob("*.txt"))
@@ -254,6 +276,9 @@ def write_report(
         tag = "" if domain is None else f"_{_file_name(str(domain))}"
         if domain is not None:
             lines += [f"## Domain {domain}", ""]
+        if not has_finite_values(frame, metric):
+            lines += [f"No finite {metric} on this domain (skipped).", ""]
+            continue
         curve = plot_learning_curves(
             frame.assign(label=frame["method"]),
             figures / f"learning_curve{tag}.png",

@@ -48,6 +48,7 @@ __all__ = [
     "final_rows",
     "flatten_params",
     "group_columns",
+    "has_finite_values",
     "is_run_done",
     "load_results",
     "read_run",
@@ -333,6 +334,23 @@ def load_results(out_dir: str | Path, run_ids: Iterable[str] | None = None) -> p
 def group_columns(results: pd.DataFrame) -> list[str]:
     """The columns that name a method's setting in ``results`` (`GROUP_COLUMNS` present)."""
     return [c for c in GROUP_COLUMNS if c in results.columns]
+
+
+def has_finite_values(results: pd.DataFrame, column: str) -> bool:
+    """Whether ``results`` has ``column`` with at least one finite value.
+
+    Optional metrics are NaN when they do not apply (``optimality`` without value bounds);
+    reports and plots skip such columns.
+
+    Examples
+    --------
+    >>> has_finite_values(pd.DataFrame({"a": [np.nan], "b": [0.0]}), "a")
+    False
+    """
+    if column not in results.columns:
+        return False
+    values = pd.to_numeric(results[column], errors="coerce").to_numpy(dtype=np.float64)
+    return bool(np.isfinite(values).any())
 
 
 def t_confidence(values: Iterable[float], level: float = 0.95) -> tuple[float, float]:

@@ -12,7 +12,17 @@ Notes
   episode, which then continues.
 - Choice: every policy check replays the same evaluation start states (the evaluation domain is
   reset with the same seed at each check), so differences between checks reflect the policy.
-- Choice: ``wall_time_s`` and ``steps_per_second`` count learning time only (not evaluation).
+- Choice: ``wall_time_s`` and ``steps_per_second`` count learning time only (not evaluation);
+  a batch learner's fit in `Agent.before_policy_check` is learning time.
+- Choice: before every policy check the run calls ``agent.before_policy_check()`` (a no-op for
+  online learners; batch learners fit there unless they fit every N samples, so their learning
+  trajectory then depends on ``num_policy_checks``, by design).
+- Choice (safety metrics, Section 5.4): a step is a failure when the domain reports
+  ``info["cost"] > 0`` (entering a state with `Domain.is_constrained`). ``learning_failures``
+  counts the failures of all learning steps so far; ``failure_rate`` is the fraction of the
+  greedy evaluation episodes with a failure; ``optimality`` is
+  (mean return − worst) / (best − worst) with (worst, best) = ``domain.value_bounds()`` (the
+  undiscounted return, as Figures 5-6b and 5-9 scale it), NaN when the domain has no bounds.
 """
 
 from __future__ import annotations
@@ -36,9 +46,12 @@ __all__ = ["CURVE_COLUMNS", "TIMING_COLUMNS", "Result", "run", "run_config", "ru
 CURVE_COLUMNS = (
     "learning_steps",
     "learning_episodes",
+    "learning_failures",
     "return",
     "discounted_return",
     "episode_length",
+    "failure_rate",
+    "optimality",
     "num_features",
     "wall_time_s",
     "steps_per_second",
@@ -110,16 +123,45 @@ def _check_count(name: str, value: Any, low: int) -> int:
     return int(value)
 
 
-def _evaluate(domain: Domain, agent: Agent, num_episodes: int, seed: int) -> tuple[float, ...]:
+def _value_bounds(domain: Domain) -> tuple[float, float] | None:
+    """The domain's (worst, best) expected returns, checked, or ``None``."""
+    bounds = domain.value_bounds()
+    if bounds is None:
+        return None
+    try:
+        worst, best = (float(value) for value in bounds)
+    except (TypeError, ValueError):
+        worst = best = math.nan
+    if not (math.isfinite(worst) and math.isfinite(best) and worst < best):
+        raise InvalidParameterError(
+            f"{type(domain).__name__}.value_bounds() must return finite (worst, best) with "
+            f"worst < best, or None; got {bounds!r}."
+        )
+    return worst, best
+
+
+def _evaluate(
+    domain: Domain,
+    agent: Agent,
+    num_episodes: int,
+    seed: int,
+    bounds: tuple[float, float] | None,
+) -> dict[str, float]:
+    """One policy check: the greedy episodes' means, failure rate and optimality."""
     stats = [
         run_episode(domain, agent, learn=False, seed=seed if k == 0 else None)
         for k in range(num_episodes)
     ]
-    return (
-        float(np.mean([s.episode_return for s in stats])),
-        float(np.mean([s.discounted_return for s in stats])),
-        float(np.mean([s.num_steps for s in stats])),
-    )
+    mean_return = float(np.mean([s.episode_return for s in stats]))
+    return {
+        "return": mean_return,
+        "discounted_return": float(np.mean([s.discounted_return for s in stats])),
+        "episode_length": float(np.mean([s.num_steps for s in stats])),
+        "failure_rate": float(np.mean([s.num_failures > 0 for s in stats])),
+        "optimality": math.nan
+        if bounds is None
+        else (mean_return - bounds[0]) / (bounds[1] - bounds[0]),
+    }
 
 
 def run(
@@ -163,6 +205,7 @@ def run(
     budget_steps = _check_count("budget_steps", budget_steps, 1)
     num_policy_checks = _check_count("num_policy_checks", num_policy_checks, 1)
     eval_episodes = _check_count("eval_episodes", eval_episodes, 1)
+    bounds = _value_bounds(domain)
     seeds = split_seed(seed, ("domain", "evaluation", "agent"))
     agent.setup(domain.domain_spec, seeds["agent"])
     eval_domain = domain.clone()
@@ -171,18 +214,19 @@ def run(
     names = {"agent_name": type(agent).__name__, "domain_name": domain.domain_spec.name}
     int_seed = int(seed) if isinstance(seed, (int, np.integer)) else -1
 
-    rows: list[tuple[Any, ...]] = []
+    rows: list[dict[str, Any]] = []
     wall_time = 0.0
     for i in range(num_policy_checks + 1):
         target = budget_steps * i // num_policy_checks
         started = time.perf_counter()
         try:
             loop.advance(target - loop.total_steps)
+            agent.before_policy_check()
             wall_time += time.perf_counter() - started
-            checked = _evaluate(eval_domain, agent, eval_episodes, eval_seed)
+            checked = _evaluate(eval_domain, agent, eval_episodes, eval_seed, bounds)
         except DivergenceError as exc:
             partial = Result(_to_curve(rows), int_seed, config, agent, **names, is_complete=False)
-            last = int(rows[-1][0]) if rows else 0
+            last = int(rows[-1]["learning_steps"]) if rows else 0
             error = DivergenceError(
                 f"Learning diverged at learning step {loop.total_steps + 1:,} of "
                 f"{budget_steps:,} ({names['agent_name']} on {names['domain_name']}, seed "
@@ -192,34 +236,29 @@ def run(
             )
             error.partial_result = partial  # type: ignore[attr-defined]
             raise error from exc
-        rate = loop.total_steps / wall_time if loop.total_steps > 0 else math.nan
         rows.append(
-            (
-                loop.total_steps,
-                loop.num_completed_episodes,
-                *checked,
-                int(agent.num_features),
-                wall_time,
-                rate,
-            )
+            {
+                "learning_steps": loop.total_steps,
+                "learning_episodes": loop.num_completed_episodes,
+                "learning_failures": loop.num_failures,
+                **checked,
+                "num_features": int(agent.num_features),
+                "wall_time_s": wall_time,
+                "steps_per_second": loop.total_steps / wall_time
+                if loop.total_steps > 0
+                else math.nan,
+            }
         )
     return Result(_to_curve(rows), int_seed, config, agent, **names)
 
 
-def _to_curve(rows: list[tuple[Any, ...]]) -> pd.DataFrame:
+#: The integer curve columns (the others are float64).
+_INT_COLUMNS = ("learning_steps", "learning_episodes", "learning_failures", "num_features")
+
+
+def _to_curve(rows: list[dict[str, Any]]) -> pd.DataFrame:
     frame = pd.DataFrame(rows, columns=list(CURVE_COLUMNS))
-    return frame.astype(
-        {
-            "learning_steps": "int64",
-            "learning_episodes": "int64",
-            "num_features": "int64",
-            "return": "float64",
-            "discounted_return": "float64",
-            "episode_length": "float64",
-            "wall_time_s": "float64",
-            "steps_per_second": "float64",
-        }
-    )
+    return frame.astype({c: "int64" if c in _INT_COLUMNS else "float64" for c in CURVE_COLUMNS})
 
 
 def run_resolved(run_spec: dict[str, Any]) -> Result:

@@ -21,6 +21,7 @@ A sweep YAML extends the experiment YAML (`conjure.experiments.config`)::
     budget_steps: 2000
     num_policy_checks: 10
     seeds: 10
+    max_memory: 4GiB                  # optional: each run's memory limit (default none)
     metric: return
     selection:                        # optional: pick the best setting, rerun on fresh seeds
       criterion: auc                  # auc (mean of the learning curve) or final
@@ -50,11 +51,13 @@ from conjure.core.params import did_you_mean
 from conjure.experiments.config import (
     ComponentConfig,
     ExperimentConfig,
+    MemorySize,
     apply_overrides,
     load_yaml,
     parse_config,
     resolve_run,
 )
+from conjure.experiments.memory import max_memory_option
 
 __all__ = [
     "SelectionConfig",
@@ -99,6 +102,7 @@ class SweepConfig(BaseModel):
     eval_episodes: PositiveInt = 1
     seeds: int | list[int] = 1
     max_workers: PositiveInt | None = None
+    max_memory: MemorySize = None
     metric: str = "return"
     selection: SelectionConfig | None = None
 
@@ -355,6 +359,7 @@ def load_sweep(path: str | Path, overrides: Sequence[str] = ()) -> SweepConfig:
     "--address", default=None, help="A Dask scheduler or Ray cluster address (default: local)."
 )
 @click.option("--max-workers", type=click.IntRange(min=1), default=None, help="Worker processes.")
+@max_memory_option
 @click.option(
     "--set",
     "overrides",
@@ -369,6 +374,7 @@ def sweep_command(
     executor: str,
     address: str | None,
     max_workers: int | None,
+    max_memory: int | None,
     overrides: tuple[str, ...],
     quiet: bool,
 ) -> None:
@@ -381,7 +387,12 @@ def sweep_command(
     sweep = load_sweep(config, overrides)
     out_dir = out_dir or Path("results") / sweep.name
     console = Console()
-    engine = make_executor(executor, address=address, max_workers=max_workers or sweep.max_workers)
+    engine = make_executor(
+        executor,
+        address=address,
+        max_workers=max_workers or sweep.max_workers,
+        max_memory=max_memory or sweep.max_memory,
+    )
     with engine:
         outcome = run_sweep(sweep, out_dir, executor=engine, progress=not quiet, console=console)
     console.print(f"Results in {out_dir}; `conjure report {out_dir}` writes the report.")

@@ -52,6 +52,7 @@ from conjure.core.errors import InvalidParameterError
 from conjure.core.params import did_you_mean
 from conjure.experiments.config import dump_yaml, load_yaml
 from conjure.experiments.executors import Executor, LocalExecutor
+from conjure.experiments.memory import max_memory_option
 from conjure.experiments.parallel import RunFunction, execute_runs, prepare_executor
 from conjure.experiments.results import load_results, write_atomic
 from conjure.experiments.run import run_resolved
@@ -216,7 +217,8 @@ def tune(
     out_dir : str or Path
         Holds ``optuna.db``, the runs, ``trials.csv`` and ``best.yaml``.
     executor : Executor or None
-        Where each trial's seeds run; default a `LocalExecutor`.
+        Where each trial's seeds run; default a `LocalExecutor` (with the sweep's
+        ``max_memory``).
     max_workers : int or None
         For the default executor.
     num_trials : int or None
@@ -246,7 +248,9 @@ def tune(
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     console = console or Console()
-    executor = executor or LocalExecutor(max_workers=max_workers or sweep.max_workers)
+    executor = executor or LocalExecutor(
+        max_workers=max_workers or sweep.max_workers, max_memory=sweep.max_memory
+    )
     storage = _storage(out_dir, search)
     optuna.logging.set_verbosity(optuna.logging.WARNING)
     state = optuna.trial.TrialState
@@ -370,6 +374,7 @@ def _isnan(value: Any) -> bool:
 )
 @click.option("--address", default=None, help="A Dask scheduler or Ray cluster address.")
 @click.option("--max-workers", type=click.IntRange(min=1), default=None, help="Worker processes.")
+@max_memory_option
 @click.option("--quiet", is_flag=True, help="No per-trial lines.")
 def tune_command(
     config: Path,
@@ -378,6 +383,7 @@ def tune_command(
     executor: str,
     address: str | None,
     max_workers: int | None,
+    max_memory: int | None,
     quiet: bool,
 ) -> None:
     """Tune the methods of CONFIG (a sweep YAML with a `search` section) with Optuna."""
@@ -386,6 +392,9 @@ def tune_command(
     parsed = load_tune(config)
     out_dir = out_dir or Path("results") / f"{parsed.sweep.name}-tune"
     engine = make_executor(
-        executor, address=address, max_workers=max_workers or parsed.sweep.max_workers
+        executor,
+        address=address,
+        max_workers=max_workers or parsed.sweep.max_workers,
+        max_memory=max_memory or parsed.sweep.max_memory,
     )
     tune(parsed, out_dir, executor=engine, num_trials=trials, progress=not quiet)

@@ -42,11 +42,20 @@ class TabularModel:
 
     Notes
     -----
+    Conventions of every tabular result (`q_values`, and `conjure.planners.Plan`'s ``values``,
+    ``q_values`` and ``policy``; documented here only):
+
+    - Q is state-major, shape (|S|, |A|): ``q[s, a]`` is Q(s, a), as users index it.
+    - V(terminal) = 0 and Q(terminal, ·) = 0.
+    - π(terminal) = 0: every action is equivalent in a terminal state, and every planner
+      returns the first one there (value iteration's argmax of an all-zero row; the policy
+      iterations start with π₀(terminal) = 0 and keep the current action on ties).
+
     - Choice: terminal states are kept in the model as absorbing states with zero reward, so
       every row of every P^a sums to 1; planners treat V(terminal) as 0 (episodic tasks with
       γ = 1 stay well posed).
-    - Choice: the stacked matrix (|A||S| × |S|, action-major rows ``a * |S| + s``) is built once
-      and cached: one sparse product gives Q for every action.
+    - Choice: the stacked matrices (action-major rows ``a * |S| + s`` and state-major rows
+      ``s * |A| + a``) are built once and cached: one sparse product gives Q for every pair.
 
     Complexity
     ----------
@@ -175,23 +184,21 @@ class TabularModel:
 
     @property
     def rewards_by_action(self) -> np.ndarray:
-        """R as a contiguous (|A|, |S|) array (the layout of the stacked backups)."""
+        """R as a contiguous (|A|, |S|) array: the layout of `stacked_transitions`, not a Q."""
         cached = self._cache.get("rewards_t")
         if cached is None:
             cached = np.ascontiguousarray(self.rewards.T)
             self._cache["rewards_t"] = cached
         return cached
 
-    def backup(self, values: np.ndarray) -> np.ndarray:
-        """Return Q as (|A|, |S|): R(s, a) + γ Σ P^a_{ss'} V(s') with V(terminal) = 0 (Eq. 2.10)."""
-        masked = np.where(self.is_terminal, 0.0, values)
-        expected = self.stacked_transitions @ masked
-        q = self.rewards_by_action + self.discount * expected.reshape(self.num_actions, -1)
-        return q
-
     def q_values(self, values: np.ndarray) -> np.ndarray:
-        """Return Q(s, a) of shape (|S|, |A|) for the state values ``values`` (Eq. 2.9)."""
-        return self.backup(values).T.copy()
+        """Return the Bellman backup Q(s, a) = R(s, a) + γ Σ_s' P^a_{ss'} V(s') (Eq. 2.10).
+
+        State-major, shape (|S|, |A|), with V(terminal) = 0 (see the Notes' conventions).
+        """
+        masked = np.where(self.is_terminal, 0.0, values)
+        expected = self.state_major_transitions @ masked
+        return self.rewards + self.discount * expected.reshape(self.num_states, self.num_actions)
 
     def policy_matrix(self, policy: np.ndarray) -> sp.csr_matrix:
         """Return P^π (|S| × |S|): row s is P^{π(s)}_{s·}."""

@@ -72,20 +72,27 @@ def evaluate_policy(
     return values
 
 
-def greedy_policy(q_by_action: np.ndarray, previous: np.ndarray | None = None) -> np.ndarray:
-    """Argmax over actions of Q given as (|A|, |S|); ties keep the previous action (no cycling)."""
-    best = q_by_action.argmax(axis=0)
+def initial_policy(model: TabularModel, rng: np.random.Generator) -> np.ndarray:
+    """π₀ ← Random() (line 1 of Algorithms 1, 3, 4, 6), with π(terminal) = 0 (`TabularModel`)."""
+    policy = rng.integers(model.num_actions, size=model.num_states)
+    policy[model.is_terminal] = 0
+    return policy
+
+
+def greedy_policy(q: np.ndarray, previous: np.ndarray | None = None) -> np.ndarray:
+    """Argmax over actions of Q given as q[s, a]; ties keep the previous action (no cycling)."""
+    best = q.argmax(axis=1)
     if previous is not None:
-        states = np.arange(q_by_action.shape[1])
-        top = q_by_action[best, states]
-        keep = q_by_action[previous, states] >= top - 1e-12 * np.maximum(1.0, np.abs(top))
+        states = np.arange(q.shape[0])
+        top = q[states, best]
+        keep = q[states, previous] >= top - 1e-12 * np.maximum(1.0, np.abs(top))
         best = np.where(keep, previous, best)
     return best.astype(np.int64)
 
 
-def improve_policy(q_by_action: np.ndarray, policy: np.ndarray) -> tuple[np.ndarray, int]:
-    """π⁺(s) = argmax_a Q(s, a) (Eq. 2.9, ties keep π) and how many states changed action."""
-    improved = greedy_policy(q_by_action, policy)
+def improve_policy(q: np.ndarray, policy: np.ndarray) -> tuple[np.ndarray, int]:
+    """π⁺(s) = argmax_a q[s, a] (Eq. 2.9, ties keep π) and how many states changed action."""
+    improved = greedy_policy(q, policy)
     return improved, int(np.count_nonzero(improved != policy))
 
 

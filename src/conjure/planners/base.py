@@ -29,6 +29,9 @@ __all__ = ["Plan", "PlanAgent", "Planner"]
 class Plan:
     """A planner's result: policy π and value function V or Q (Section 2.2, Figure 2-1).
 
+    Tables follow the conventions of `TabularModel` (Notes): ``q_values[s, a]`` is Q(s, a),
+    V and Q are 0 in terminal states and ``policy`` is 0 there.
+
     Parameters
     ----------
     planner : str
@@ -42,7 +45,7 @@ class Plan:
     model : TabularModel or None
         The model planned on (``None`` for purely generative planning).
     policy : ndarray of int64, shape (|S|,), or None
-        π(s) per model state.
+        π(s) per model state (0 in terminal states).
     values : ndarray, shape (|S|,), or None
         V(s) per model state (V of the returned policy's evaluation, or the optimal V).
     q_values : ndarray, shape (|S|, |A|), or None

@@ -64,14 +64,15 @@ class PolicyIteration(Planner):
     def _plan(self, source: Any) -> Plan:
         model = self._tabular(source)
         rng = make_rng(self.seed)
-        policy = rng.integers(model.num_actions, size=model.num_states)  # line 1
+        policy = _kernels.initial_policy(model, rng)  # line 1
         values = np.zeros(model.num_states)
         loop = Iterations(self.max_iterations)
         for _ in loop:
             values = _kernels.evaluate_policy(  # line 4
                 model, policy, method=self.evaluation, initial=values
             )
-            policy, num_changed = _kernels.improve_policy(model.backup(values), policy)  # 5-6
+            q = model.q_values(values)
+            policy, num_changed = _kernels.improve_policy(q, policy)  # lines 5-6
             if loop.record(num_changed) == 0:  # line 7
                 break
         return loop.plan(
@@ -79,5 +80,5 @@ class PolicyIteration(Planner):
             model=model,
             policy=policy,
             values=values,
-            q_values=model.q_values(values),
+            q_values=q,
         )

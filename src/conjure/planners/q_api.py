@@ -68,7 +68,7 @@ class QAPI(ModelAPI):
         )
         phi_bar = _kernels.block_features(phi, num_actions)  # Φ̄, (|A||S| × n|A|)
         r_bar = model.rewards_by_action.reshape(-1)  # R̄, action-major
-        policy = make_rng(self.seed).integers(num_actions, size=num_states)
+        policy = _kernels.initial_policy(model, make_rng(self.seed))
         loop = Iterations(self.max_iterations)
         for _ in loop:
             d, probs = _kernels.policy_weighting(model, policy, float(self.epsilon), self.weighting)
@@ -76,7 +76,7 @@ class QAPI(ModelAPI):
             phi_pi = _kernels.action_features(phi, policy, num_actions)  # φ(s', π(s'))
             p_phi = model.stacked_transitions @ phi_pi  # P̄Φ̄
             weights = self._solve(phi_bar, p_phi, r_bar, d_bar, model.discount)  # Eq. 2.19/2.20
-            q = np.asarray(phi_bar @ weights).reshape(num_actions, num_states)  # Q = Φ̄θ̄
+            q = np.asarray(phi_bar @ weights).reshape(num_actions, num_states).T  # Q = Φ̄θ̄
             policy, num_changed = _kernels.improve_policy(q, policy)  # π⁺ = argmax_a Q
             if loop.record(num_changed) == 0:
                 break
@@ -84,7 +84,7 @@ class QAPI(ModelAPI):
             model.domain_spec,
             model=model,
             policy=policy,
-            q_values=q.T.copy(),
+            q_values=q.copy(),
             representation=rep,
             weights=_kernels.weights_by_action(weights, num_actions).copy(),
         )

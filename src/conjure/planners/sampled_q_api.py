@@ -129,7 +129,7 @@ class SampledQAPI1(Planner):
         rep = _kernels.setup_representation(self.representation, model.domain_spec, self.seed)
         phi = _kernels.state_features(model, rep)
         stacked = model.stacked_transitions
-        policy = rng.integers(num_actions, size=num_states)  # line 2
+        policy = _kernels.initial_policy(model, rng)  # line 2
         weights = np.zeros((phi.shape[1], num_actions))
         q = np.zeros((num_states, num_actions))
         loop = Iterations(self.max_iterations)
@@ -149,7 +149,7 @@ class SampledQAPI1(Planner):
                 num_actions,
             )
             q = _kernels.q_from_weights(phi, weights)  # line 8: Q = Φ̄θ̄
-            policy, num_changed = _kernels.improve_policy(q.T, policy)  # lines 9-10
+            policy, num_changed = _kernels.improve_policy(q, policy)  # lines 9-10
             if loop.record(num_changed) == 0:  # line 11: changed ← (π⁺ ≠ π)
                 break
         return loop.plan(

@@ -69,7 +69,7 @@ class VAPI(ModelAPI):
         phi = feature_matrix(rep, model.states)
         live = sp.diags((~model.is_terminal).astype(np.float64))
         phi_live = sp.csr_matrix(live @ phi)  # V(terminal) = 0
-        policy = make_rng(self.seed).integers(model.num_actions, size=model.num_states)
+        policy = _kernels.initial_policy(model, make_rng(self.seed))
         loop = Iterations(self.max_iterations)
         for _ in loop:
             d, _ = _kernels.policy_weighting(model, policy, float(self.epsilon), self.weighting)
@@ -77,8 +77,8 @@ class VAPI(ModelAPI):
             r_pi = model.policy_rewards(policy)
             weights = self._solve(phi_live, p_phi, r_pi, d, model.discount)  # line 5
             values = np.asarray(phi_live @ weights).reshape(-1)  # line 6: V = Φθ
-            q_by_action = model.backup(values)
-            policy, num_changed = _kernels.improve_policy(q_by_action, policy)  # lines 7-8
+            q = model.q_values(values)
+            policy, num_changed = _kernels.improve_policy(q, policy)  # lines 7-8
             if loop.record(num_changed) == 0:
                 break
         return loop.plan(
@@ -86,7 +86,7 @@ class VAPI(ModelAPI):
             model=model,
             policy=policy,
             values=values,
-            q_values=model.q_values(values),
+            q_values=q,
             representation=rep,
             weights=weights,
         )

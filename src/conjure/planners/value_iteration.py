@@ -91,11 +91,11 @@ class ValueIteration(Planner):
             values, spare = spare, values
             if loop.record(change) < self.tolerance:  # the max-change checkpoint replacing line 8
                 break
-        q = model.backup(values)
+        q = model.q_values(values)
         return loop.plan(
             model.domain_spec,
             model=model,
-            policy=q.argmax(axis=0).astype(np.int64),  # line 7: π(s)
+            policy=q.argmax(axis=1).astype(np.int64),  # line 7: π(s)
             values=values,
-            q_values=q.T,
+            q_values=q,
         )

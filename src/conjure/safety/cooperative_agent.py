@@ -121,6 +121,11 @@ class CooperativeAgent(Agent):
         check_is_set_up(self, "begin_episode")
         self.learner_.begin_episode()
 
+    def before_policy_check(self) -> None:
+        """Forward to the learner (a batch learner fits here; see `Agent`)."""
+        check_is_set_up(self, "before_policy_check")
+        self.learner_.before_policy_check()
+
     @property
     def num_features(self) -> int:
         """The learner's number of features."""
@@ -180,22 +185,31 @@ class CooperativeAgent(Agent):
 
         π^p is re-made by replanning at the η̂ it was last planned at (planners are set up
         with seed 0, so a planner that draws random numbers re-plans differently), then T̂'s
-        counts are restored.
+        counts are restored. Every array is checked against the tables the agent set up from
+        the saved spec allocates; a damaged save raises one error naming the file.
         """
         directory = Path(path)
-        agent, state, arrays = persistence.read_agent(directory, cls)
-        agent.learner_ = type(agent.learner_).restore(directory / LEARNER_DIRECTORY)
-        model = agent.model_
-        model.noise_ = agent.planned_noise_ = float(state["planned_noise"])
-        if agent.planner_.update(model):
-            agent.risk_.update()
-        model.load_counts(state["num_unintended"], state["num_moves"])
-        agent.rng_ = rng_from_state(state["rng"])
-        agent.eval_rng_ = rng_from_state(state["evaluation_rng"])
-        agent.risk_.rng_ = rng_from_state(state["risk_rng"])
-        agent.index_.load_state_arrays(persistence.unprefixed("index.", arrays))
-        for name in agent._table_arrays():
-            getattr(agent, f"{name}_")[...] = arrays[name]
-        for name, value in state["extra"].items():
-            setattr(agent, f"{name}_", value)
+        saved = persistence.read(directory)
+        with saved.loading():
+            agent = persistence.read_agent(cls, saved)
+            agent.learner_ = type(agent.learner_).restore(directory / LEARNER_DIRECTORY)
+            agent._load_state(saved)
         return agent
+
+    def _load_state(self, saved: persistence.SavedAgent) -> None:
+        state = saved.state
+        model = self.model_
+        model.noise_ = self.planned_noise_ = float(state["planned_noise"])
+        if self.planner_.update(model):
+            self.risk_.update()
+        model.load_counts(int(state["num_unintended"]), int(state["num_moves"]))
+        self.rng_ = rng_from_state(state["rng"])
+        self.eval_rng_ = rng_from_state(state["evaluation_rng"])
+        self.risk_.rng_ = rng_from_state(state["risk_rng"])
+        self.index_.load_state_arrays(saved.with_prefix("index."))
+        for name, table in self._table_arrays().items():
+            table[...] = saved.array(name, table.shape, table.dtype)
+        for name, value in state["extra"].items():
+            if name not in self._extra_state():
+                raise saved.damaged(persistence.METADATA_FILE, f"unknown state {name!r}")
+            setattr(self, f"{name}_", value)

@@ -109,4 +109,6 @@ class PlannerAgent(Agent):
     @classmethod
     def restore(cls, path: str | Path) -> PlannerAgent:
         """Rebuild the agent written by `save` and plan again (with seed 0)."""
-        return persistence.read_agent(path, cls)[0]
+        saved = persistence.read(path)
+        with saved.loading():
+            return persistence.read_agent(cls, saved)

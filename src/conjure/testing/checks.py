@@ -100,9 +100,18 @@ def _check_spec() -> DomainSpec:
     )
 
 
+#: Policy checks per `_rollout`: the agent's ``before_policy_check`` runs this many times.
+NUM_ROLLOUT_CHECKS = 10
+
+
 def _rollout(domain: Domain, agent: Agent, num_steps: int, seed: int) -> None:
-    """A minimal learning loop (the experiments layer's loop is not importable here)."""
+    """A minimal learning loop (the experiments layer's loop is not importable here).
+
+    As the run loop, it calls ``agent.before_policy_check()`` at `NUM_ROLLOUT_CHECKS` evenly
+    spaced steps (the last one at ``num_steps``), where batch learners fit.
+    """
     spec = domain.domain_spec
+    checks = {num_steps * i // NUM_ROLLOUT_CHECKS for i in range(1, NUM_ROLLOUT_CHECKS + 1)}
     steps, episode = 0, 0
     while steps < num_steps:
         state, _ = domain.reset(seed=seed + episode)
@@ -114,6 +123,8 @@ def _rollout(domain: Domain, agent: Agent, num_steps: int, seed: int) -> None:
             next_action = 0 if terminated else agent.act(next_state)
             agent.learn(Transition(state, action, reward, next_state, next_action, terminated))
             steps += 1
+            if steps in checks:
+                agent.before_policy_check()
             if terminated or truncated or steps >= num_steps:
                 break
             state, action = next_state, next_action
