@@ -1,5 +1,7 @@
 """Write the sweep configs in examples/reproduction/ (run from the repository root).
 
+Chapters 3-4: ``fig_3_*``/``fig_4_*``; chapter 5 (safe exploration, iCCA): ``fig_5_*``.
+
 python docs/reproduction/make_configs.py
 """
 
@@ -355,6 +357,346 @@ def fig_4_8_pendulum_ifdd_plus():
         "# docs/reproduction/make_configs.py.\n"
     )
     write("fig_4_8_pendulum_ifdd_plus", header, config)
+# ---------------------------------------------------------------------------------------------
+# Chapter 5: safe exploration (iCCA). Section 5.3.5: alpha_t = alpha_0 (N_0 + 1)/(N_0 + episode)
+# with alpha_0 in {0.01, 0.1, 1} and N_0 in {100, 1000, 1e6} chosen per algorithm and scenario;
+# lambda = 100, tau = 1 (actor); epsilon = 0.1 (SARSA); K from {10, 20, 50} (Sections 5.4.1,
+# 5.5.2); M = 5 rollouts, risk tolerance 0.2, prior noise 0.4 with weight 100 (Section 5.5.2).
+
+ALPHA_0 = [0.01, 0.1, 1.0]
+N_0 = [100, 1000, 1000000]
+KNOWN = [10, 20, 50]
+# UAV missions: HashedTabular with room for every state 1e5 steps can visit
+UAV_INDEX = {"kind": "HashedTabular", "params": {"capacity": 200000}}
+GRID_INDEX = {"kind": "Tabular", "params": {}}
+GRID_1 = {"map_name": "gridworld1", "step_reward": -0.001, "noise": 0.3}
+GRID_2 = {"map_name": "gridworld2", "step_reward": -0.01, "noise": 0.2}
+
+
+def episodic(alpha_0=0.1, n_0=1000):
+    """The thesis's step-size schedule (Section 5.3.5)."""
+    return {"kind": "EpisodicDecay", "params": {"alpha_0": alpha_0, "n_0": n_0}}
+
+
+def ch5_sarsa(index):
+    """SARSA, epsilon = 0.1, tabular (Sections 5.4.1 and 5.5.2)."""
+    return {
+        "kind": "SARSA",
+        "params": {
+            "representation": index,
+            "policy": {"kind": "EpsilonGreedy", "params": {"epsilon": 0.1}},
+            "step_size": episodic(),
+        },
+    }
+
+
+def actor_critic(index):
+    """Tabular Actor-Critic with a Gibbs actor at tau = 1 (Algorithm 12, Section 5.3.2)."""
+    return {
+        "kind": "ActorCritic",
+        "params": {
+            "representation": index,
+            "policy": {"kind": "Gibbs", "params": {"temperature": 1.0}},
+            "step_size": episodic(),
+        },
+    }
+
+
+def model(domain, **params):
+    """An ApproximateModel of ``domain`` (a {kind, params} spec)."""
+    return {"kind": "ApproximateModel", "params": {"domain": domain, **params}}
+
+
+def cbba(variant):
+    """Aggressive CBBA or conservative CBBA (Algorithm 27) as pi^p."""
+    return {"kind": "CBBAPlanner", "params": {"variant": variant}}
+
+
+def switching(conservative, aggressive):
+    """AM-iCCA's planner: conservative until the noise estimate drops below 25%."""
+    return {
+        "kind": "SwitchingPlanner",
+        "params": {"conservative": conservative, "aggressive": aggressive, "noise_threshold": 0.25},
+    }
+
+
+def monte_carlo():
+    """Algorithm 25 with M = 5 and risk tolerance 0.2 (Section 5.5.2)."""
+    return {"kind": "MonteCarloRiskAnalyzer", "params": {"num_rollouts": 5, "risk_tolerance": 0.2}}
+
+
+def icca(index, planner, risk, approx, bias=100.0):
+    """Algorithm 23 (iCCA with Actor-Critic)."""
+    return {
+        "kind": "CooperativeActorCritic",
+        "params": {
+            "learner": actor_critic(index),
+            "planner": planner,
+            "risk": risk,
+            "model": approx,
+            "index": index,
+            "bias": bias,
+        },
+    }
+
+
+def cooperative(kind, index, planner, risk, approx, **extra):
+    """Algorithm 24 (CooperativeLearner, CSARSA) or 26 (AdaptiveCooperativeLearner, AM-iCCA)."""
+    return {
+        "kind": kind,
+        "params": {
+            "learner": ch5_sarsa(index),
+            "planner": planner,
+            "risk": risk,
+            "model": approx,
+            "index": index,
+            "num_known_visits": 10,
+            **extra,
+        },
+    }
+
+
+def planner_agent(planner, approx):
+    """The planner alone (the baselines of Figures 5-5 to 5-13)."""
+    return {"kind": "PlannerAgent", "params": {"planner": planner, "model": approx}}
+
+
+def step_grid(labels, path="params.step_size", known=()):
+    """alpha_0 x N_0 for each label (``path`` leads to its schedule); K for ``known`` labels."""
+    grid = {}
+    for label in labels:
+        grid[f"agents.{label}.{path}.params.alpha_0"] = ALPHA_0
+        grid[f"agents.{label}.{path}.params.n_0"] = N_0
+    for label in known:
+        grid[f"agents.{label}.params.num_known_visits"] = KNOWN
+    return grid
+
+
+def ch5_config(name, domain, agents, grid, budget, eval_episodes, seeds, fresh):
+    """A chapter-5 sweep: grid selection by AUC of the return on ``seeds``, then ``fresh``."""
+    return {
+        "name": name,
+        "domain": domain,
+        "agents": agents,
+        "grid": grid,
+        "budget_steps": budget,
+        "num_policy_checks": 10,
+        "eval_episodes": eval_episodes,
+        "seeds": seeds,
+        "metric": "return",
+        "selection": {"criterion": "auc", "mode": "max", "fresh_seeds": fresh},
+    }
+
+
+def fig_5_5_and_5_8():
+    """GridWorld-1: Actor-Critic vs iCCA (Fig. 5-5) and SARSA vs CSARSA (Fig. 5-8)."""
+    world = {"kind": "GridWorld", "params": GRID_1}
+    calm = model({"kind": "GridWorld", "params": {**GRID_1, "noise": 0.0}})
+    windy = model({"kind": "GridWorld", "params": GRID_1})
+    value_iteration = {"kind": "ModelPlanner", "params": {"planner": {"kind": "ValueIteration"}}}
+    nominal = {"kind": "NominalRiskAnalyzer"}
+    agents = {
+        "actor_critic": actor_critic(GRID_INDEX),
+        "icca": icca(GRID_INDEX, value_iteration, nominal, calm),
+        # lambda on the scale of GridWorld-1's returns (|Q| <= ~1.5); see docs/reproduction.md
+        "icca_small_bias": icca(GRID_INDEX, value_iteration, nominal, calm, bias=0.1),
+        "vi_planner": planner_agent(value_iteration, calm),
+        "optimal": planner_agent(value_iteration, windy),
+    }
+    grid = step_grid(["actor_critic"])
+    grid.update(step_grid(["icca", "icca_small_bias"], "params.learner.params.step_size"))
+    grid["agents.icca_small_bias.params.bias"] = [0.01, 0.1, 1.0]
+    header = (
+        "# Geramifard 2012, Fig. 5-5 (Section 5.3.5): GridWorld-1, Actor-Critic vs iCCA\n"
+        "# (Algorithm 23, lambda = 100, value iteration on the noise-free model, nominal risk) vs\n"
+        "# the planner alone vs the optimal policy (value iteration on the true model), 1e4 steps.\n"
+        "# alpha_0 x N_0 (and for icca_small_bias lambda) selected by AUC on seeds 0-2, reported on\n"
+        "# 30 fresh seeds. Generated by docs/reproduction/make_configs.py.\n"
+    )
+    write("fig_5_5", header, ch5_config("fig_5_5", world, agents, grid, 10000, 100, 3, 30))
+    agents = {
+        "sarsa": ch5_sarsa(GRID_INDEX),
+        "csarsa": cooperative("CooperativeLearner", GRID_INDEX, value_iteration, nominal, calm),
+        "vi_planner": planner_agent(value_iteration, calm),
+        "optimal": planner_agent(value_iteration, windy),
+    }
+    grid = step_grid(["sarsa"])
+    grid.update(step_grid(["csarsa"], "params.learner.params.step_size", known=["csarsa"]))
+    header = (
+        "# Geramifard 2012, Fig. 5-8 (Section 5.4.1): GridWorld-1, SARSA vs CSARSA (Algorithm 24\n"
+        "# with SARSA, value iteration on the noise-free model, nominal risk) vs the planner vs the\n"
+        "# optimal policy, 1e4 steps. alpha_0 x N_0 (and K for CSARSA) selected by AUC on seeds\n"
+        "# 0-2, reported on 30 fresh seeds. Generated by docs/reproduction/make_configs.py.\n"
+    )
+    write("fig_5_8", header, ch5_config("fig_5_8", world, agents, grid, 10000, 100, 3, 30))
+
+
+def fig_5_6_and_5_7():
+    """Deterministic UAV 7-2 and 10-2: Actor-Critic vs iCCA vs CBBA (Figs. 5-6, 5-7)."""
+    for figure, scenario, fresh in (("fig_5_6", "uav-7-2", 20), ("fig_5_7", "uav-10-2", 10)):
+        world = {"kind": "UAVMission", "params": {"scenario": scenario}}
+        approx = model(world)
+        fuel = {"kind": "FuelRiskAnalyzer"}
+        agents = {
+            "actor_critic": actor_critic(UAV_INDEX),
+            "icca": icca(UAV_INDEX, cbba("aggressive"), fuel, approx),
+            "cbba": planner_agent(cbba("aggressive"), approx),
+        }
+        grid = step_grid(["actor_critic"])
+        grid.update(step_grid(["icca"], "params.learner.params.step_size"))
+        header = (
+            f"# Geramifard 2012, Fig. {figure[4:].replace('_', '-')} (Section 5.3.5): {scenario} "
+            "without noise, Actor-Critic vs\n"
+            "# iCCA (Algorithm 23, lambda = 100, CBBA with all fuel, the fuel rule) vs CBBA alone,\n"
+            "# 1e5 steps. alpha_0 x N_0 selected by AUC on seeds 0-1, reported on fresh seeds.\n"
+            "# Generated by docs/reproduction/make_configs.py.\n"
+        )
+        config = ch5_config(figure, world, agents, grid, 100000, 100, 2, fresh)
+        write(figure, header, config)
+
+
+def fig_5_9_and_5_13():
+    """Noisy UAV 7-2: SARSA, CBBA, CSARSA (Fig. 5-9); iCCA and AM-iCCA (Fig. 5-13)."""
+    world = {"kind": "UAVMission", "params": {"scenario": "uav-7-2", "traverse_failure": 0.05}}
+    blind = {"kind": "UAVMission", "params": {"scenario": "uav-7-2"}}  # the planner's model
+    static = model(blind, initial_noise=0.4)
+    adaptive = model(blind, initial_noise=0.4, prior_weight=100.0, is_adaptive=True)
+    fuel = {"kind": "FuelRiskAnalyzer"}
+    agents = {
+        "sarsa": ch5_sarsa(UAV_INDEX),
+        "cbba_aggressive": planner_agent(cbba("aggressive"), model(blind)),
+        "cbba_conservative": planner_agent(cbba("conservative"), model(blind)),
+        "csarsa": cooperative(
+            "CooperativeLearner", UAV_INDEX, cbba("aggressive"), fuel, model(blind)
+        ),
+        "icca": cooperative(
+            "CooperativeLearner", UAV_INDEX, cbba("conservative"), monte_carlo(), static
+        ),
+        "am_icca": cooperative(
+            "AdaptiveCooperativeLearner",
+            UAV_INDEX,
+            switching(cbba("conservative"), cbba("aggressive")),
+            monte_carlo(),
+            adaptive,
+        ),
+    }
+    grid = step_grid(["sarsa"])
+    grid.update(
+        step_grid(
+            ["csarsa", "icca", "am_icca"],
+            "params.learner.params.step_size",
+            known=["csarsa", "icca", "am_icca"],
+        )
+    )
+    for label in ("csarsa", "icca", "am_icca"):  # alpha_0 = 0.01 learns nothing in 1e5 steps
+        grid[f"agents.{label}.params.learner.params.step_size.params.alpha_0"] = [0.1, 1.0]
+    header = (
+        "# Geramifard 2012, Figs. 5-9 (Section 5.4.1) and 5-13 (Section 5.5.2): UAV 7-2 with 5%\n"
+        "# edge-traverse failures unknown to the planners. SARSA; aggressive CBBA (the planner of\n"
+        "# Fig. 5-9) and conservative CBBA (Algorithm 27); CSARSA (Algorithm 24, aggressive CBBA,\n"
+        "# the fuel rule); iCCA (Algorithm 24, conservative CBBA, Monte-Carlo risk at a static 40%\n"
+        "# noise); AM-iCCA (Algorithm 26, conservative -> aggressive CBBA below 25%). 1e5 steps;\n"
+        "# alpha_0 x N_0 (and K) selected by AUC on seeds 0-1, reported on 20 fresh seeds.\n"
+        "# Generated by docs/reproduction/make_configs.py.\n"
+    )
+    config = ch5_config("fig_5_9_13", world, agents, grid, 100000, 100, 2, 20)
+    write("fig_5_9_13", header, config)
+
+
+def fig_5_12_and_gridworld_3():
+    """GridWorld-2: SARSA vs iCCA vs AM-iCCA (Fig. 5-12); GridWorld-3 (Section 5.5.3)."""
+    conservative = {"kind": "ShortestPathPlanner", "params": {"goal": [0, 0]}}
+    aggressive = {"kind": "ShortestPathPlanner", "params": {"goal": [0, 21]}}
+    uniform = {"kind": "GridWorld", "params": GRID_2}
+    for figure, world, extension in (
+        ("fig_5_12", uniform, False),
+        ("fig_5_14", {"kind": "GridWorld", "params": {**GRID_2, "noise_cells": "windy"}}, True),
+    ):
+        static = model(uniform, initial_noise=0.4)
+        adaptive = model(uniform, initial_noise=0.4, prior_weight=100.0, is_adaptive=True)
+        agents = {
+            "sarsa": ch5_sarsa(GRID_INDEX),
+            "icca": cooperative(
+                "CooperativeLearner", GRID_INDEX, conservative, monte_carlo(), static
+            ),
+            "am_icca": cooperative(
+                "AdaptiveCooperativeLearner",
+                GRID_INDEX,
+                switching(conservative, aggressive),
+                monte_carlo(),
+                adaptive,
+            ),
+            "conservative": planner_agent(conservative, model(uniform)),
+            "aggressive": planner_agent(aggressive, model(uniform)),
+        }
+        if extension:  # Section 5.5.3: no safety check once a pair is known
+            del agents["icca"]
+            agents["am_icca_switch_off"] = cooperative(
+                "AdaptiveCooperativeLearner",
+                GRID_INDEX,
+                switching(conservative, aggressive),
+                monte_carlo(),
+                adaptive,
+                trusted_knownness=1.0,
+            )
+        learners = [label for label in agents if label in ("icca", "am_icca", "am_icca_switch_off")]
+        grid = step_grid(["sarsa"])
+        grid.update(step_grid(learners, "params.learner.params.step_size"))
+        header = (
+            "# Geramifard 2012, Fig. 5-12 (Section 5.5.2): GridWorld-2, SARSA vs iCCA (Algorithm 24,\n"
+            "# conservative policy, Monte-Carlo risk at a static 40% noise) vs AM-iCCA (Algorithm 26,\n"
+            "# conservative -> aggressive policy below 25%) vs the two static policies; K = 10.\n"
+            if not extension
+            else "# Geramifard 2012, Section 5.5.3 (Fig. 5-14): GridWorld-3 (noise only in the windy\n"
+            "# cells), AM-iCCA with a uniform-noise model, with and without the safety check switched\n"
+            "# off in known pairs (trusted_knownness = 1), vs SARSA and the two static policies.\n"
+        ) + (
+            "# 3e4 steps; alpha_0 x N_0 selected by AUC on seeds 0-2, reported on 30 fresh seeds.\n"
+            "# Generated by docs/reproduction/make_configs.py.\n"
+        )
+        write(figure, header, ch5_config(figure, world, agents, grid, 30000, 50, 3, 30))
+
+
+def ifdd_csarsa():
+    """Section 6.2.6: CSARSA with online iFDD vs tabular CSARSA on UAV 10-2 (5% noise)."""
+    world = {"kind": "UAVMission", "params": {"scenario": "uav-10-2", "traverse_failure": 0.05}}
+    blind = model({"kind": "UAVMission", "params": {"scenario": "uav-10-2"}})
+    fuel = {"kind": "FuelRiskAnalyzer"}
+    ifdd = {
+        "kind": "OnlineIFDD",
+        "params": {
+            "base": {"kind": "IndependentDiscretization", "params": {}},
+            "relevance": "ifdd_plus",
+            "discovery_threshold": 100.0,
+        },
+    }
+    tabular = cooperative("CooperativeLearner", UAV_INDEX, cbba("aggressive"), fuel, blind)
+    with_ifdd = cooperative("CooperativeLearner", UAV_INDEX, cbba("aggressive"), fuel, blind)
+    with_ifdd["params"]["learner"]["params"]["representation"] = ifdd
+    with_ifdd["params"]["learner"]["params"]["step_size"] = {
+        "kind": "FeatureNormalizedDecay",
+        "params": {"alpha_0": 1.0, "n_0": 1000},
+    }
+    agents = {
+        "sarsa_ifdd": {**ch5_sarsa(ifdd), "params": {**with_ifdd["params"]["learner"]["params"]}},
+        "csarsa_tabular": tabular,
+        "csarsa_ifdd": with_ifdd,
+        "cbba": planner_agent(cbba("aggressive"), blind),
+    }
+    grid = {
+        "agents.csarsa_tabular.params.learner.params.step_size.params.alpha_0": [0.1, 1.0],
+        "agents.csarsa_ifdd.params.learner.params.representation.params.discovery_threshold": [
+            100.0,
+            300.0,
+        ],
+    }
+    header = (
+        "# Beyond the thesis (Section 6.2.6): CSARSA (Algorithm 24, aggressive CBBA, fuel rule)\n"
+        "# with online iFDD+ as the learner's representation vs tabular CSARSA and SARSA + iFDD+\n"
+        "# on UAV 10-2 with 5% traverse failures, 1e5 steps. Step size / threshold selected by\n"
+        "# AUC on seeds 0-1, reported on 10 fresh seeds. Generated by make_configs.py.\n"
+    )
+    write("ifdd_csarsa", header, ch5_config("ifdd_csarsa", world, agents, grid, 100000, 100, 2, 10))
 
 
 if __name__ == "__main__":
@@ -364,3 +706,8 @@ if __name__ == "__main__":
     fig_4_11()
     investigations()
     fig_4_8_pendulum_ifdd_plus()
+    fig_5_5_and_5_8()
+    fig_5_6_and_5_7()
+    fig_5_9_and_5_13()
+    fig_5_12_and_gridworld_3()
+    ifdd_csarsa()

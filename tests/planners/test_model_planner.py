@@ -2,10 +2,9 @@ import numpy as np
 import pytest
 
 from conjure.core.errors import IncompatibleComponentsError
-from conjure.domains import GridWorld
+from conjure.domains import GridWorld, UAVMission
 from conjure.models.approximate_model import ApproximateModel
 from conjure.planners import ModelPlanner, PolicyIteration, ValueIteration
-from conjure.testing.mission_stub import MissionStub
 
 
 def set_up_model(domain, **params):
@@ -54,5 +53,5 @@ def test_update_replans_at_the_new_noise_and_reports_a_changed_policy():
 
 
 def test_a_domain_without_an_exact_model_is_refused():
-    with pytest.raises(IncompatibleComponentsError, match="MissionStub has no `model\\(\\)`"):
-        ModelPlanner().setup(set_up_model(MissionStub()), seed=0)
+    with pytest.raises(IncompatibleComponentsError, match="UAVMission has no `model\\(\\)`"):
+        ModelPlanner().setup(set_up_model(UAVMission()), seed=0)

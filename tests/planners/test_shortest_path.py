@@ -2,11 +2,10 @@ import numpy as np
 import pytest
 
 from conjure.core.errors import IncompatibleComponentsError, InvalidParameterError
-from conjure.domains import GridWorld
+from conjure.domains import GridWorld, UAVMission
 from conjure.domains.gridworld import GOAL
 from conjure.models.approximate_model import ApproximateModel
 from conjure.planners import ShortestPathPlanner
-from conjure.testing.mission_stub import MissionStub
 
 PIT = (1, 17)
 
@@ -78,4 +77,4 @@ def test_bad_goals_and_domains_are_refused():
     with pytest.raises(InvalidParameterError, match="goal"):
         ShortestPathPlanner(goal="left").validate_params()
     with pytest.raises(IncompatibleComponentsError, match="GridWorld"):
-        set_up(ShortestPathPlanner(), MissionStub())
+        set_up(ShortestPathPlanner(), UAVMission())

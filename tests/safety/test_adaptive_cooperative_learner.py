@@ -99,3 +99,32 @@ def test_a_restored_agent_continues_with_the_switched_planner():
     np.testing.assert_array_equal(restored.counts_, agent.counts_)
     states = [np.array([2.0, c]) for c in range(11, 22)]
     assert [restored.act(s) for s in states] == [agent.act(s) for s in states]
+
+
+def test_am_icca_on_a_noisy_uav_mission_switches_to_aggressive_cbba():
+    # Section 5.5.2, UAV 7-2 with 5% traverse failures: the prior η̂ = 0.4 (weight 100) falls
+    # below 25% once about 60 traversals succeed; conservative → aggressive CBBA is a change
+    # of π^p, so the counts restart (Algorithm 26, lines 13-14).
+    from conjure.domains import UAVMission
+    from conjure.planners import CBBAPlanner
+    from conjure.representations import HashedTabular
+
+    domain = UAVMission(traverse_failure=0.05)
+    agent = AdaptiveCooperativeLearner(
+        learner=SARSA(representation=HashedTabular(capacity=20_000)),
+        planner=SwitchingPlanner(
+            conservative=CBBAPlanner(variant="conservative"),
+            aggressive=CBBAPlanner(variant="aggressive"),
+        ),
+        risk=MonteCarloRiskAnalyzer(),
+        model=ApproximateModel(domain=UAVMission(), initial_noise=0.4, is_adaptive=True),
+        num_known_visits=10,
+        index=HashedTabular(capacity=20_000),
+    ).setup(domain.domain_spec, seed=0)
+    assert not agent.planner_.is_aggressive_
+    LearningLoop(domain, agent, seed=0).advance(3000)
+    model = agent.model_
+    assert agent.planner_.is_aggressive_ and agent.num_policy_changes_ >= 1
+    assert model.num_moves_ > 1000
+    expected = (model.num_unintended_ + 100 * 0.4) / (model.num_moves_ + 100)
+    assert model.noise_ == pytest.approx(expected) and 0.03 < model.noise_ < 0.1

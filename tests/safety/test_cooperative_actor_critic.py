@@ -1,3 +1,4 @@
+import numpy as np
 import pytest
 from safety_fakes import FixedRiskAnalyzer, cell, gridworld_model
 
@@ -84,3 +85,80 @@ def test_the_shipped_gridworld1_example_runs_icca_as_the_planner_at_first():
         for label in ("actor_critic", "icca", "vi_planner")
     }
     assert returns["icca"] == returns["vi_planner"] > returns["actor_critic"]
+
+
+def test_icca_with_cbba_never_crashes_while_learning_a_deterministic_mission():
+    # Section 5.3.5, UAV 7-2 without noise: the fuel rule filters the actor, CBBA is safe, so
+    # iCCA never crashes while learning; Actor-Critic alone does, often.
+    from conjure.domains import UAVMission
+    from conjure.experiments.loop import LearningLoop
+    from conjure.models.approximate_model import ApproximateModel
+    from conjure.planners import CBBAPlanner
+    from conjure.representations import HashedTabular
+    from conjure.safety import FuelRiskAnalyzer
+
+    def crashes(agent):
+        domain = UAVMission()
+        agent.setup(domain.domain_spec, seed=0)
+        count = 0
+        step = domain.step
+
+        def counting_step(action):
+            nonlocal count
+            outcome = step(action)
+            count += int(outcome[-1]["cost"])
+            return outcome
+
+        domain.step = counting_step
+        LearningLoop(domain, agent, seed=0).advance(2000)
+        return count
+
+    def actor_critic():
+        return ActorCritic(representation=HashedTabular(capacity=20_000))
+
+    icca = CooperativeActorCritic(
+        learner=actor_critic(),
+        planner=CBBAPlanner(variant="aggressive"),
+        risk=FuelRiskAnalyzer(),
+        model=ApproximateModel(domain=UAVMission()),
+        index=HashedTabular(capacity=20_000),
+    )
+    assert crashes(icca) == 0
+    assert crashes(actor_critic()) > 50
+
+
+def test_the_tabular_actor_is_the_critic_plus_the_bias_so_lambda_100_never_yields():
+    # Algorithm 23 with a tabular actor sharing the critic's step size: ω and θ get the same
+    # increments αδ, so ρ(s, a) = Q(s, a) + λ·[a = π^p(s)] while no proposal is unsafe. On
+    # GridWorld-1 |Q| <= ~1, so with λ = 100 the planner's action leads every other by ~98
+    # (Gibbs at τ = 1: probability ~e^-98 of trying another) and the greedy policy is π^p:
+    # the mechanism behind iCCA staying at the planner's return (docs/reproduction.md).
+    from conjure.core.schedules import EpisodicDecay
+    from conjure.experiments.loop import LearningLoop
+    from conjure.models.approximate_model import ApproximateModel
+    from conjure.planners import ModelPlanner
+    from conjure.safety import NominalRiskAnalyzer
+
+    domain = GridWorld.gridworld_1()
+    agent = CooperativeActorCritic(
+        learner=ActorCritic(
+            representation=Tabular(), step_size=EpisodicDecay(alpha_0=1.0, n_0=100)
+        ),
+        planner=ModelPlanner(),
+        risk=NominalRiskAnalyzer(),
+        model=ApproximateModel(domain=GridWorld.gridworld_1(noise=0.0)),
+    ).setup(domain.domain_spec, seed=0)
+    LearningLoop(domain, agent, seed=0).advance(3000)
+    visited = [
+        np.array([r, c], dtype=float)
+        for r in range(10)
+        for c in range(7)
+        if agent.visited_[agent.state_row(np.array([r, c], dtype=float), store=False)]
+    ]
+    assert len(visited) > 20
+    for state in visited:
+        planner_action = agent.planner_.action(state)
+        expected = agent.learner_.q_values(state)
+        expected[planner_action] += 100.0
+        np.testing.assert_allclose(agent.learner_.preferences(state), expected, atol=1e-9)
+        assert agent.act(state, greedy=True) == planner_action

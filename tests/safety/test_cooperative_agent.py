@@ -103,24 +103,24 @@ def test_a_truncated_save_is_one_clear_error(tmp_path):
 
 def test_missions_get_a_lazily_indexed_count_table_and_never_crash_by_choice():
     # UAV 7-2 [R] has 7·7·7·7·2^7·9 = 2.8 million cells: the default index is HashedTabular.
-    from conjure.domains.mission_graph import uav_7_2
+    from conjure.domains import UAVMission
     from conjure.models.approximate_model import ApproximateModel
+    from conjure.planners import CBBAPlanner
     from conjure.representations import HashedTabular
     from conjure.safety import FuelRiskAnalyzer
-    from conjure.testing.mission_stub import HomePlanner, MissionStub
 
-    class CrashCounter(MissionStub):
+    class CrashCounter(UAVMission):
         def step(self, action):
             outcome = super().step(action)
             self.num_crashes = getattr(self, "num_crashes", 0) + int(outcome[-1]["cost"])
             return outcome
 
-    domain = CrashCounter(graph=uav_7_2(), traverse_failure=0.0)
+    domain = CrashCounter(traverse_failure=0.0)
     agent = CooperativeLearner(
         learner=SARSA(representation=HashedTabular(capacity=20_000)),
-        planner=HomePlanner(),
+        planner=CBBAPlanner(variant="aggressive"),
         risk=FuelRiskAnalyzer(),
-        model=ApproximateModel(domain=MissionStub(graph=uav_7_2(), traverse_failure=0.0)),
+        model=ApproximateModel(domain=UAVMission()),
         num_known_visits=1,
     ).setup(domain.domain_spec, seed=0)
     assert isinstance(agent.index_, HashedTabular) and agent.counts_.shape == (100_000, 49)
@@ -128,6 +128,6 @@ def test_missions_get_a_lazily_indexed_count_table_and_never_crash_by_choice():
     assert domain.num_crashes == 0  # without traverse failures the fuel rule keeps UAVs safe
     stored = agent.index_.num_stored_
     unseen = domain.graph_.initial_state()
-    unseen[-2] = 1.0  # a visited bit the stub never sets
+    unseen[-2] = 1.0  # a target obtained at t = 0: unreachable
     agent.act(unseen, greedy=True)
     assert agent.index_.num_stored_ == stored  # greedy acting only looks states up

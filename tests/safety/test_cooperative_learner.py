@@ -1,6 +1,8 @@
+import pytest
 from safety_fakes import FakeLearner, FixedRiskAnalyzer, cell, gridworld_model
 
 from conjure.agents import SARSA
+from conjure.core.errors import InvalidParameterError
 from conjure.domains import GridWorld
 from conjure.experiments import run
 from conjure.experiments.loop import LearningLoop
@@ -125,3 +127,21 @@ def cooperative_sarsa():
         model=gridworld_model(GridWorld.gridworld_1(noise=0.0)),
         num_known_visits=1,
     )
+
+
+def test_greedy_acting_keeps_the_planner_among_the_learners_ties():
+    # An untrained SARSA has Q(s, ·) = 0: its first maximiser (up, into the wall) would loop
+    # until the cap; the planner's action is among the maximisers, so it is kept.
+    agent = csarsa(learner=SARSA(representation=Tabular()), num_known_visits=1)
+    agent.counts_[agent.state_row(START), PLANNER_ACTION] = 1  # known: the learner is asked
+    assert agent.learner_.act(START, greedy=True) == 0
+    assert agent.act(START, greedy=True) == PLANNER_ACTION
+    row = agent.learner_.representation_.active_features(START)[0]
+    agent.learner_.weights_[row, 3] = 0.5  # the learner now ranks "right" strictly higher
+    assert agent.act(START, greedy=True) == 3
+
+
+@pytest.mark.parametrize("visits", [0, -3])
+def test_a_knownness_threshold_below_one_is_refused_naming_the_value(visits):
+    with pytest.raises(InvalidParameterError, match=rf"num_known_visits.*{visits}"):
+        csarsa(num_known_visits=visits)

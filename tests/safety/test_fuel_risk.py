@@ -1,16 +1,16 @@
+import numpy as np
 import pytest
 
 from conjure.core.errors import IncompatibleComponentsError
-from conjure.domains import GridWorld
-from conjure.domains.mission_graph import uav_7_2
+from conjure.domains import GridWorld, UAVMission
 from conjure.models.approximate_model import ApproximateModel
+from conjure.planners import CBBAPlanner
 from conjure.safety import FuelRiskAnalyzer
-from conjure.testing.mission_stub import HomePlanner, MissionStub
 
 
 def set_up(domain):
     model = ApproximateModel(domain=domain).setup(domain.domain_spec, seed=0)
-    return FuelRiskAnalyzer().setup(model, HomePlanner().setup(model, seed=0), seed=0)
+    return FuelRiskAnalyzer().setup(model, CBBAPlanner().setup(model, seed=0), seed=0)
 
 
 def mission_state(graph, locations, fuels, time):
@@ -23,7 +23,7 @@ def mission_state(graph, locations, fuels, time):
 
 def test_unsafe_iff_a_uav_cannot_fly_home_after_the_move():
     # UAV 7-2 [R]: node 3 is two hops from the base (0 - 1 - 3), node 5 three (0 - 1 - 3 - 5).
-    domain = MissionStub(graph=uav_7_2())
+    domain = UAVMission()
     graph = domain.graph_
     analyser = set_up(domain)
     state = mission_state(graph, [1, 0], [3, 6], time=1)
@@ -40,7 +40,7 @@ def test_unsafe_iff_a_uav_cannot_fly_home_after_the_move():
 
 def test_the_time_left_to_the_horizon_also_counts():
     # [choice] spec 2.1: unsafe when the horizon (8) comes before the way home.
-    domain = MissionStub(graph=uav_7_2())
+    domain = UAVMission()
     graph = domain.graph_
     analyser = set_up(domain)
     state = mission_state(graph, [1, 0], [6, 6], time=5)  # plenty of fuel, t = 5
@@ -57,7 +57,38 @@ def test_an_analyser_of_missions_refuses_a_grid_world():
 
 
 def test_is_unsafe_outcome_reads_the_state_layout():
-    graph = uav_7_2()
+    graph = UAVMission().graph_
     assert not FuelRiskAnalyzer.is_unsafe_outcome(graph, graph.initial_state())
     crashed = mission_state(graph, [2, 0], [0, 6], time=3)
     assert FuelRiskAnalyzer.is_unsafe_outcome(graph, crashed)
+
+
+def test_judgements_match_the_real_domain_flown_home_without_noise():
+    # Safe iff, after the action, flying every UAV home along shortest paths never crashes in
+    # UAVMission itself (η = 0), over the states and legal actions of CBBA-guided rollouts.
+    domain = UAVMission(traverse_failure=0.0)
+    analyser = set_up(domain)
+    hops = analyser.planner_.next_hop_
+    rng = np.random.default_rng(0)
+    checked = {True: 0, False: 0}
+    for episode in range(15):
+        state, _ = domain.reset(seed=episode)
+        terminated = False
+        while not terminated:
+            for action in domain.legal_actions(state):
+                safe = analyser.risk(state, int(action)) == 0.0  # is_safe trusts π^p(s)
+                checked[safe] += 1
+                assert safe == (not crashes_flying_home(domain, hops, state, int(action), rng))
+            legal = domain.legal_actions(state)
+            action = analyser.planner_.action(state) if episode % 2 else rng.choice(legal)
+            state, _, terminated, _, _ = domain.step(int(action))
+    assert checked[True] > 100 and checked[False] > 100
+
+
+def crashes_flying_home(domain, hops, state, action, rng):
+    graph = domain.graph_
+    state, _, terminated = domain.simulate(state, action, 0.0, rng)
+    while not terminated:
+        home = [hops[node, graph.base] for node in graph.locations(state)]
+        state, _, terminated = domain.simulate(state, graph.encode_action(home), 0.0, rng)
+    return domain.is_constrained(state)

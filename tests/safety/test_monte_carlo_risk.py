@@ -118,3 +118,27 @@ def test_bad_parameters_are_refused():
         MonteCarloRiskAnalyzer(risk_tolerance=0.0).validate_params()
     with pytest.raises(InvalidParameterError, match="num_rollouts"):
         MonteCarloRiskAnalyzer(num_rollouts=0).validate_params()
+
+
+def test_uav_rollouts_follow_cbba_and_match_the_exact_crash_probability():
+    # UAV 7-2 [R]: UAV 0 at node 1 (one hop from the base) with 2 fuel, UAV 1 at the base with
+    # none, t = 1. Flying home fails with η̂ = 0.4 per try; CBBA (no target fits 1 fuel) then
+    # sends it home again, and a second failure strands it: risk = η̂² = 0.16.
+    from conjure.domains import UAVMission
+    from conjure.planners import CBBAPlanner
+
+    domain = UAVMission()
+    model = ApproximateModel(domain=domain, initial_noise=0.4).setup(domain.domain_spec, seed=0)
+    planner = CBBAPlanner(variant="aggressive").setup(model, seed=0)
+    analyser = MonteCarloRiskAnalyzer(num_rollouts=4000).setup(model, planner, seed=0)
+    graph = domain.graph_
+    state = graph.initial_state()
+    state[0], state[1], state[3], state[-1] = 1.0, 2.0, 0.0, 1.0
+    home = graph.encode_action([0, 0])
+    assert not analyser.is_compiled_  # missions have no tabular noise decomposition
+    assert analyser.risk(state, home) == pytest.approx(0.16, abs=0.02)
+    # Onward to node 3 (two hops out, 1 fuel left) is safe only if that traversal fails and
+    # the next flight home succeeds: risk = 1 − 0.4 · 0.6 = 0.76.
+    onward = graph.encode_action([3, 0])
+    assert analyser.risk(state, onward) == pytest.approx(0.76, abs=0.02)
+    assert len(planner.cache_) > 0  # π^p at every rollout step, cached by state

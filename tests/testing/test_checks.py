@@ -103,9 +103,9 @@ def test_broken_risk_analysers_are_caught():
 
 
 def test_a_planner_suggesting_illegal_actions_is_caught():
-    from conjure.testing.mission_stub import HomePlanner
+    from conjure.planners import CBBAPlanner
 
-    class Reckless(HomePlanner):
+    class Reckless(CBBAPlanner):
         def action(self, state):
             return self.graph_.encode_action([3, 3])  # three hops from the base at once
 

@@ -77,6 +77,11 @@ class CooperativeLearner(CooperativeAgent):
       (knownness = 1, R_max's "known"), takes its greedy action, and still replaces an unsafe
       one by π^p(s) as Section 5.3.5 evaluates iCCA. Before learning the greedy policy is
       therefore the planner's, and the learner takes over state by state as it learns there.
+    - Choice: the learner's greedy action breaks ties in favour of π^p(s): π^p(s) is kept
+      unless the learner's Q-values rank another action strictly higher. A learner whose
+      Q(s, ·) are still equal (untrained, or trained only on step costs) then follows the
+      mentor instead of the first action of highest value (which walks a grid agent into a
+      wall until the episode cap). Learners without ``q_values`` use their own greedy action.
     - Choice: a learner action equal to π^p(s) is safe without analysis (`RiskAnalyzer`).
 
     Complexity
@@ -150,12 +155,27 @@ class CooperativeLearner(CooperativeAgent):
             if not greedy:
                 self.counts_[row, planner_action] += 1  # line 8
             return planner_action
-        learner_action = self.learner_.act(state, greedy, legal_actions)  # line 4
+        if greedy:
+            learner_action = self._greedy_learner_action(state, planner_action, legal_actions)
+        else:
+            learner_action = self.learner_.act(state, False, legal_actions)  # line 4
         if self._is_trusted(knownness) or self.risk_.is_safe(
             state, learner_action, self.eval_rng_ if greedy else None
         ):  # line 5
             return learner_action  # line 6
         return planner_action
+
+    def _greedy_learner_action(
+        self, state: np.ndarray, planner_action: int, legal_actions: np.ndarray | None
+    ) -> int:
+        """argmax_a Q(s, a) of the learner, π^p(s) among the maximisers (policy checks)."""
+        q_values = getattr(self.learner_, "q_values", None)
+        if q_values is None:  # a learner without Q-values (ActorCritic): its own greedy action
+            return int(self.learner_.act(state, True, legal_actions))
+        values = q_values(state)
+        legal = self._actions(legal_actions)
+        best = legal[np.argmax(values[legal])]
+        return planner_action if values[planner_action] >= values[best] else int(best)
 
     def _is_trusted(self, knownness: float) -> bool:
         """Whether the learner's action may skip the safety check (Section 5.5.3; never here)."""

@@ -29,11 +29,10 @@ from conjure.core.errors import IncompatibleComponentsError, InvalidParameterErr
 from conjure.core.interfaces import Agent, Domain, DomainSpec, Policy, Representation, Transition
 from conjure.core.params import Configurable
 from conjure.core.seeding import make_rng
-from conjure.domains import GridWorld
+from conjure.domains import GridWorld, UAVMission
 from conjure.models.approximate_model import ApproximateModel
-from conjure.planners import ShortestPathPlanner
+from conjure.planners import CBBAPlanner, ShortestPathPlanner
 from conjure.planners.base import Planner
-from conjure.testing.mission_stub import HomePlanner, MissionStub
 from conjure.testing.planner_checks import (
     check_planner_matches_closed_form,
     check_planner_policy_is_greedy,
@@ -167,16 +166,33 @@ def cooperative_settings() -> list[CooperativeSetting]:
     """The settings cooperative planners and risk analysers are checked on, in order.
 
     A 4×5 grid world (noise 0.1, pit at (2, 2); moving left from (2, 3) enters it) and a
-    4-node UAV line mission (UAV 1 at node 1 with 1 fuel flying on to node 2 cannot get home).
+    4-node UAV line mission with aggressive CBBA (`line_mission`; UAV 1 at node 1 with 1 fuel
+    flying on to node 2 cannot get home).
     """
     grid = GridWorld(map_name="4x5", noise=0.1, max_episode_steps=50)
-    mission = MissionStub()
+    mission = UAVMission(graph=line_mission(), traverse_failure=0.05)
     stranded = mission.graph_.initial_state()
-    stranded[0], stranded[1] = 1.0, 1.0
+    stranded[0], stranded[1], stranded[-1] = 1.0, 1.0, 1.0
     return [
         CooperativeSetting(grid, ShortestPathPlanner(), np.array([2.0, 3.0]), 2),
-        CooperativeSetting(mission, HomePlanner(), stranded, mission.graph_.encode_action([2, 0])),
+        CooperativeSetting(
+            mission,
+            CBBAPlanner(variant="aggressive"),
+            stranded,
+            mission.graph_.encode_action([2, 0]),
+        ),
     ]
+
+
+def line_mission() -> dict[str, Any]:
+    """A 4-node line 0 - 1 - 2 - 3 (base 0), two UAVs with fuel 4, horizon 6, targets at 2, 3."""
+    return {
+        "num_nodes": 4,
+        "edges": [[0, 1], [1, 2], [2, 3]],
+        "fuel": [4, 4],
+        "horizon": 6,
+        "targets": {2: {"reward": 10.0, "probability": 0.5}, 3: {"reward": 20.0}},
+    }
 
 
 def _set_up_on_setting(component: CooperativePlanner | RiskAnalyzer, seed: int) -> tuple:
@@ -198,9 +214,15 @@ def _set_up_on_setting(component: CooperativePlanner | RiskAnalyzer, seed: int) 
 
 
 def check_cooperative_planner_legal(planner: CooperativePlanner) -> None:
-    """π^p(s) is a legal action (an int) in every state a rollout visits."""
+    """π^p(s) is a legal action (an int) in every non-failure state a rollout visits.
+
+    Failure states (`Domain.is_constrained`: a pit, a crash) are terminal, so no agent asks
+    π^p there.
+    """
     planner_, setting, _ = _set_up_on_setting(planner, seed=0)
     for state in _visited_states(setting.domain, 60):
+        if setting.domain.is_constrained(state):
+            continue
         action = planner_.action(state)
         assert isinstance(action, int), f"action() must return an int; got {action!r}."
         legal = setting.domain.legal_actions(state)
