@@ -69,7 +69,8 @@ L_COUNT = 1
 L_STAMP = 2
 L_POS = 3
 L_NEXT = 4
-NUM_L = 6
+L_PARENT = 6
+NUM_L = 8
 # activation cache row columns
 C_KEY = 0
 C_START = 1
@@ -370,7 +371,7 @@ def _is_subset(pool, start, length, initial):
     return True
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _pair_slot(a, b, mask):
     """The first slot of the unordered parent pair {a, b} in the pair table."""
     lo = np.uint64(min(a, b))
@@ -396,34 +397,37 @@ def link_children(feat_len, feat_parents, links, pair_table, ints):
             continue
         for side in range(2):
             parent = feat_parents[f, side]
+            links[f, L_PARENT + side] = parent
             links[f, L_NEXT + side] = links[parent, L_HEAD]
             links[parent, L_HEAD] = 2 * f + side
             links[parent, L_COUNT] += 1
-        slot = _pair_slot(feat_parents[f, 0], feat_parents[f, 1], mask)
-        while pair_table[slot] != -1:
+        a = min(feat_parents[f, 0], feat_parents[f, 1])
+        b = max(feat_parents[f, 0], feat_parents[f, 1])
+        slot = _pair_slot(a, b, mask)
+        while pair_table[slot, 0] != -1:
             slot = (slot + 1) & mask
-        pair_table[slot] = f
+        pair_table[slot, 0] = f
+        pair_table[slot, 1] = a
+        pair_table[slot, 2] = b
     ints[I_LINKED] = n
 
 
-@njit(cache=True)
-def _pair_child(a, b, feat_parents, pair_table):
+@njit(cache=True, inline="always")
+def _pair_child(a, b, pair_table):
     """The feature whose parents are {a, b}, or -1."""
     mask = pair_table.shape[0] - 1
-    slot = _pair_slot(a, b, mask)
+    lo = min(a, b)
+    hi = max(a, b)
+    slot = _pair_slot(lo, hi, mask)
     while True:
-        f = pair_table[slot]
-        if f == -1:
-            return -1
-        pa = feat_parents[f, 0]
-        pb = feat_parents[f, 1]
-        if (pa == a and pb == b) or (pa == b and pb == a):
+        f = pair_table[slot, 0]
+        if f == -1 or (pair_table[slot, 1] == lo and pair_table[slot, 2] == hi):
             return f
         slot = (slot + 1) & mask
 
 
 @njit(cache=True)
-def _features_within(initial, feat_parents, links, pair_table, ints):
+def _features_within(initial, links, pair_table, ints):
     """Every feature whose initial set lies within ``initial``, found from the parent index.
 
     A discovered feature f = g ∪ h lies within the set exactly when both parents do, so it is
@@ -439,7 +443,7 @@ def _features_within(initial, feat_parents, links, pair_table, ints):
     ints[I_EPOCH] = epoch
     k = initial.shape[0]
     words = (k + 63) // 64
-    capacity = max(2 * k, 16)
+    capacity = max(16 * k, 64)
     found = np.empty(capacity, dtype=np.int64)
     sets = np.zeros((capacity, words), dtype=np.uint64)
     for i in range(k):
@@ -456,21 +460,21 @@ def _features_within(initial, feat_parents, links, pair_table, ints):
             while link >= 0:
                 child = link >> 1
                 side = link & 1
-                other = feat_parents[child, 1 - side]
+                other = links[child, L_PARENT + 1 - side]
                 if links[child, L_STAMP] != epoch and links[other, L_STAMP] == epoch:
                     found, sets, m = _append(found, sets, m, child, x, links[other, L_POS],
                                              links, epoch)  # fmt: skip
                 link = links[child, L_NEXT + side]
         else:
             for y in range(x):
-                child = _pair_child(parent, found[y], feat_parents, pair_table)
+                child = _pair_child(parent, found[y], pair_table)
                 if child >= 0 and links[child, L_STAMP] != epoch:
                     found, sets, m = _append(found, sets, m, child, x, y, links, epoch)
         x += 1
     return found[:m], sets[:m]
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _append(found, sets, m, feature, a, b, links, epoch):
     """Add ``feature``, the union of found[a] and found[b], at position m of the found list."""
     if m == found.shape[0]:
@@ -526,7 +530,7 @@ def _cover(k, found, sets, feat_len):
 @njit(cache=True)
 def _compute(initial, feat_len, feat_parents, links, pair_table, ints):
     link_children(feat_len, feat_parents, links, pair_table, ints)
-    found, sets = _features_within(initial, feat_parents, links, pair_table, ints)
+    found, sets = _features_within(initial, links, pair_table, ints)
     if ints[I_SPARSIFY] == 0:
         return np.sort(found)
     return _cover(initial.shape[0], found, sets, feat_len)

@@ -248,7 +248,7 @@ class OnlineIFDD(Representation):
         links = np.full((capacity, _k.NUM_L), -1, dtype=np.int64)
         links[:, _k.L_COUNT] = 0
         links[:, _k.L_STAMP] = 0
-        pair_table = np.full(1 << int(2 * capacity - 1).bit_length(), -1, dtype=np.int64)
+        pair_table = np.full((1 << int(2 * capacity - 1).bit_length(), 3), -1, dtype=np.int64)
         self._ints[_k.I_LINKED] = 0
         self._activate_args = (
             a["words"], a["pool"], a["feat_start"], a["feat_len"], a["feat_parents"], links,
