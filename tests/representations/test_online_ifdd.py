@@ -212,6 +212,66 @@ def test_activation_cache_is_refreshed_by_discovery():
     assert rep.active_features(state).tolist() == OracleActivation.of(rep, [0, 1, 2])
 
 
+def sorted_power_set_activation(sets, active, sparsify=True):
+    """Algorithm 19 by brute force: walk SortedPowerSet(φ⁰) and keep the features of χ.
+
+    Subsets go largest first and, within a size, the latest discovered first (the documented
+    tie rule); a feature is activated only if none of its initial features is covered yet.
+    """
+    ids = {frozenset(s): f for f, s in enumerate(sets)}
+    candidates = [
+        ids[frozenset(c)]
+        for size in range(len(active), 0, -1)
+        for c in itertools.combinations(active, size)
+        if frozenset(c) in ids
+    ]
+    if not sparsify:
+        return sorted(candidates)
+    candidates.sort(key=lambda f: (-len(sets[f]), -f))
+    remaining, phi = set(active), []
+    for f in candidates:
+        if sets[f] <= remaining:
+            remaining -= sets[f]
+            phi.append(f)
+    return sorted(phi)
+
+
+@pytest.mark.parametrize("sparsify", [True, False])
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_activation_equals_the_sorted_power_set_walk_on_random_features(seed, sparsify):
+    num_flags = 12
+    rep = flag_ifdd(num_flags, discovery_threshold=0.0, sparsify=sparsify)
+    rng = np.random.default_rng(seed)
+    for _ in range(60):  # every co-active pair becomes a feature: many sizes and overlaps
+        active = np.sort(rng.choice(num_flags, size=int(rng.integers(2, 9)), replace=False))
+        rep.discover(rep.active_features(flags(num_flags, active)), 1.0)
+    sets = [frozenset(s.tolist()) for s in rep.initial_sets_]
+    assert rep.num_discovered_ > 100 and max(len(s) for s in sets) >= 4
+    for _ in range(300):
+        active = sorted(rng.choice(num_flags, size=int(rng.integers(1, 11)), replace=False))
+        expected = sorted_power_set_activation(sets, active, sparsify)
+        assert rep.activate_initial(np.array(active)).tolist() == expected
+        assert rep.activate_initial(np.array(active)).tolist() == expected  # from the cache
+
+
+def test_activation_cache_forgets_one_entry_at_a_time():
+    rep = flag_ifdd(16, discovery_threshold=0.5)
+    rep.discover(rep.active_features(flags(16, [0, 1])), 1.0)
+    first = np.array([0, 1, 2])
+    rep.activate_initial(first)
+    row = int(np.bitwise_xor.reduce(rep._arrays["words"][first])) & (rep._centry.shape[0] - 1)
+    rows_used = set()
+    rng = np.random.default_rng(0)
+    for _ in range(3000):  # more distinct sets than fit: some rows are overwritten
+        active = np.sort(rng.choice(np.arange(3, 16), size=5, replace=False))
+        key = int(np.bitwise_xor.reduce(rep._arrays["words"][active]))
+        rows_used.add(key & (rep._centry.shape[0] - 1))
+        rep.activate_initial(active)
+    assert row not in rows_used  # its row was never overwritten ...
+    assert rep._centry[row, kernels.C_A_LEN] == 3  # ... so its entry is still there
+    assert rep.activate_initial(first).tolist() == [2, 16]
+
+
 class OracleActivation:
     """Algorithm 19 by brute force from the representation's own feature sets."""
 

@@ -19,7 +19,9 @@ Arrays (all preallocated by the Python class, which grows them when a kernel ret
 - ``heap``: a max-heap of potential nodes by (relevance, then lower node id) for fixed-rate
   iFDD, or an unordered list (swap-remove) for random expansion.
 - ``ints``/``floats``: counters and settings, indexed by the ``I_*``/``F_*`` constants.
-- The activation cache (``ctable``, ``centry``, ``cpool``) maps an initial active set to its
+- ``links (capacity, NUM_L)`` and ``pair_table``: the parent index of Algorithm 19's
+  activation (derived from ``feat_parents``, never saved; `link_children` adds new features).
+- The activation cache (``centry`` rows, ``cpool`` ring) maps an initial active set to its
   sparsified φ̇ together with the feature count it was computed at.
 """
 
@@ -43,8 +45,11 @@ I_SELECTION = 8
 I_MAX_FEATURES = 9
 I_RANDOM_WORD = 10
 I_SPARSIFY = 11
-I_CACHE_ENTRIES = 12
-I_CACHE_POOL_USED = 13
+I_CACHE_WRITTEN = 12
+I_LINKED = 13
+I_EPOCH = 14
+#: the counters of the activation cache and the child lists: rebuilt on load, never saved
+TRANSIENT_INTS = slice(I_CACHE_WRITTEN, I_EPOCH + 1)
 NUM_INTS = 16
 # floats layout
 F_THRESHOLD = 0
@@ -58,14 +63,21 @@ SELECT_THRESHOLD = 0
 SELECT_RATE_RELEVANCE = 1
 SELECT_RATE_RANDOM = 2
 
-# activation cache entry columns
+# columns of the parent index ``links``
+L_HEAD = 0
+L_COUNT = 1
+L_STAMP = 2
+L_POS = 3
+L_NEXT = 4
+L_PARENT = 6
+NUM_L = 8
+# activation cache row columns
 C_KEY = 0
-C_A_START = 1
+C_START = 1
 C_A_LEN = 2
-C_PHI_START = 3
-C_PHI_LEN = 4
-C_CHECKED = 5
-NUM_C = 6
+C_PHI_LEN = 3
+C_CHECKED = 4
+NUM_C = 5
 #: a stale cache entry is patched (instead of recomputed) if at most this many features were
 #: discovered since it was computed and none of them lies within its initial set
 PATCH_LIMIT = 32
@@ -359,167 +371,243 @@ def _is_subset(pool, start, length, initial):
     return True
 
 
-@njit(cache=True)
-def _features_within(initial, words, pool, feat_start, feat_len, node_key, node_start,
-                     node_len, node_feature, table):  # fmt: skip
-    """Every feature whose initial set lies within ``initial`` (the closure under unions).
+@njit(cache=True, inline="always")
+def _pair_slot(a, b, mask):
+    """The first slot of the unordered parent pair {a, b} in the pair table."""
+    lo = np.uint64(min(a, b))
+    hi = np.uint64(max(a, b))
+    z = lo * np.uint64(0x9E3779B97F4A7C15) ^ hi * np.uint64(0xC2B2AE3D27D4EB4F)
+    return np.int64((z ^ (z >> np.uint64(29))) & np.uint64(mask))
 
-    Each discovered feature is the union of two features (its parents), both within its set,
-    so unions of pairs of found features, starting from the initial features, reach them all.
+
+@njit(cache=True)
+def link_children(feat_len, feat_parents, links, pair_table, ints):
+    """Index the features discovered since the last call by their parents.
+
+    ``links[p, L_HEAD]`` starts p's child list: link ``2 f + side`` is feature f in the list
+    of its parent ``feat_parents[f, side]``, followed by ``links[f, L_NEXT + side]`` (-1
+    ends); ``links[p, L_COUNT]`` counts p's children. ``pair_table`` (open addressing) finds
+    the feature whose parents are a given pair. Features of one initial feature (ARiFDD's
+    split tiles) have no parents to index.
     """
-    k = initial.shape[0]
-    found = np.empty(max(2 * k, 16), dtype=np.int64)
-    found[:k] = initial
-    m = k
-    buf = np.empty(max(k, 1), dtype=np.int64)
-    x = 1
-    while x < m:
-        fx = found[x]
-        for y in range(x):
-            fy = found[y]
-            length, key = _union(pool, feat_start[fx], feat_len[fx], feat_start[fy],
-                                 feat_len[fy], words, buf)  # fmt: skip
-            if length == feat_len[fx] or length == feat_len[fy]:
-                continue
-            node, _ = _find_node(table, key, buf, length, node_key, node_start, node_len, pool)
-            if node < 0:
-                continue
-            f = node_feature[node]
-            if f < 0:
-                continue
-            seen = False
-            for z in range(k, m):
-                if found[z] == f:
-                    seen = True
-                    break
-            if seen:
-                continue
-            if m == found.shape[0]:
-                grown = np.empty(2 * m, dtype=np.int64)
-                grown[:m] = found
-                found = grown
-            found[m] = f
-            m += 1
-        x += 1
-    return found[:m]
+    n = ints[I_NUM_FEATURES]
+    mask = pair_table.shape[0] - 1
+    for f in range(ints[I_LINKED], n):
+        if feat_len[f] < 2:
+            continue
+        for side in range(2):
+            parent = feat_parents[f, side]
+            links[f, L_PARENT + side] = parent
+            links[f, L_NEXT + side] = links[parent, L_HEAD]
+            links[parent, L_HEAD] = 2 * f + side
+            links[parent, L_COUNT] += 1
+        a = min(feat_parents[f, 0], feat_parents[f, 1])
+        b = max(feat_parents[f, 0], feat_parents[f, 1])
+        slot = _pair_slot(a, b, mask)
+        while pair_table[slot, 0] != -1:
+            slot = (slot + 1) & mask
+        pair_table[slot, 0] = f
+        pair_table[slot, 1] = a
+        pair_table[slot, 2] = b
+    ints[I_LINKED] = n
+
+
+@njit(cache=True, inline="always")
+def _pair_child(a, b, pair_table):
+    """The feature whose parents are {a, b}, or -1."""
+    mask = pair_table.shape[0] - 1
+    lo = min(a, b)
+    hi = max(a, b)
+    slot = _pair_slot(lo, hi, mask)
+    while True:
+        f = pair_table[slot, 0]
+        if f == -1 or (pair_table[slot, 1] == lo and pair_table[slot, 2] == hi):
+            return f
+        slot = (slot + 1) & mask
 
 
 @njit(cache=True)
-def _cover(initial, members, pool, feat_start, feat_len):
-    """Greedy covering (Alg 19 lines 3-8): largest first, ties to the latest discovered."""
+def _features_within(initial, links, pair_table, ints):
+    """Every feature whose initial set lies within ``initial``, found from the parent index.
+
+    A discovered feature f = g ∪ h lies within the set exactly when both parents do, so it is
+    found when the later found of its parents, at position x of the found list, is expanded:
+    either by walking that parent's children (keeping those whose other parent carries this
+    call's stamp) or by looking up its pairs with the x features found before it, whichever
+    is shorter. The cost is at most Θ(m²) for the m features found and never depends on n_t.
+
+    Returns the found features (the initial ones first) and their initial sets as bit sets
+    over the positions in ``initial`` (row i is found[i]'s; ``words`` uint64 words a row).
+    """
+    epoch = ints[I_EPOCH] + 1
+    ints[I_EPOCH] = epoch
     k = initial.shape[0]
-    m = members.shape[0]
-    order_key = np.empty(m, dtype=np.int64)
-    for i in range(m):
-        order_key[i] = -(feat_len[members[i]] * (1 << 40) + members[i])
-    order = np.argsort(order_key, kind="mergesort")
-    covered = np.zeros(k, dtype=np.bool_)
-    remaining = k
+    words = (k + 63) // 64
+    capacity = max(16 * k, 64)
+    found = np.empty(capacity, dtype=np.int64)
+    sets = np.zeros((capacity, words), dtype=np.uint64)
+    for i in range(k):
+        found[i] = initial[i]
+        sets[i, i // 64] = np.uint64(1) << np.uint64(i % 64)
+        links[initial[i], L_STAMP] = epoch
+        links[initial[i], L_POS] = i
+    m = k
+    x = 0
+    while x < m:
+        parent = found[x]
+        if links[parent, L_COUNT] <= x:
+            link = links[parent, L_HEAD]
+            while link >= 0:
+                child = link >> 1
+                side = link & 1
+                other = links[child, L_PARENT + 1 - side]
+                if links[child, L_STAMP] != epoch and links[other, L_STAMP] == epoch:
+                    found, sets, m = _append(found, sets, m, child, x, links[other, L_POS],
+                                             links, epoch)  # fmt: skip
+                link = links[child, L_NEXT + side]
+        else:
+            for y in range(x):
+                child = _pair_child(parent, found[y], pair_table)
+                if child >= 0 and links[child, L_STAMP] != epoch:
+                    found, sets, m = _append(found, sets, m, child, x, y, links, epoch)
+        x += 1
+    return found[:m], sets[:m]
+
+
+@njit(cache=True, inline="always")
+def _append(found, sets, m, feature, a, b, links, epoch):
+    """Add ``feature``, the union of found[a] and found[b], at position m of the found list."""
+    if m == found.shape[0]:
+        grown = np.empty(2 * m, dtype=np.int64)
+        grown[:m] = found
+        found = grown
+        grown_sets = np.zeros((2 * m, sets.shape[1]), dtype=np.uint64)
+        grown_sets[:m] = sets
+        sets = grown_sets
+    found[m] = feature
+    for w in range(sets.shape[1]):
+        sets[m, w] = sets[a, w] | sets[b, w]
+    links[feature, L_STAMP] = epoch
+    links[feature, L_POS] = m
+    return found, sets, m + 1
+
+
+@njit(cache=True)
+def _cover(k, found, sets, feat_len):
+    """Greedy covering (Alg 19 lines 3-8): largest first, ties to the latest discovered.
+
+    ``found[:k]`` are the initial features, the rest the discovered ones within them; a
+    feature is taken if none of its initial features is covered yet.
+    """
+    m = found.shape[0]
+    key = np.empty(m - k, dtype=np.int64)
+    for r in range(k, m):  # largest first, then the latest discovered (ids are unique)
+        key[r - k] = -((feat_len[found[r]] << 40) + found[r])
+    order = np.argsort(key)
+    words = sets.shape[1]
+    covered = np.zeros(words, dtype=np.uint64)
     out = np.empty(k, dtype=np.int64)
     count = 0
-    for r in range(m):
-        f = members[order[r]]
-        start = feat_start[f]
-        length = feat_len[f]
+    for r in range(m - k):
+        row = k + order[r]
         free = True
-        for t in range(length):
-            if covered[np.searchsorted(initial, pool[start + t])]:
+        for w in range(words):
+            if sets[row, w] & covered[w]:
                 free = False
                 break
-        if not free:
-            continue
-        for t in range(length):
-            covered[np.searchsorted(initial, pool[start + t])] = True
-        out[count] = f
-        count += 1
-        remaining -= length
-        if remaining == 0:
-            break
+        if free:
+            for w in range(words):
+                covered[w] |= sets[row, w]
+            out[count] = found[row]
+            count += 1
+    for i in range(k):  # what is left is covered by the initial features themselves
+        if not covered[i // 64] & (np.uint64(1) << np.uint64(i % 64)):
+            out[count] = found[i]
+            count += 1
     return np.sort(out[:count])
 
 
 @njit(cache=True)
-def _compute(initial, words, pool, feat_start, feat_len, node_key, node_start, node_len,
-             node_feature, table, sparsify):  # fmt: skip
-    members = _features_within(initial, words, pool, feat_start, feat_len, node_key,
-                               node_start, node_len, node_feature, table)  # fmt: skip
-    if not sparsify:
-        return np.sort(members)
-    return _cover(initial, members, pool, feat_start, feat_len)
+def _compute(initial, feat_len, feat_parents, links, pair_table, ints):
+    link_children(feat_len, feat_parents, links, pair_table, ints)
+    found, sets = _features_within(initial, links, pair_table, ints)
+    if ints[I_SPARSIFY] == 0:
+        return np.sort(found)
+    return _cover(initial.shape[0], found, sets, feat_len)
 
 
 @njit(cache=True)
-def activate(initial, words, pool, feat_start, feat_len, node_key, node_start, node_len,
-             node_feature, table, ints, ctable, centry, cpool):  # fmt: skip
-    """φ̇(s) from the sorted initial active features φ⁰(s) (Algorithm 19), cached per set."""
+def _cached(initial, key, n, pool, feat_start, feat_len, centry, cpool, ints):
+    """The cached φ̇ of ``initial`` (patched forward to n features), or an empty array."""
+    k = initial.shape[0]
+    row = key & (centry.shape[0] - 1)
+    start = centry[row, C_START]
+    if (
+        centry[row, C_KEY] != key
+        or centry[row, C_A_LEN] != k
+        or start < ints[I_CACHE_WRITTEN] - cpool.shape[0]
+    ):
+        return np.empty(0, dtype=np.int64)
+    size = cpool.shape[0]
+    for t in range(k):
+        if cpool[(start + t) % size] != initial[t]:
+            return np.empty(0, dtype=np.int64)
+    checked = centry[row, C_CHECKED]
+    if checked != n:
+        if n - checked > PATCH_LIMIT:
+            return np.empty(0, dtype=np.int64)
+        for f in range(checked, n):
+            if _is_subset(pool, feat_start[f], feat_len[f], initial):
+                return np.empty(0, dtype=np.int64)
+        centry[row, C_CHECKED] = n
+    phi = np.empty(centry[row, C_PHI_LEN], dtype=np.int64)
+    for t in range(phi.shape[0]):
+        phi[t] = cpool[(start + k + t) % size]
+    return phi
+
+
+@njit(cache=True)
+def _remember(initial, key, n, phi, centry, cpool, ints):
+    """Write (φ⁰, φ̇) at the head of the ring ``cpool`` into row ``key mod rows``.
+
+    Only the row's previous entry and the oldest data the ring overwrites are forgotten.
+    """
+    k = initial.shape[0]
+    need = k + phi.shape[0]
+    size = cpool.shape[0]
+    if need > size:
+        return
+    start = ints[I_CACHE_WRITTEN]
+    for t in range(k):
+        cpool[(start + t) % size] = initial[t]
+    for t in range(phi.shape[0]):
+        cpool[(start + k + t) % size] = phi[t]
+    ints[I_CACHE_WRITTEN] = start + need
+    row = key & (centry.shape[0] - 1)
+    centry[row, C_KEY] = key
+    centry[row, C_START] = start
+    centry[row, C_A_LEN] = k
+    centry[row, C_PHI_LEN] = phi.shape[0]
+    centry[row, C_CHECKED] = n
+
+
+@njit(cache=True)
+def activate(initial, words, pool, feat_start, feat_len, feat_parents, links, pair_table, ints,
+             centry, cpool):  # fmt: skip
+    """φ̇(s) from the sorted initial active features φ⁰(s) (Algorithm 19), cached per set.
+
+    The cache is direct-mapped (row = key of φ⁰ modulo the rows) over a ring of cells: a
+    miss overwrites one row, and an entry expires when the ring has wrapped past its cells.
+    """
     n = ints[I_NUM_FEATURES]
     if n == ints[I_NUM_INITIAL]:
         return initial.copy()  # nothing discovered: φ̇ = φ⁰
-    k = initial.shape[0]
     key = 0
-    for i in range(k):
+    for i in range(initial.shape[0]):
         key ^= words[initial[i]]
-    mask = ctable.shape[0] - 1
-    slot = key & mask
-    entry = -1
-    while True:
-        e = ctable[slot]
-        if e == -1:
-            break
-        if centry[e, C_KEY] == key and centry[e, C_A_LEN] == k:
-            start = centry[e, C_A_START]
-            same = True
-            for t in range(k):
-                if cpool[start + t] != initial[t]:
-                    same = False
-                    break
-            if same:
-                entry = e
-                break
-        slot = (slot + 1) & mask
-    if entry >= 0:
-        checked = centry[entry, C_CHECKED]
-        is_valid = checked == n
-        if not is_valid and n - checked <= PATCH_LIMIT:
-            is_valid = True
-            for f in range(checked, n):
-                if _is_subset(pool, feat_start[f], feat_len[f], initial):
-                    is_valid = False
-                    break
-        if is_valid:
-            centry[entry, C_CHECKED] = n
-            start = centry[entry, C_PHI_START]
-            return cpool[start : start + centry[entry, C_PHI_LEN]].copy()
-    sparsify = ints[I_SPARSIFY] != 0
-    phi = _compute(initial, words, pool, feat_start, feat_len, node_key, node_start, node_len,
-                   node_feature, table, sparsify)  # fmt: skip
-    size = phi.shape[0]
-    need = size + (0 if entry >= 0 else k)
-    if (
-        ints[I_CACHE_POOL_USED] + need > cpool.shape[0]
-        or (entry < 0 and 2 * (ints[I_CACHE_ENTRIES] + 1) > ctable.shape[0])
-        or (entry < 0 and ints[I_CACHE_ENTRIES] == centry.shape[0])
-    ):
-        if size + k > cpool.shape[0]:
-            return phi  # too large to cache at all
-        ctable[:] = -1  # full: forget every cached set
-        ints[I_CACHE_ENTRIES] = 0
-        ints[I_CACHE_POOL_USED] = 0
-        entry = -1
-        slot = key & mask
-    used = ints[I_CACHE_POOL_USED]
-    if entry < 0:
-        entry = ints[I_CACHE_ENTRIES]
-        ints[I_CACHE_ENTRIES] = entry + 1
-        ctable[slot] = entry
-        centry[entry, C_KEY] = key
-        centry[entry, C_A_START] = used
-        centry[entry, C_A_LEN] = k
-        cpool[used : used + k] = initial
-        used += k
-    centry[entry, C_PHI_START] = used
-    centry[entry, C_PHI_LEN] = size
-    centry[entry, C_CHECKED] = n
-    cpool[used : used + size] = phi
-    ints[I_CACHE_POOL_USED] = used + size
+    phi = _cached(initial, key, n, pool, feat_start, feat_len, centry, cpool, ints)
+    if phi.shape[0]:
+        return phi
+    phi = _compute(initial, feat_len, feat_parents, links, pair_table, ints)
+    _remember(initial, key, n, phi, centry, cpool, ints)
     return phi

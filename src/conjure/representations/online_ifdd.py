@@ -24,8 +24,8 @@ _NODE_ARRAYS = ("node_key", "node_start", "node_len", "node_feature", "node_pare
 _FEATURE_ARRAYS = ("feat_start", "feat_len", "feat_parents")
 _MINUS_ONE = ("node_feature", "node_parents", "node_slot", "feat_parents")
 _STATE_ARRAYS = ("words", "pool", *_FEATURE_ARRAYS, *_NODE_ARRAYS, "table", "ints", "floats")
-_CACHE_TABLE_SIZE = 1 << 14
-_CACHE_POOL_SIZE = 1 << 17
+_CACHE_ROWS = 1 << 13
+_CACHE_CELLS = 1 << 17
 
 
 class OnlineIFDD(Representation):
@@ -110,10 +110,14 @@ class OnlineIFDD(Representation):
     ----------
     `discover`: Θ(k_t² k₀) per call for k_t active features (Section 4.1.3: Θ(k_t²) pairs);
     Θ(k_t² (k₀ + log P)) with the fixed rate's heap over P potential features.
-    `active_features`: the cover of each initial active set is cached and re-checked only
-    against features discovered since, Θ(k₀) per hit; a miss finds the features within the
-    set as the closure of unions of pairs, Θ(m² k₀) for m such features (at most 2^k₀, as in
-    Algorithm 19's Θ(k₀ 2^k₀)). Neither depends on n_t.
+    `active_features`: a miss finds the m features within the active initial set from a
+    parent index (each feature is found from its later-found parent, by walking that parent's
+    children or by looking up its pairs with the features found before it, whichever is
+    shorter: at most Θ(m²), m ≤ 2^k₀ as in Algorithm 19's Θ(k₀ 2^k₀)), then covers greedily
+    with bit sets, Θ(m log m). Covers are cached per initial set in a direct-mapped table over
+    a ring of cells (a miss overwrites one row; the oldest cells expire first, never the whole
+    cache); a hit is re-checked against the features discovered since, Θ(k₀) each. Neither
+    depends on n_t.
 
     Examples
     --------
@@ -238,18 +242,22 @@ class OnlineIFDD(Representation):
         self._ints = arrays["ints"]
         if cache is None:
             cache = (
-                np.full(_CACHE_TABLE_SIZE, -1, dtype=np.int64),
-                np.zeros((_CACHE_TABLE_SIZE // 2, _k.NUM_C), dtype=np.int64),
-                np.zeros(_CACHE_POOL_SIZE, dtype=np.int64),
+                np.zeros((_CACHE_ROWS, _k.NUM_C), dtype=np.int64),
+                np.zeros(_CACHE_CELLS, dtype=np.int64),
             )
-            self._ints[_k.I_CACHE_ENTRIES] = 0
-            self._ints[_k.I_CACHE_POOL_USED] = 0
-        self._ctable, self._centry, self._cpool = cache
+            self._ints[_k.I_CACHE_WRITTEN] = 0
+        self._centry, self._cpool = cache
         a = arrays
+        capacity = a["feat_start"].shape[0]
+        # the parent index, derived from feat_parents (filled lazily by the kernel)
+        links = np.full((capacity, _k.NUM_L), -1, dtype=np.int64)
+        links[:, _k.L_COUNT] = 0
+        links[:, _k.L_STAMP] = 0
+        pair_table = np.full((1 << int(2 * capacity - 1).bit_length(), 3), -1, dtype=np.int64)
+        self._ints[_k.I_LINKED] = 0
         self._activate_args = (
-            a["words"], a["pool"], a["feat_start"], a["feat_len"], a["node_key"],
-            a["node_start"], a["node_len"], a["node_feature"], a["table"], a["ints"],
-            self._ctable, self._centry, self._cpool,
+            a["words"], a["pool"], a["feat_start"], a["feat_len"], a["feat_parents"], links,
+            pair_table, a["ints"], self._centry, self._cpool,
         )  # fmt: skip
         self._discover_args = (
             a["words"], a["pool"], a["feat_start"], a["feat_len"], a["feat_parents"],
@@ -274,7 +282,7 @@ class OnlineIFDD(Representation):
             a[name] = grown
         a["table"] = np.full(4 * node_capacity, -1, dtype=np.int64)
         _k.rebuild_table(a["table"], a["node_key"], int(self._ints[_k.I_NUM_NODES]))
-        cache = (self._ctable, self._centry, self._cpool)
+        cache = (self._centry, self._cpool)
         self._install(a, cache)  # cached covers stay valid: no feature was added
 
     # ------------------------------------------------------------------ Algorithm 19
@@ -391,6 +399,7 @@ class OnlineIFDD(Representation):
         """
         check_is_set_up(self, "state_arrays")
         arrays = {name: self._arrays[name].copy() for name in _STATE_ARRAYS}
+        arrays["ints"][_k.TRANSIENT_INTS] = 0
         arrays.update({f"base.{k}": v for k, v in self.base_.state_arrays().items()})
         return arrays
 
