@@ -33,7 +33,7 @@ from numba import njit
 from conjure.agents._kernels import (
     add_binary,
     clear_traces,
-    q_values_binary,
+    q_values_binary_into,
     td_step_binary,
     td_step_traces_binary,
 )
@@ -43,7 +43,7 @@ from conjure.representations._kernels import (
     hashed_tile_features,
     independent_features,
     tabular_feature,
-    tile_features,
+    tile_indices_into,
 )
 
 # Domain codes.
@@ -182,10 +182,13 @@ def encode(
     num_tilings: int,
     htable: np.ndarray,
     hcounts: np.ndarray,
+    quanta: np.ndarray,
+    out: np.ndarray,
 ) -> np.ndarray:
-    """φ(s) by the representation's own kernel."""
+    """φ(s) by the representation's own kernel (unhashed tiles are written into ``out``)."""
     if kind == TILES:
-        return tile_features(state, rdims, rlayout, rgroups, num_tilings)
+        tile_indices_into(state, rdims, rlayout, rgroups, num_tilings, quanta, out)
+        return out
     if kind == HASHED_TILES:
         return hashed_tile_features(state, rdims, rlayout, rgroups, num_tilings, htable, hcounts)
     if kind == TABULAR:
@@ -257,68 +260,110 @@ def advance_kernel(
     """
     d_kind, r_kind, agent, policy = ints[I_DOMAIN], ints[I_REP], ints[I_AGENT], ints[I_POLICY]
     cap, traces, num_tilings = ints[I_CAP], ints[I_TRACES], ints[I_NUM_TILINGS]
+    schedule, actor_schedule, max_active = (
+        ints[I_SCHEDULE],
+        ints[I_ACTOR_SCHEDULE],
+        ints[I_MAX_ACTIVE],
+    )
     discount, parameter = floats[F_DISCOUNT], floats[F_POLICY]
+    alpha_0, n_0, actor_alpha_0, actor_n_0 = (
+        floats[F_ALPHA],
+        floats[F_N0],
+        floats[F_ACTOR_ALPHA],
+        floats[F_ACTOR_N0],
+    )
+    trace_factor, min_trace = floats[F_TRACE_FACTOR], floats[F_MIN_TRACE]
+    is_replacing = traces == REPLACING
     legal = np.arange(ints[I_NUM_ACTIONS])
     # The actor's preferences choose actions for Actor-Critic (shared features), θ otherwise.
     chooser = actor_weights if agent == ACTOR_CRITIC else weights
+    # Scratch: two feature buffers (φ(s) lives in one while φ(s') is written to the other).
     next_obs = np.empty_like(obs)
+    quanta = np.empty(obs.shape[0], dtype=np.int64)
+    buffers = np.empty((2, max_active), dtype=np.int64)
+    free = 0
+    q = np.empty(legal.shape[0])
+    critic_q = np.empty(legal.shape[0])
     ep_float = np.empty((16, 2))
     ep_int = np.empty((16, 2), dtype=np.int64)
-    num_ended = 0
-    done = failures = 0
+    num_ended = done = failures = 0
     delta = 0.0
     status = DONE
-    phase, action = loop[L_PHASE], loop[L_ACTION]
-    phi = np.empty(0, dtype=np.int64)
+    # The loop state, in locals while running.
+    phase, action, episode_steps = loop[L_PHASE], loop[L_ACTION], loop[L_EPISODE_STEPS]
+    episode, learning_steps = loop[L_EPISODE], loop[L_LEARNING_STEPS]
+    episode_failures = loop[L_EPISODE_FAILURES]
+    total, discounted, weight = loop_f[LF_RETURN], loop_f[LF_DISCOUNTED], loop_f[LF_WEIGHT]
+    phi = buffers[1]
     if phase == IN_EPISODE:
-        phi = encode(r_kind, obs, rdims, rlayout, rgroups, rvec, num_tilings, htable, hcounts)
+        phi = encode(
+            r_kind, obs, rdims, rlayout, rgroups, rvec, num_tilings, htable, hcounts, quanta, phi
+        )
     while done < num_steps:
         if phase == NEEDS_RESET:
             domain_reset(d_kind, dparams, dstate, dcells, obs, domain_rng)
             phase = NEEDS_BEGIN
         if phase == NEEDS_BEGIN:
-            loop[L_EPISODE] += 1
+            episode += 1
             if traces != NO_TRACES:
                 clear_traces(trace_slots, trace_features, trace_actions, trace_count)
-            phi = encode(r_kind, obs, rdims, rlayout, rgroups, rvec, num_tilings, htable, hcounts)
-            action = select_action(
-                policy, q_values_binary(chooser, phi), legal, parameter, agent_rng
+            phi = encode(
+                r_kind,
+                obs,
+                rdims,
+                rlayout,
+                rgroups,
+                rvec,
+                num_tilings,
+                htable,
+                hcounts,
+                quanta,
+                buffers[free],
             )
-            loop[L_EPISODE_STEPS] = 0
-            loop[L_EPISODE_FAILURES] = 0
-            loop_f[LF_RETURN] = 0.0
-            loop_f[LF_DISCOUNTED] = 0.0
-            loop_f[LF_WEIGHT] = 1.0
+            free = 1 - free
+            q_values_binary_into(chooser, phi, q)
+            action = select_action(policy, q, legal, parameter, agent_rng)
+            episode_steps = episode_failures = 0
+            total, discounted, weight = 0.0, 0.0, 1.0
             phase = IN_EPISODE
-        if traces != NO_TRACES and trace_count[0] + ints[I_MAX_ACTIVE] > trace_values.shape[0]:
+        if traces != NO_TRACES and trace_count[0] + max_active > trace_values.shape[0]:
             status = GROW_TRACES
             break
         reward, terminated, cost = domain_step(
             d_kind, dparams, dtable, dcells, dstate, action, next_obs, domain_rng
         )
-        loop[L_EPISODE_STEPS] += 1
+        episode_steps += 1
         next_phi = phi
         next_action = 0
-        next_q = np.empty(0)
         if not terminated:
             next_phi = encode(
-                r_kind, next_obs, rdims, rlayout, rgroups, rvec, num_tilings, htable, hcounts
+                r_kind,
+                next_obs,
+                rdims,
+                rlayout,
+                rgroups,
+                rvec,
+                num_tilings,
+                htable,
+                hcounts,
+                quanta,
+                buffers[free],
             )
-            next_q = q_values_binary(chooser, next_phi)
-            next_action = select_action(policy, next_q, legal, parameter, agent_rng)
+            q_values_binary_into(chooser, next_phi, q)
+            next_action = select_action(policy, q, legal, parameter, agent_rng)
         # Learning (Algorithms 10-12, lines 4-7).
         target = reward
         if not terminated:
             if agent == SARSA:
-                target += discount * next_q[next_action]
+                target += discount * q[next_action]
             elif agent == Q_LEARNING:
-                target += discount * next_q.max()
+                target += discount * q.max()
             else:
-                target += discount * q_values_binary(weights, next_phi)[next_action]
-        episode = max(loop[L_EPISODE], 1)
-        alpha = step_size(
-            ints[I_SCHEDULE], floats[F_ALPHA], floats[F_N0], episode, float(phi.shape[0])
-        )
+                q_values_binary_into(weights, next_phi, critic_q)
+                target += discount * critic_q[next_action]
+        counted = max(episode, 1)
+        num_active = float(phi.shape[0])
+        alpha = step_size(schedule, alpha_0, n_0, counted, num_active)
         if traces == NO_TRACES:
             delta = td_step_binary(weights, phi, action, target, alpha)
         else:
@@ -328,9 +373,9 @@ def advance_kernel(
                 action,
                 target,
                 alpha,
-                floats[F_TRACE_FACTOR],
-                traces == REPLACING,
-                floats[F_MIN_TRACE],
+                trace_factor,
+                is_replacing,
+                min_trace,
                 trace_slots,
                 trace_features,
                 trace_actions,
@@ -338,15 +383,9 @@ def advance_kernel(
                 trace_count,
             )
         if agent == ACTOR_CRITIC and math.isfinite(delta):
-            actor_alpha = step_size(
-                ints[I_ACTOR_SCHEDULE],
-                floats[F_ACTOR_ALPHA],
-                floats[F_ACTOR_N0],
-                episode,
-                float(phi.shape[0]),
-            )
+            actor_alpha = step_size(actor_schedule, actor_alpha_0, actor_n_0, counted, num_active)
             add_binary(actor_weights, phi, action, actor_alpha * delta)
-        loop[L_LEARNING_STEPS] += 1
+        learning_steps += 1
         if not math.isfinite(delta):
             status = DIVERGED
             phase = NEEDS_RESET
@@ -356,24 +395,27 @@ def advance_kernel(
         done += 1
         if cost > 0.0:
             failures += 1
-            loop[L_EPISODE_FAILURES] += 1
-        loop_f[LF_RETURN] += reward
-        loop_f[LF_DISCOUNTED] += loop_f[LF_WEIGHT] * reward
-        loop_f[LF_WEIGHT] *= discount
-        if terminated or loop[L_EPISODE_STEPS] >= cap:
+            episode_failures += 1
+        total += reward
+        discounted += weight * reward
+        weight *= discount
+        if terminated or episode_steps >= cap:
             if num_ended == ep_float.shape[0]:
                 ep_float = np.concatenate((ep_float, np.empty_like(ep_float)))
                 ep_int = np.concatenate((ep_int, np.empty_like(ep_int)))
-            ep_float[num_ended, 0] = loop_f[LF_RETURN]
-            ep_float[num_ended, 1] = loop_f[LF_DISCOUNTED]
-            ep_int[num_ended, 0] = loop[L_EPISODE_STEPS]
-            ep_int[num_ended, 1] = loop[L_EPISODE_FAILURES]
+            ep_float[num_ended, 0] = total
+            ep_float[num_ended, 1] = discounted
+            ep_int[num_ended, 0] = episode_steps
+            ep_int[num_ended, 1] = episode_failures
             num_ended += 1
             phase = NEEDS_RESET
         else:
             obs[:] = next_obs
             phi = next_phi
+            free = 1 - free
             action = next_action
-    loop[L_PHASE] = phase
-    loop[L_ACTION] = action
+    loop[L_PHASE], loop[L_ACTION], loop[L_EPISODE_STEPS] = phase, action, episode_steps
+    loop[L_EPISODE], loop[L_LEARNING_STEPS] = episode, learning_steps
+    loop[L_EPISODE_FAILURES] = episode_failures
+    loop_f[LF_RETURN], loop_f[LF_DISCOUNTED], loop_f[LF_WEIGHT] = total, discounted, weight
     return status, done, failures, delta, ep_float[:num_ended], ep_int[:num_ended]

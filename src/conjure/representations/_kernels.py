@@ -31,6 +31,7 @@ __all__ = [
     "rbf_values",
     "tabular_feature",
     "tile_features",
+    "tile_indices_into",
 ]
 
 EMPTY_SLOT = -1
@@ -175,14 +176,18 @@ def independent_features(state: np.ndarray, dims: np.ndarray, offsets: np.ndarra
 
 
 @njit(cache=True, inline="always")
-def _tile_indices(
-    state: np.ndarray, dims: np.ndarray, layout: np.ndarray, groups: np.ndarray, num_tilings: int
-) -> np.ndarray:
-    d = state.shape[0]
-    quanta = np.empty(d, dtype=np.int64)
-    for i in range(d):  # position in units of 1/T tile
+def tile_indices_into(
+    state: np.ndarray,
+    dims: np.ndarray,
+    layout: np.ndarray,
+    groups: np.ndarray,
+    num_tilings: int,
+    quanta: np.ndarray,
+    out: np.ndarray,
+) -> None:
+    """Write one tile per tiling per group into ``out``, using ``quanta`` (d ints) as scratch."""
+    for i in range(state.shape[0]):  # position in units of 1/T tile
         quanta[i] = _bucket(state[i], dims[i, 0], dims[i, 1], dims[i, 2], dims[i, 3])
-    out = np.empty(groups.shape[0] * num_tilings, dtype=np.int64)
     k = 0
     for g in range(groups.shape[0]):
         first, end, base, per_tiling = groups[g, 0], groups[g, 1], groups[g, 2], groups[g, 3]
@@ -193,6 +198,15 @@ def _tile_indices(
                 index += ((quanta[layout[m, 0]] + shift) // num_tilings) * layout[m, 1]
             out[k] = index
             k += 1
+
+
+@njit(cache=True, inline="always")
+def _tile_indices(
+    state: np.ndarray, dims: np.ndarray, layout: np.ndarray, groups: np.ndarray, num_tilings: int
+) -> np.ndarray:
+    quanta = np.empty(state.shape[0], dtype=np.int64)
+    out = np.empty(groups.shape[0] * num_tilings, dtype=np.int64)
+    tile_indices_into(state, dims, layout, groups, num_tilings, quanta, out)
     return out
 
 
