@@ -171,7 +171,7 @@ def domain_step(
 # Features, step sizes and action choice
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def encode(
     kind: int,
     state: np.ndarray,
@@ -206,7 +206,7 @@ def step_size(kind: int, alpha_0: float, n_0: float, episode: int, num_active: f
     return alpha_0
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def select_action(
     kind: int, values: np.ndarray, legal: np.ndarray, parameter: float, rng: np.random.Generator
 ) -> int:
@@ -277,11 +277,11 @@ def advance_kernel(
     legal = np.arange(ints[I_NUM_ACTIONS])
     # The actor's preferences choose actions for Actor-Critic (shared features), θ otherwise.
     chooser = actor_weights if agent == ACTOR_CRITIC else weights
-    # Scratch: two feature buffers (φ(s) lives in one while φ(s') is written to the other).
+    # Scratch: φ(s) and φ(s') buffers for tile coding (the other encoders allocate).
     next_obs = np.empty_like(obs)
     quanta = np.empty(obs.shape[0], dtype=np.int64)
-    buffers = np.empty((2, max_active), dtype=np.int64)
-    free = 0
+    phi_buffer = np.empty(max_active, dtype=np.int64)
+    next_buffer = np.empty(max_active, dtype=np.int64)
     q = np.empty(legal.shape[0])
     critic_q = np.empty(legal.shape[0])
     ep_float = np.empty((16, 2))
@@ -294,7 +294,7 @@ def advance_kernel(
     episode, learning_steps = loop[L_EPISODE], loop[L_LEARNING_STEPS]
     episode_failures = loop[L_EPISODE_FAILURES]
     total, discounted, weight = loop_f[LF_RETURN], loop_f[LF_DISCOUNTED], loop_f[LF_WEIGHT]
-    phi = buffers[1]
+    phi = phi_buffer
     if phase == IN_EPISODE:
         phi = encode(
             r_kind, obs, rdims, rlayout, rgroups, rvec, num_tilings, htable, hcounts, quanta, phi
@@ -318,9 +318,8 @@ def advance_kernel(
                 htable,
                 hcounts,
                 quanta,
-                buffers[free],
+                phi_buffer,
             )
-            free = 1 - free
             q_values_binary_into(chooser, phi, q)
             action = select_action(policy, q, legal, parameter, agent_rng)
             episode_steps = episode_failures = 0
@@ -347,7 +346,7 @@ def advance_kernel(
                 htable,
                 hcounts,
                 quanta,
-                buffers[free],
+                next_buffer,
             )
             q_values_binary_into(chooser, next_phi, q)
             next_action = select_action(policy, q, legal, parameter, agent_rng)
@@ -411,8 +410,11 @@ def advance_kernel(
             phase = NEEDS_RESET
         else:
             obs[:] = next_obs
-            phi = next_phi
-            free = 1 - free
+            if r_kind == TILES:  # φ(s) ← φ(s'): copy, so that φ(s) stays in its buffer
+                for i in range(max_active):
+                    phi_buffer[i] = next_buffer[i]
+            else:
+                phi = next_phi
             action = next_action
     loop[L_PHASE], loop[L_ACTION], loop[L_EPISODE_STEPS] = phase, action, episode_steps
     loop[L_EPISODE], loop[L_LEARNING_STEPS] = episode, learning_steps
