@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from conjure.agents import SARSA, ActorCritic, QLearning
-from conjure.compiled import CompiledStepper, compile_seconds, for_combination
+from conjure.compiled import CompiledStepper, _kernels, compile_seconds, for_combination, warm_up
 from conjure.core.errors import DivergenceError, InvalidParameterError
 from conjure.core.schedules import EpisodicDecay, FeatureNormalizedDecay
 from conjure.domains import ChainMDP, GridWorld, InvertedPendulum
@@ -222,3 +222,11 @@ def test_advance_rejects_bad_step_counts(bad):
     agent = SARSA(representation=Tabular()).setup(domain.domain_spec, 0)
     with pytest.raises(InvalidParameterError, match="num_steps"):
         for_combination(domain, agent).advance(bad)
+
+
+def test_one_compilation_serves_every_combination():
+    assert warm_up() == compile_seconds() > 0.0
+    for name in COMBINATIONS:
+        domain, agent = _build(name, 1)
+        for_combination(domain, agent, seed=1).advance(50)
+    assert len(_kernels.advance_kernel.overloads) == 1

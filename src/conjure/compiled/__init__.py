@@ -4,6 +4,12 @@
 kernel, else ``None`` (the caller keeps the Python path).
 """
 
-from conjure.compiled.stepper import AdvanceStats, CompiledStepper, compile_seconds, for_combination
+from conjure.compiled.stepper import (
+    AdvanceStats,
+    CompiledStepper,
+    compile_seconds,
+    for_combination,
+    warm_up,
+)
 
-__all__ = ["AdvanceStats", "CompiledStepper", "compile_seconds", "for_combination"]
+__all__ = ["AdvanceStats", "CompiledStepper", "compile_seconds", "for_combination", "warm_up"]

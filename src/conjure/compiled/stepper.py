@@ -36,7 +36,7 @@ from conjure.compiled.combination import Combination, pack_combination
 from conjure.core.errors import DivergenceError, InvalidParameterError
 from conjure.core.interfaces import Agent, Domain
 
-__all__ = ["AdvanceStats", "CompiledStepper", "compile_seconds", "for_combination"]
+__all__ = ["AdvanceStats", "CompiledStepper", "compile_seconds", "for_combination", "warm_up"]
 
 _EMPTY_SLOTS = np.zeros((0, 0), dtype=np.int64)
 _EMPTY_INTS = np.zeros(0, dtype=np.int64)
@@ -221,6 +221,24 @@ def _divergence(agent: Agent, delta: float) -> DivergenceError:
 def compile_seconds() -> float | None:
     """Seconds the first kernel call of this process took (compile or cache load), or None."""
     return _COMPILE_SECONDS[0] if _COMPILE_SECONDS else None
+
+
+def warm_up() -> float:
+    """Compile the kernel (or load it from the disk cache) and return `compile_seconds`.
+
+    One kernel serves every combination, so a parent process can call this once before
+    starting workers, which then load the cached code.
+    """
+    from conjure.agents.sarsa import SARSA
+    from conjure.domains.chain import ChainMDP
+    from conjure.representations import Tabular
+
+    domain = ChainMDP()
+    agent = SARSA(representation=Tabular()).setup(domain.domain_spec, 0)
+    for_combination(domain, agent, seed=0).advance(1)
+    seconds = compile_seconds()
+    assert seconds is not None  # the advance above called the kernel
+    return seconds
 
 
 def for_combination(
