@@ -14,12 +14,19 @@ from numba import njit
 @njit(cache=True)
 def q_values_binary(weights: np.ndarray, active: np.ndarray) -> np.ndarray:
     """Q(s, ·) = Σ_{f ∈ φ(s)} θ_f."""
-    q = np.zeros(weights.shape[1])
+    q = np.empty(weights.shape[1])
+    q_values_binary_into(weights, active, q)
+    return q
+
+
+@njit(cache=True)
+def q_values_binary_into(weights: np.ndarray, active: np.ndarray, q: np.ndarray) -> None:
+    """Write Q(s, ·) = Σ_{f ∈ φ(s)} θ_f into ``q`` (no allocation, for compiled loops)."""
+    q[:] = 0.0
     for i in range(active.shape[0]):
         row = weights[active[i]]
         for a in range(q.shape[0]):
             q[a] += row[a]
-    return q
 
 
 @njit(cache=True)

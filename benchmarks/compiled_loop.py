@@ -1,0 +1,243 @@
+"""Learning steps per second: the compiled path vs the Python path vs a hand-written numba loop.
+
+Usage: ``python benchmarks/compiled_loop.py [--steps N] [--repeats R] [--no-compile-times]``
+
+Workload (issue 11): SARSA + tile coding (8 tilings of 10x10) with ε-greedy (ε = 0.1) and a
+constant step size on the inverted pendulum, measured three ways side by side, interleaved
+repeat by repeat (the machine is shared; the median of ``repeats`` is reported):
+
+- ``python``: `conjure.experiments.loop.LearningLoop.advance` (six Python-to-numba calls per
+  step);
+- ``compiled``: `conjure.compiled.for_combination(...).advance` (one numba call per advance);
+- ``hand-written``: `reference_loop` below, one numba function doing the same arithmetic with
+  preallocated buffers and no library code: the limit the compiled path is compared against.
+
+Compile times are measured in fresh processes with an empty numba cache (``cold``, the first
+run on a machine) and then with that cache filled (``warm``, every later process).
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+
+import numpy as np
+from numba import njit
+from rich.console import Console
+from rich.table import Table
+
+from conjure.agents import SARSA
+from conjure.compiled import for_combination
+from conjure.domains import InvertedPendulum
+from conjure.experiments.loop import LearningLoop
+from conjure.policies import EpsilonGreedy
+from conjure.representations import TileCoding
+
+NUM_TILINGS, TILES, EPSILON, STEP_SIZE = 8, 10, 0.1, 0.05
+
+
+def make_agent() -> SARSA:
+    return SARSA(
+        representation=TileCoding(num_tilings=NUM_TILINGS, tiles_per_dim=TILES),
+        policy=EpsilonGreedy(epsilon=EPSILON),
+        step_size=STEP_SIZE,
+    )
+
+
+# ---------------------------------------------------------------------------------------------
+# The hand-written reference: pendulum RK4 + tile coding + ε-greedy + SARSA in one function.
+
+
+@njit(cache=True, inline="always")
+def _acceleration(theta: float, rate: float, force: float) -> float:
+    alpha = 1.0 / 10.0
+    cos_theta = math.cos(theta)
+    numerator = (
+        9.8 * math.sin(theta)
+        - alpha * 2.0 * 0.5 * rate * rate * math.sin(2.0 * theta) / 2.0
+        - alpha * cos_theta * force
+    )
+    return numerator / (4.0 * 0.5 / 3.0 - alpha * 2.0 * 0.5 * cos_theta**2)
+
+
+@njit(cache=True, inline="always")
+def _tiles(theta: float, rate: float, out: np.ndarray) -> None:
+    # Quanta in units of 1/T tile over [-π/2, π/2] x [-2, 2], 11 x 11 tiles per tiling.
+    top = TILES * NUM_TILINGS
+    q0 = min(max(int((theta + math.pi / 2) * top / math.pi), 0), top)
+    q1 = min(max(int((rate + 2.0) * top / 4.0), 0), top)
+    per_tiling = (TILES + 1) * (TILES + 1)
+    for t in range(NUM_TILINGS):
+        c0 = (q0 + t % NUM_TILINGS) // NUM_TILINGS
+        c1 = (q1 + (3 * t) % NUM_TILINGS) // NUM_TILINGS
+        out[t] = t * per_tiling + c0 * (TILES + 1) + c1
+
+
+@njit(cache=True, inline="always")
+def _choose(weights: np.ndarray, active: np.ndarray, q: np.ndarray, u: float) -> int:
+    q[:] = 0.0
+    for i in range(active.shape[0]):
+        for a in range(3):
+            q[a] += weights[active[i], a]
+    if u < EPSILON:
+        return min(int(u / EPSILON * 3), 2)
+    best, ties = -np.inf, 0
+    for a in range(3):
+        if q[a] > best:
+            best, ties = q[a], 1
+        elif q[a] == best:
+            ties += 1
+    k = min(int((u - EPSILON) / (1.0 - EPSILON) * ties), ties - 1)
+    for a in range(3):
+        if q[a] == best:
+            if k == 0:
+                return a
+            k -= 1
+    return 2
+
+
+@njit(cache=True)
+def reference_loop(num_steps: int, weights: np.ndarray, rng: np.random.Generator) -> int:
+    """Run ``num_steps`` SARSA steps; return the number of episodes begun."""
+    active = np.empty(NUM_TILINGS, dtype=np.int64)
+    next_active = np.empty(NUM_TILINGS, dtype=np.int64)
+    q = np.empty(3)
+    theta = rate = 0.0
+    episodes, length = 0, 3000
+    action = 0
+    for _ in range(num_steps):
+        if length >= 3000:
+            theta = rate = 0.0
+            episodes += 1
+            length = 0
+            _tiles(theta, rate, active)
+            action = _choose(weights, active, q, rng.random())
+        force = 50.0 * (action - 1) + 10.0 * (2.0 * rng.random() - 1.0)
+        dt = 0.1
+        k1t, k1r = rate, _acceleration(theta, rate, force)
+        k2t = rate + 0.5 * dt * k1r
+        k2r = _acceleration(theta + 0.5 * dt * k1t, k2t, force)
+        k3t = rate + 0.5 * dt * k2r
+        k3r = _acceleration(theta + 0.5 * dt * k2t, k3t, force)
+        k4t = rate + dt * k3r
+        k4r = _acceleration(theta + dt * k3t, k4t, force)
+        theta += dt / 6.0 * (k1t + 2.0 * k2t + 2.0 * k3t + k4t)
+        rate = min(max(rate + dt / 6.0 * (k1r + 2.0 * k2r + 2.0 * k3r + k4r), -2.0), 2.0)
+        length += 1
+        terminated = not (-math.pi / 2 < theta < math.pi / 2)
+        target = -1.0 if terminated else 0.0
+        next_action = 0
+        if not terminated:
+            _tiles(theta, rate, next_active)
+            next_action = _choose(weights, next_active, q, rng.random())
+            target += 0.95 * q[next_action]
+        value = 0.0
+        for i in range(NUM_TILINGS):
+            value += weights[active[i], action]
+        change = STEP_SIZE * (target - value)
+        for i in range(NUM_TILINGS):
+            weights[active[i], action] += change
+        if terminated:
+            length = 3000
+        else:
+            active, next_active = next_active, active
+            action = next_action
+    return episodes
+
+
+# ---------------------------------------------------------------------------------------------
+# Measurement
+
+
+def _rate(advance, num_steps: int) -> float:
+    started = time.perf_counter()
+    advance(num_steps)
+    return num_steps / (time.perf_counter() - started)
+
+
+def runners(num_steps: int) -> dict:
+    domain = InvertedPendulum()
+    python_loop = LearningLoop(domain, make_agent().setup(domain.domain_spec, 0), seed=0)
+    domain = InvertedPendulum()
+    stepper = for_combination(domain, make_agent().setup(domain.domain_spec, 0), seed=0)
+    weights = np.zeros(((TILES + 1) ** 2 * NUM_TILINGS, 3))
+    rng = np.random.default_rng(0)
+    return {
+        "python": (python_loop.advance, max(num_steps // 20, 1_000)),
+        "compiled": (stepper.advance, num_steps),
+        "hand-written": (lambda n: reference_loop(n, weights, rng), num_steps),
+    }
+
+
+_COMPILE_SNIPPET = """
+import time
+started = time.perf_counter()
+from compiled_loop import make_agent
+from conjure.compiled import compile_seconds, for_combination
+from conjure.domains import InvertedPendulum
+imported = time.perf_counter() - started
+domain = InvertedPendulum()
+for_combination(domain, make_agent().setup(domain.domain_spec, 0), seed=0).advance(1)
+print(compile_seconds(), imported)
+"""
+
+
+def compile_times() -> dict[str, tuple[float, float]]:
+    """(kernel compile or load seconds, import seconds) in fresh processes: cold, then warm."""
+    here = os.path.dirname(os.path.abspath(__file__))
+    times = {}
+    with tempfile.TemporaryDirectory() as cache:
+        env = {**os.environ, "NUMBA_CACHE_DIR": cache}
+        for label in ("cold", "warm"):
+            out = subprocess.run(
+                [sys.executable, "-c", _COMPILE_SNIPPET],
+                cwd=here,
+                env=env,
+                capture_output=True,
+                text=True,
+                check=True,
+            ).stdout.split()
+            times[label] = (float(out[0]), float(out[1]))
+    return times
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--steps", type=int, default=2_000_000)
+    parser.add_argument("--repeats", type=int, default=5)
+    parser.add_argument("--no-compile-times", action="store_true")
+    args = parser.parse_args()
+    table = runners(args.steps)
+    for advance, _ in table.values():
+        advance(2_000)  # warm-up: compilation or cache loading
+    rates: dict[str, list[float]] = {name: [] for name in table}
+    for _ in range(args.repeats):
+        for name, (advance, num_steps) in table.items():
+            rates[name].append(_rate(advance, num_steps))
+    medians = {name: statistics.median(values) for name, values in rates.items()}
+    reference = medians["hand-written"]
+    out = Table(
+        title=f"SARSA + TileCoding({NUM_TILINGS} x {TILES}x{TILES}), InvertedPendulum "
+        f"(median of {args.repeats}, interleaved)"
+    )
+    for column in ("path", "steps/s", "µs/step", "x hand-written"):
+        out.add_column(column, justify="right")
+    for name, rate in medians.items():
+        out.add_row(name, f"{rate:,.0f}", f"{1e6 / rate:.3f}", f"{reference / rate:.2f}")
+    console = Console()
+    console.print(out)
+    if not args.no_compile_times:
+        for label, (seconds, imported) in compile_times().items():
+            console.print(
+                f"{label} numba cache: first kernel call {seconds:.2f} s (import {imported:.2f} s)"
+            )
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,15 @@
+"""The compiled path: whole learning loops in one numba function (issue 11).
+
+`for_combination` (domain, agent) returns a `CompiledStepper` when every part has a compiled
+kernel, else ``None`` (the caller keeps the Python path).
+"""
+
+from conjure.compiled.stepper import (
+    AdvanceStats,
+    CompiledStepper,
+    compile_seconds,
+    for_combination,
+    warm_up,
+)
+
+__all__ = ["AdvanceStats", "CompiledStepper", "compile_seconds", "for_combination", "warm_up"]

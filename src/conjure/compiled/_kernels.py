@@ -1,0 +1,423 @@
+"""The compiled learning loop: n steps of domain, features, action choice and TD update.
+
+One numba function, `advance_kernel`, runs the same step order as
+`conjure.experiments.loop.LearningLoop` (Algorithms 10-12 as an interaction loop) for every
+supported combination; integer codes in ``ints`` choose the domain, representation, agent,
+policy and schedules, and the branches cost nothing next to the arithmetic. Compiled once
+(``cache=True``), so a second process loads it from disk.
+
+The kernel calls the library's own kernels (`pendulum_step`, `tile_features`,
+`q_values_binary`, `epsilon_greedy_action`, `td_step_binary`, ...) so that both paths do the
+same floating-point operations in the same order, and draws its random numbers from the same
+`numpy.random.Generator` objects in the same order (numba shares the generator's state).
+
+Packed arguments (see `conjure.compiled.stepper` for how they are built):
+
+- ``ints`` int64: the codes and sizes named by the ``I_*`` constants.
+- ``floats`` float64: the parameters named by the ``F_*`` constants.
+- ``dparams`` (float64 1-D), ``dtable`` (int64 2-D), ``dcells`` (float64 2-D): the domain's
+  constants; ``dstate`` (float64 1-D) its internal state, updated in place.
+- ``rdims``, ``rlayout``, ``rgroups``, ``rvec``, ``htable``, ``hcounts``: the representation's
+  tables (`conjure.representations._kernels`).
+- ``loop`` int64 and ``loop_f`` float64: the resumable loop state (``L_*`` constants),
+  ``obs`` the current state s.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from conjure.agents._kernels import (
+    add_binary,
+    clear_traces,
+    q_values_binary_into,
+    td_step_binary,
+    td_step_traces_binary,
+)
+from conjure.domains._kernels import pendulum_step
+from conjure.policies._kernels import epsilon_greedy_action, gibbs_action, greedy_action
+from conjure.representations._kernels import (
+    hashed_tile_features,
+    independent_features,
+    tabular_feature,
+    tile_indices_into,
+)
+
+# Domain codes.
+PENDULUM, GRIDWORLD, CHAIN = 0, 1, 2
+# Representation codes.
+TILES, HASHED_TILES, TABULAR, INDEPENDENT = 0, 1, 2, 3
+# Agent codes.
+SARSA, Q_LEARNING, ACTOR_CRITIC = 0, 1, 2
+# Policy codes.
+EPSILON_GREEDY, GIBBS = 0, 1
+# Step-size schedule codes (`conjure.core.schedules`).
+CONSTANT, FEATURE_NORMALIZED, EPISODIC = 0, 1, 2
+# Trace codes.
+NO_TRACES, REPLACING, ACCUMULATING = 0, 1, 2
+# Status codes returned by `advance_kernel`.
+DONE, GROW_TRACES, DIVERGED = 0, 1, 2
+# Loop phases.
+NEEDS_RESET, NEEDS_BEGIN, IN_EPISODE = 0, 1, 2
+
+# ints
+I_DOMAIN, I_REP, I_AGENT, I_POLICY, I_SCHEDULE, I_ACTOR_SCHEDULE = 0, 1, 2, 3, 4, 5
+I_CAP, I_TRACES, I_NUM_TILINGS, I_MAX_ACTIVE, I_NUM_ACTIONS = 6, 7, 8, 9, 10
+NUM_INTS = 11
+# floats
+F_DISCOUNT, F_POLICY, F_ALPHA, F_N0, F_ACTOR_ALPHA, F_ACTOR_N0 = 0, 1, 2, 3, 4, 5
+F_TRACE_FACTOR, F_MIN_TRACE = 6, 7
+NUM_FLOATS = 8
+# loop (int64)
+L_PHASE, L_ACTION, L_EPISODE_STEPS, L_EPISODE, L_LEARNING_STEPS, L_EPISODE_FAILURES = range(6)
+# loop_f (float64)
+LF_RETURN, LF_DISCOUNTED, LF_WEIGHT = 0, 1, 2
+
+_HALF_PI = math.pi / 2.0
+# GridWorld cell table columns (dcells) and move table layout (dtable: 4 targets, count, 4 moves).
+C_REWARD, C_TERMINAL, C_PIT, C_NOISY, C_ROW, C_COL = range(6)
+
+
+# ---------------------------------------------------------------------------------------------
+# Domains: reset and step write the observation into ``obs``.
+
+
+@njit(cache=True)
+def domain_reset(
+    kind: int,
+    dparams: np.ndarray,
+    dstate: np.ndarray,
+    dcells: np.ndarray,
+    obs: np.ndarray,
+    rng: np.random.Generator,
+) -> None:
+    """Start an episode as the domain's ``reset(seed=None)`` does, with the same draws."""
+    if kind == PENDULUM:
+        x = dparams[1]
+        if x > 0.0:
+            span = x - -x  # numpy's uniform(low, high): low + (high - low) * u
+            dstate[0] = -x + span * rng.random()
+            dstate[1] = -x + span * rng.random()
+        else:
+            dstate[0] = 0.0
+            dstate[1] = 0.0
+        obs[0] = dstate[0]
+        obs[1] = dstate[1]
+    elif kind == GRIDWORLD:
+        cell = int(dparams[1])
+        dstate[0] = cell
+        obs[0] = dcells[cell, C_ROW]
+        obs[1] = dcells[cell, C_COL]
+    else:
+        dstate[0] = 0.0
+        obs[0] = 0.0
+
+
+@njit(cache=True)
+def domain_step(
+    kind: int,
+    dparams: np.ndarray,
+    dtable: np.ndarray,
+    dcells: np.ndarray,
+    dstate: np.ndarray,
+    action: int,
+    obs: np.ndarray,
+    rng: np.random.Generator,
+) -> tuple[float, bool, float]:
+    """One domain step with the Python domain's draws; returns (reward, terminated, cost)."""
+    if kind == PENDULUM:
+        force = 50.0 * (action - 1)  # (-50, 0, +50) N
+        if dparams[0] > 0.0:
+            force += dparams[0] * (2.0 * rng.random() - 1.0)
+        theta, theta_dot = pendulum_step(dstate[0], dstate[1], force)
+        dstate[0] = theta
+        dstate[1] = theta_dot
+        obs[1] = theta_dot
+        if -_HALF_PI < theta < _HALF_PI:
+            obs[0] = theta
+            return 0.0, False, 0.0
+        obs[0] = _HALF_PI if theta > 0.0 else -_HALF_PI
+        return -1.0, True, 1.0
+    if kind == GRIDWORLD:
+        cell = int(dstate[0])
+        noise = dparams[0]
+        if noise > 0.0 and dcells[cell, C_NOISY] > 0.0 and rng.random() < noise:
+            num_moves = dtable[cell, 4]
+            if num_moves > 0:
+                action = dtable[cell, 5 + int(rng.random() * num_moves)]
+        cell = dtable[cell, action]
+        dstate[0] = cell
+        obs[0] = dcells[cell, C_ROW]
+        obs[1] = dcells[cell, C_COL]
+        return dcells[cell, C_REWARD], dcells[cell, C_TERMINAL] > 0.0, dcells[cell, C_PIT]
+    # CHAIN: dparams = [num_states, step_reward, slip]
+    state = int(dstate[0])
+    last = int(dparams[0]) - 1
+    reward = 0.0
+    if state < last and action == 0:
+        slip = dparams[2]
+        if slip == 0.0 or rng.random() >= slip:
+            state += 1
+            reward = dparams[1]
+    dstate[0] = state
+    obs[0] = state
+    return reward, state == last, 0.0
+
+
+# ---------------------------------------------------------------------------------------------
+# Features, step sizes and action choice
+
+
+@njit(cache=True, inline="always")
+def encode(
+    kind: int,
+    state: np.ndarray,
+    rdims: np.ndarray,
+    rlayout: np.ndarray,
+    rgroups: np.ndarray,
+    rvec: np.ndarray,
+    num_tilings: int,
+    htable: np.ndarray,
+    hcounts: np.ndarray,
+    quanta: np.ndarray,
+    out: np.ndarray,
+) -> np.ndarray:
+    """φ(s) by the representation's own kernel (unhashed tiles are written into ``out``)."""
+    if kind == TILES:
+        tile_indices_into(state, rdims, rlayout, rgroups, num_tilings, quanta, out)
+        return out
+    if kind == HASHED_TILES:
+        return hashed_tile_features(state, rdims, rlayout, rgroups, num_tilings, htable, hcounts)
+    if kind == TABULAR:
+        return tabular_feature(state, rdims, rvec)
+    return independent_features(state, rdims, rvec)
+
+
+@njit(cache=True)
+def step_size(kind: int, alpha_0: float, n_0: float, episode: int, num_active: float) -> float:
+    """α_t of `conjure.core.schedules` (same expression, same rounding)."""
+    if kind == FEATURE_NORMALIZED:
+        return alpha_0 / num_active * (n_0 + 1.0) / (n_0 + float(episode) ** 1.1)
+    if kind == EPISODIC:
+        return alpha_0 * (n_0 + 1.0) / (n_0 + episode)
+    return alpha_0
+
+
+@njit(cache=True, inline="always")
+def select_action(
+    kind: int, values: np.ndarray, legal: np.ndarray, parameter: float, rng: np.random.Generator
+) -> int:
+    """π(s) from one uniform draw, as `EpsilonGreedy.select` / `Gibbs.select`."""
+    u = rng.random()
+    if kind == EPSILON_GREEDY:
+        return epsilon_greedy_action(values, legal, parameter, u)
+    if parameter == 0.0:
+        return greedy_action(values, legal)
+    return gibbs_action(values, legal, parameter, u)
+
+
+# ---------------------------------------------------------------------------------------------
+# The loop
+
+
+@njit(cache=True)
+def advance_kernel(
+    num_steps: int,
+    ints: np.ndarray,
+    floats: np.ndarray,
+    dparams: np.ndarray,
+    dtable: np.ndarray,
+    dcells: np.ndarray,
+    dstate: np.ndarray,
+    domain_rng: np.random.Generator,
+    rdims: np.ndarray,
+    rlayout: np.ndarray,
+    rgroups: np.ndarray,
+    rvec: np.ndarray,
+    htable: np.ndarray,
+    hcounts: np.ndarray,
+    weights: np.ndarray,
+    actor_weights: np.ndarray,
+    trace_slots: np.ndarray,
+    trace_features: np.ndarray,
+    trace_actions: np.ndarray,
+    trace_values: np.ndarray,
+    trace_count: np.ndarray,
+    agent_rng: np.random.Generator,
+    obs: np.ndarray,
+    loop: np.ndarray,
+    loop_f: np.ndarray,
+) -> tuple[int, int, int, float, np.ndarray, np.ndarray]:
+    """Take up to ``num_steps`` learning steps; stop early on a status other than `DONE`.
+
+    Returns (status, steps taken, failures, last δ, episodes (m, 2) float64 [return,
+    discounted return], episodes (m, 2) int64 [length, failures]) for the m episodes that
+    ended during the call. `GROW_TRACES` stops before a step whose traces might not fit;
+    `DIVERGED` stops after an update whose δ is not finite (that step is not counted).
+    """
+    d_kind, r_kind, agent, policy = ints[I_DOMAIN], ints[I_REP], ints[I_AGENT], ints[I_POLICY]
+    cap, traces, num_tilings = ints[I_CAP], ints[I_TRACES], ints[I_NUM_TILINGS]
+    schedule, actor_schedule, max_active = (
+        ints[I_SCHEDULE],
+        ints[I_ACTOR_SCHEDULE],
+        ints[I_MAX_ACTIVE],
+    )
+    discount, parameter = floats[F_DISCOUNT], floats[F_POLICY]
+    alpha_0, n_0, actor_alpha_0, actor_n_0 = (
+        floats[F_ALPHA],
+        floats[F_N0],
+        floats[F_ACTOR_ALPHA],
+        floats[F_ACTOR_N0],
+    )
+    trace_factor, min_trace = floats[F_TRACE_FACTOR], floats[F_MIN_TRACE]
+    is_replacing = traces == REPLACING
+    legal = np.arange(ints[I_NUM_ACTIONS])
+    # The actor's preferences choose actions for Actor-Critic (shared features), θ otherwise.
+    chooser = actor_weights if agent == ACTOR_CRITIC else weights
+    # Scratch: φ(s) and φ(s') buffers for tile coding (the other encoders allocate).
+    next_obs = np.empty_like(obs)
+    quanta = np.empty(obs.shape[0], dtype=np.int64)
+    phi_buffer = np.empty(max_active, dtype=np.int64)
+    next_buffer = np.empty(max_active, dtype=np.int64)
+    q = np.empty(legal.shape[0])
+    critic_q = np.empty(legal.shape[0])
+    ep_float = np.empty((16, 2))
+    ep_int = np.empty((16, 2), dtype=np.int64)
+    num_ended = done = failures = 0
+    delta = 0.0
+    status = DONE
+    # The loop state, in locals while running.
+    phase, action, episode_steps = loop[L_PHASE], loop[L_ACTION], loop[L_EPISODE_STEPS]
+    episode, learning_steps = loop[L_EPISODE], loop[L_LEARNING_STEPS]
+    episode_failures = loop[L_EPISODE_FAILURES]
+    total, discounted, weight = loop_f[LF_RETURN], loop_f[LF_DISCOUNTED], loop_f[LF_WEIGHT]
+    phi = phi_buffer
+    if phase == IN_EPISODE:
+        phi = encode(
+            r_kind, obs, rdims, rlayout, rgroups, rvec, num_tilings, htable, hcounts, quanta, phi
+        )
+    while done < num_steps:
+        if phase == NEEDS_RESET:
+            domain_reset(d_kind, dparams, dstate, dcells, obs, domain_rng)
+            phase = NEEDS_BEGIN
+        if phase == NEEDS_BEGIN:
+            episode += 1
+            if traces != NO_TRACES:
+                clear_traces(trace_slots, trace_features, trace_actions, trace_count)
+            phi = encode(
+                r_kind,
+                obs,
+                rdims,
+                rlayout,
+                rgroups,
+                rvec,
+                num_tilings,
+                htable,
+                hcounts,
+                quanta,
+                phi_buffer,
+            )
+            q_values_binary_into(chooser, phi, q)
+            action = select_action(policy, q, legal, parameter, agent_rng)
+            episode_steps = episode_failures = 0
+            total, discounted, weight = 0.0, 0.0, 1.0
+            phase = IN_EPISODE
+        if traces != NO_TRACES and trace_count[0] + max_active > trace_values.shape[0]:
+            status = GROW_TRACES
+            break
+        reward, terminated, cost = domain_step(
+            d_kind, dparams, dtable, dcells, dstate, action, next_obs, domain_rng
+        )
+        episode_steps += 1
+        next_phi = phi
+        next_action = 0
+        if not terminated:
+            next_phi = encode(
+                r_kind,
+                next_obs,
+                rdims,
+                rlayout,
+                rgroups,
+                rvec,
+                num_tilings,
+                htable,
+                hcounts,
+                quanta,
+                next_buffer,
+            )
+            q_values_binary_into(chooser, next_phi, q)
+            next_action = select_action(policy, q, legal, parameter, agent_rng)
+        # Learning (Algorithms 10-12, lines 4-7).
+        target = reward
+        if not terminated:
+            if agent == SARSA:
+                target += discount * q[next_action]
+            elif agent == Q_LEARNING:
+                target += discount * q.max()
+            else:
+                q_values_binary_into(weights, next_phi, critic_q)
+                target += discount * critic_q[next_action]
+        counted = max(episode, 1)
+        num_active = float(phi.shape[0])
+        alpha = step_size(schedule, alpha_0, n_0, counted, num_active)
+        if traces == NO_TRACES:
+            delta = td_step_binary(weights, phi, action, target, alpha)
+        else:
+            delta = td_step_traces_binary(
+                weights,
+                phi,
+                action,
+                target,
+                alpha,
+                trace_factor,
+                is_replacing,
+                min_trace,
+                trace_slots,
+                trace_features,
+                trace_actions,
+                trace_values,
+                trace_count,
+            )
+        if agent == ACTOR_CRITIC and math.isfinite(delta):
+            actor_alpha = step_size(actor_schedule, actor_alpha_0, actor_n_0, counted, num_active)
+            add_binary(actor_weights, phi, action, actor_alpha * delta)
+        learning_steps += 1
+        if not math.isfinite(delta):
+            status = DIVERGED
+            phase = NEEDS_RESET
+            break
+        if traces != NO_TRACES and terminated:
+            clear_traces(trace_slots, trace_features, trace_actions, trace_count)
+        done += 1
+        if cost > 0.0:
+            failures += 1
+            episode_failures += 1
+        total += reward
+        discounted += weight * reward
+        weight *= discount
+        if terminated or episode_steps >= cap:
+            if num_ended == ep_float.shape[0]:
+                ep_float = np.concatenate((ep_float, np.empty_like(ep_float)))
+                ep_int = np.concatenate((ep_int, np.empty_like(ep_int)))
+            ep_float[num_ended, 0] = total
+            ep_float[num_ended, 1] = discounted
+            ep_int[num_ended, 0] = episode_steps
+            ep_int[num_ended, 1] = episode_failures
+            num_ended += 1
+            phase = NEEDS_RESET
+        else:
+            obs[:] = next_obs
+            if r_kind == TILES:  # φ(s) ← φ(s'): copy, so that φ(s) stays in its buffer
+                for i in range(max_active):
+                    phi_buffer[i] = next_buffer[i]
+            else:
+                phi = next_phi
+            action = next_action
+    loop[L_PHASE], loop[L_ACTION], loop[L_EPISODE_STEPS] = phase, action, episode_steps
+    loop[L_EPISODE], loop[L_LEARNING_STEPS] = episode, learning_steps
+    loop[L_EPISODE_FAILURES] = episode_failures
+    loop_f[LF_RETURN], loop_f[LF_DISCOUNTED], loop_f[LF_WEIGHT] = total, discounted, weight
+    return status, done, failures, delta, ep_float[:num_ended], ep_int[:num_ended]

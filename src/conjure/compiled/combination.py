@@ -1,0 +1,271 @@
+"""Which (domain, representation, agent) combinations have a compiled path, and their packing.
+
+`pack_combination` recognises a supported combination by exact type (a subclass, a wrapper or a
+user-written component takes the Python path) and packs the constants of its domain,
+representation, agent, policy and step-size schedules into the few arrays that
+`conjure.compiled._kernels.advance_kernel` reads.
+
+Supported (Geramifard 2012, Algorithms 10-12):
+
+- domains: `InvertedPendulum`, `GridWorld`, `ChainMDP`;
+- representations: `TileCoding` (hashed or not), `Tabular`, `IndependentDiscretization`;
+- agents: `SARSA` (with or without replacing/accumulating traces), `QLearning`,
+  `ActorCritic` (actor sharing the critic's features);
+- policies: `EpsilonGreedy`, `Gibbs`; schedules: `ConstantStepSize`,
+  `FeatureNormalizedDecay`, `EpisodicDecay`.
+
+Notes
+-----
+- Choice: the packing reads the components' set-up tables (tile layout, strides, offsets, move
+  tables), so both paths compute φ(s) and the domain step from the same numbers.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from conjure.agents.actor_critic import ActorCritic
+from conjure.agents.q_learning import QLearning
+from conjure.agents.sarsa import SARSA
+from conjure.compiled import _kernels as k
+from conjure.core.interfaces import Agent, Domain, check_is_set_up
+from conjure.core.schedules import (
+    ConstantStepSize,
+    EpisodicDecay,
+    FeatureNormalizedDecay,
+    StepSizeSchedule,
+)
+from conjure.domains.chain import ChainMDP
+from conjure.domains.gridworld import GridWorld
+from conjure.domains.pendulum import InvertedPendulum
+from conjure.policies import EpsilonGreedy, Gibbs
+from conjure.representations import IndependentDiscretization, Tabular, TileCoding
+
+__all__ = ["Combination", "pack_combination"]
+
+_INT_EMPTY = np.zeros((0, 0), dtype=np.int64)
+_FLOAT_EMPTY = np.zeros((0, 0))
+
+
+@dataclass
+class Combination:
+    """The packed constants of one compiled combination (see `conjure.compiled._kernels`).
+
+    Attributes
+    ----------
+    ints, floats : ndarray
+        Codes, sizes and parameters (``I_*``, ``F_*`` in `conjure.compiled._kernels`).
+    domain_arrays : tuple of ndarray
+        ``(dparams, dtable, dcells)``, the domain's constants.
+    representation_arrays : tuple of ndarray
+        ``(rdims, rlayout, rgroups, rvec, htable, hcounts)``; the hash table is the
+        representation's own (updated in place by both paths).
+    read_domain, write_domain : callable
+        Copy the domain's internal state to / from a float64 vector.
+    """
+
+    ints: np.ndarray
+    floats: np.ndarray
+    domain_arrays: tuple[np.ndarray, np.ndarray, np.ndarray]
+    representation_arrays: tuple[np.ndarray, ...]
+    read_domain: Callable[[Domain], np.ndarray]
+    write_domain: Callable[[Domain, np.ndarray], None]
+
+
+# ---------------------------------------------------------------------------------------------
+# Domains
+
+
+def _pendulum(domain: InvertedPendulum) -> tuple:
+    dparams = np.array([float(domain.force_noise), float(domain.start_noise)])
+
+    def read(d: InvertedPendulum) -> np.ndarray:
+        return np.array([d._theta, d._theta_dot])
+
+    def write(d: InvertedPendulum, state: np.ndarray) -> None:
+        d._theta, d._theta_dot = float(state[0]), float(state[1])
+
+    return k.PENDULUM, (dparams, _INT_EMPTY, _FLOAT_EMPTY), read, write
+
+
+def _gridworld(domain: GridWorld) -> tuple:
+    codes = domain.grid_.reshape(-1)
+    num_cells = codes.shape[0]
+    table = np.zeros((num_cells, 9), dtype=np.int64)
+    table[:, :4] = domain._targets
+    for cell, moves in enumerate(domain._feasible):
+        table[cell, 4] = len(moves)
+        table[cell, 5 : 5 + len(moves)] = moves
+    cells = np.zeros((num_cells, 6))
+    cells[:, k.C_REWARD] = domain._reward
+    cells[:, k.C_TERMINAL] = domain._terminal
+    cells[:, k.C_PIT] = domain._is_pit
+    cells[:, k.C_NOISY] = domain._is_noisy
+    cells[:, k.C_ROW] = [row for row, _ in domain._coords]
+    cells[:, k.C_COL] = [col for _, col in domain._coords]
+    dparams = np.array([float(domain._noise), float(domain._start_cell)])
+
+    def read(d: GridWorld) -> np.ndarray:
+        return np.array([float(d._cell)])
+
+    def write(d: GridWorld, state: np.ndarray) -> None:
+        d._cell = int(state[0])
+
+    return k.GRIDWORLD, (dparams, table, cells), read, write
+
+
+def _chain(domain: ChainMDP) -> tuple:
+    dparams = np.array([float(domain.num_states), domain._step_reward, domain._slip])
+
+    def read(d: ChainMDP) -> np.ndarray:
+        return np.array([float(d._state)])
+
+    def write(d: ChainMDP, state: np.ndarray) -> None:
+        d._state = int(state[0])
+
+    return k.CHAIN, (dparams, _INT_EMPTY, _FLOAT_EMPTY), read, write
+
+
+_DOMAINS: dict[type, Callable[[Any], tuple]] = {
+    InvertedPendulum: _pendulum,
+    GridWorld: _gridworld,
+    ChainMDP: _chain,
+}
+
+
+# ---------------------------------------------------------------------------------------------
+# Representations
+
+
+def _representation(rep: Any) -> tuple[int, int, int, tuple[np.ndarray, ...]] | None:
+    """(code, number of tilings, most active features, arrays), or None if not compiled."""
+    empty_vec = np.zeros(0, dtype=np.int64)
+    kind = type(rep)
+    if kind is TileCoding:
+        if rep._is_hashed:
+            code, htable, hcounts = k.HASHED_TILES, rep._hash_table, rep._hash_counts
+        else:
+            code, htable, hcounts = k.TILES, _INT_EMPTY, empty_vec
+        arrays = (rep._dims, rep._layout, rep._group_table, empty_vec, htable, hcounts)
+        return code, rep._num_tilings, rep.num_active_, arrays
+    if kind is Tabular:
+        return (
+            k.TABULAR,
+            0,
+            1,
+            (rep._dims, _INT_EMPTY, _INT_EMPTY, rep._strides, _INT_EMPTY, empty_vec),
+        )
+    if kind is IndependentDiscretization:
+        arrays = (rep._dims, _INT_EMPTY, _INT_EMPTY, rep.offsets_, _INT_EMPTY, empty_vec)
+        return k.INDEPENDENT, 0, rep.offsets_.shape[0], arrays
+    return None
+
+
+# ---------------------------------------------------------------------------------------------
+# Agents, policies, schedules
+
+
+def _schedule(schedule: StepSizeSchedule) -> tuple[int, float, float] | None:
+    kind = type(schedule)
+    if kind is ConstantStepSize:
+        return k.CONSTANT, float(schedule.alpha_0), 0.0
+    if kind is FeatureNormalizedDecay:
+        return k.FEATURE_NORMALIZED, float(schedule.alpha_0), float(schedule.n_0)
+    if kind is EpisodicDecay:
+        return k.EPISODIC, float(schedule.alpha_0), float(schedule.n_0)
+    return None
+
+
+def _policy(policy: Any) -> tuple[int, float] | None:
+    if type(policy) is EpsilonGreedy:
+        return k.EPSILON_GREEDY, float(policy.epsilon)
+    if type(policy) is Gibbs:
+        return k.GIBBS, float(policy.temperature)
+    return None
+
+
+def _agent(agent: Agent) -> tuple[int, int, float, float, tuple | None] | None:
+    """(agent code, trace code, trace factor, min trace, actor schedule), or None."""
+    kind = type(agent)
+    if kind is SARSA:
+        if not agent._has_traces:
+            return k.SARSA, k.NO_TRACES, 0.0, 0.0, None
+        traces = k.REPLACING if agent.trace_kind == "replacing" else k.ACCUMULATING
+        return k.SARSA, traces, agent._trace_factor, float(agent.min_trace), None
+    if kind is QLearning:
+        return k.Q_LEARNING, k.NO_TRACES, 0.0, 0.0, None
+    if kind is ActorCritic and agent._is_shared:
+        actor = _schedule(agent.actor_schedule_)
+        return None if actor is None else (k.ACTOR_CRITIC, k.NO_TRACES, 0.0, 0.0, actor)
+    return None
+
+
+def pack_combination(domain: Domain, agent: Agent) -> Combination | None:
+    """Pack a set-up ``agent`` on ``domain``, or return ``None`` when a part is not compiled.
+
+    Raises
+    ------
+    NotSetUpError
+        If ``agent.setup`` has not run.
+    """
+    check_is_set_up(agent, "pack_combination")
+    domain_packer = _DOMAINS.get(type(domain))
+    if domain_packer is None or domain.domain_spec.has_action_constraints:
+        return None
+    agent_codes = _agent(agent)
+    if agent_codes is None:
+        return None
+    rep = _representation(agent.representation_)
+    policy = _policy(agent.policy_)
+    schedule = _schedule(agent.schedule_)
+    if rep is None or policy is None or schedule is None:
+        return None
+    agent_code, traces, trace_factor, min_trace, actor = agent_codes
+    actor = schedule if actor is None else actor
+    rep_code, num_tilings, max_active, rep_arrays = rep
+    domain_code, domain_arrays, read, write = domain_packer(domain)
+    spec = domain.domain_spec
+    ints = np.zeros(k.NUM_INTS, dtype=np.int64)
+    ints[[k.I_DOMAIN, k.I_REP, k.I_AGENT, k.I_POLICY]] = (
+        domain_code,
+        rep_code,
+        agent_code,
+        policy[0],
+    )
+    ints[[k.I_SCHEDULE, k.I_ACTOR_SCHEDULE, k.I_CAP, k.I_TRACES]] = (
+        schedule[0],
+        actor[0],
+        spec.max_episode_steps,
+        traces,
+    )
+    ints[[k.I_NUM_TILINGS, k.I_MAX_ACTIVE, k.I_NUM_ACTIONS]] = (
+        num_tilings,
+        max_active,
+        spec.num_actions,
+    )
+    floats = np.zeros(k.NUM_FLOATS)
+    floats[[k.F_DISCOUNT, k.F_POLICY, k.F_ALPHA, k.F_N0]] = (
+        float(spec.discount),
+        policy[1],
+        schedule[1],
+        schedule[2],
+    )
+    floats[[k.F_ACTOR_ALPHA, k.F_ACTOR_N0, k.F_TRACE_FACTOR, k.F_MIN_TRACE]] = (
+        actor[1],
+        actor[2],
+        trace_factor,
+        min_trace,
+    )
+    contiguous = tuple(np.ascontiguousarray(a) for a in rep_arrays[:4]) + rep_arrays[4:]
+    return Combination(
+        ints=ints,
+        floats=floats,
+        domain_arrays=tuple(np.ascontiguousarray(a) for a in domain_arrays),
+        representation_arrays=contiguous,
+        read_domain=read,
+        write_domain=write,
+    )

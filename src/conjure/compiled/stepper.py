@@ -1,0 +1,268 @@
+"""The compiled learning stepper: ``advance(n)`` runs n learning steps in one numba call.
+
+`for_combination` returns a `CompiledStepper` when the domain, representation, agent, policy
+and step-size schedule all have compiled kernels (see `conjure.compiled.combination`), and
+``None`` otherwise, so that the caller keeps the Python path. The stepper is a drop-in for
+`conjure.experiments.loop.LearningLoop` (same counters, same pausable episodes) whose
+``advance`` also returns the episodes that ended.
+
+Notes
+-----
+- The same seed gives the same learning curve on both paths: the kernel runs the step order of
+  `LearningLoop` (reset, begin episode, a = π(s); s', r = step(a); a' = π(s') unless
+  terminal; TD update of Algorithms 10-12), calls the same kernels and draws from the same
+  `numpy.random.Generator` objects (the domain's ``np_random`` and the agent's ``rng_``; numba
+  shares their state), one uniform per action choice and the domain's own draws per step.
+- Choice: the first reset of a stepper runs in Python (``domain.reset(seed=seed)``, which seeds
+  the domain's generator); later resets run in the kernel with the same draws.
+- Choice: the learner's θ, traces and tile hash table are updated in place, and the episode
+  counter, the learning-step counter and the domain's state are written back after every
+  ``advance``, so policy checks, `Agent.save` and the Python path see the same objects.
+- Choice: a learner's act/learn cache is dropped after every ``advance`` (θ changed under it).
+- Compilation: one kernel serves every combination (the arguments have the same types), compiled
+  once per machine and cached on disk; `compile_seconds` reports the first call's cost
+  in this process.
+"""
+
+from __future__ import annotations
+
+import time
+from typing import NamedTuple
+
+import numpy as np
+
+from conjure.compiled import _kernels as k
+from conjure.compiled.combination import Combination, pack_combination
+from conjure.core.errors import DivergenceError, InvalidParameterError
+from conjure.core.interfaces import Agent, Domain
+
+__all__ = ["AdvanceStats", "CompiledStepper", "compile_seconds", "for_combination", "warm_up"]
+
+_EMPTY_SLOTS = np.zeros((0, 0), dtype=np.int64)
+_EMPTY_INTS = np.zeros(0, dtype=np.int64)
+_EMPTY_FLOATS = np.zeros(0)
+_COMPILE_SECONDS: list[float] = []
+
+
+class AdvanceStats(NamedTuple):
+    """What one ``advance`` did: steps, failures and the learning episodes that ended.
+
+    The four arrays have one entry per learning episode that ended during the call, in order
+    (an episode begun in an earlier call counts its earlier steps too), like
+    `conjure.experiments.loop.EpisodeStats`: the return Σ r_t, the discounted return
+    Σ γ^t r_t, the length and the number of failure steps (``info["cost"] > 0``).
+    """
+
+    num_steps: int
+    num_failures: int
+    episode_returns: np.ndarray
+    discounted_returns: np.ndarray
+    episode_lengths: np.ndarray
+    episode_failures: np.ndarray
+
+
+class CompiledStepper:
+    """A resumable learning stepper whose steps run inside one compiled function.
+
+    Build it with `for_combination`. Counters and pausing behave as in
+    `conjure.experiments.loop.LearningLoop`: ``advance(n)`` takes exactly n learning steps,
+    ending and starting episodes as needed, and may stop in the middle of an episode.
+
+    Parameters
+    ----------
+    domain : Domain
+        The learning domain.
+    agent : Agent
+        The set-up learner.
+    combination : Combination
+        Its packed constants (`conjure.compiled.combination.pack_combination`).
+    seed : int or None, default None
+        Passed to the first ``domain.reset(seed=...)``.
+
+    Attributes
+    ----------
+    total_steps, num_episodes, num_failures : int
+        Learning steps, episodes started and failure steps so far.
+    """
+
+    def __init__(
+        self, domain: Domain, agent: Agent, combination: Combination, *, seed: int | None = None
+    ):
+        self.domain = domain
+        self.agent = agent
+        self.combination = combination
+        self.total_steps = 0
+        self.num_episodes = 0
+        self.num_failures = 0
+        self._seed = seed
+        self._started = False
+        spec = domain.domain_spec
+        self._obs = np.zeros(spec.num_dims)
+        self._loop = np.zeros(6, dtype=np.int64)
+        self._loop_f = np.zeros(3)
+
+    @property
+    def is_mid_episode(self) -> bool:
+        """Whether an episode is in progress."""
+        return bool(self._loop[k.L_PHASE] == k.IN_EPISODE)
+
+    @property
+    def num_completed_episodes(self) -> int:
+        """Learning episodes finished so far (the current unfinished one excluded)."""
+        return self.num_episodes - int(self.is_mid_episode)
+
+    def advance(self, num_steps: int) -> AdvanceStats:
+        """Take exactly ``num_steps`` learning steps in compiled code; see `AdvanceStats`.
+
+        Raises
+        ------
+        DivergenceError
+            When δ stops being finite (as the Python learners); the failing step is not
+            counted and the episode cannot be continued.
+        """
+        if isinstance(num_steps, bool) or not isinstance(num_steps, (int, np.integer)):
+            raise InvalidParameterError(f"`num_steps` must be an int; got {num_steps!r}.")
+        if num_steps < 0:
+            raise InvalidParameterError(f"`num_steps` must be >= 0; got {num_steps!r}.")
+        combo, domain, agent, loop = self.combination, self.domain, self.agent, self._loop
+        if not self._started and num_steps > 0:
+            self._obs[:] = domain.reset(seed=self._seed)[0]
+            self._started = True
+            loop[k.L_PHASE] = k.NEEDS_BEGIN
+        dstate = combo.read_domain(domain)
+        loop[k.L_EPISODE] = agent.episode_
+        loop[k.L_LEARNING_STEPS] = agent.num_learning_steps_
+        chunks: list[tuple[np.ndarray, np.ndarray]] = []
+        done = failures = 0
+        diverged: float | None = None
+        try:
+            while done < num_steps:
+                before = int(loop[k.L_EPISODE])
+                status, steps, fails, delta, ep_float, ep_int = _call_kernel(
+                    num_steps - done, combo, dstate, domain, agent, self._obs, loop, self._loop_f
+                )
+                self.num_episodes += int(loop[k.L_EPISODE]) - before
+                done += steps
+                failures += fails
+                chunks.append((ep_float, ep_int))
+                if status == k.GROW_TRACES:
+                    agent._grow_trace_capacity()
+                elif status == k.DIVERGED:
+                    diverged = delta
+                    break
+        finally:
+            combo.write_domain(domain, dstate)
+            agent.episode_ = int(loop[k.L_EPISODE])
+            agent.num_learning_steps_ = int(loop[k.L_LEARNING_STEPS])
+            agent._forget_cache()
+            self.total_steps += done
+            self.num_failures += failures
+        if diverged is not None:
+            raise _divergence(agent, diverged)
+        ep_float = np.concatenate([c[0] for c in chunks]) if chunks else np.zeros((0, 2))
+        ep_int = np.concatenate([c[1] for c in chunks]) if chunks else np.zeros((0, 2), np.int64)
+        return AdvanceStats(
+            done, failures, ep_float[:, 0], ep_float[:, 1], ep_int[:, 0], ep_int[:, 1]
+        )
+
+
+def _call_kernel(
+    num_steps: int,
+    combo: Combination,
+    dstate: np.ndarray,
+    domain: Domain,
+    agent: Agent,
+    obs: np.ndarray,
+    loop: np.ndarray,
+    loop_f: np.ndarray,
+) -> tuple:
+    """One call of `advance_kernel` with the agent's current arrays (they may have grown)."""
+    if combo.ints[k.I_TRACES] == k.NO_TRACES:
+        traces = (_EMPTY_SLOTS, _EMPTY_INTS, _EMPTY_INTS, _EMPTY_FLOATS, _EMPTY_INTS)
+    else:
+        traces = (
+            agent.trace_slots_,
+            agent.trace_features_,
+            agent.trace_actions_,
+            agent.trace_values_,
+            agent.trace_count_,
+        )
+    actor = agent.actor_weights_ if combo.ints[k.I_AGENT] == k.ACTOR_CRITIC else agent.weights_
+    args = (
+        combo.ints,
+        combo.floats,
+        *combo.domain_arrays,
+        dstate,
+        domain.np_random,
+        *combo.representation_arrays,
+        agent.weights_,
+        actor,
+        *traces,
+        agent.rng_,
+        obs,
+        loop,
+        loop_f,
+    )
+    if not _COMPILE_SECONDS:  # a zero-step call: compile (or load the cache) alone
+        started = time.perf_counter()
+        k.advance_kernel(0, *args)
+        _COMPILE_SECONDS.append(time.perf_counter() - started)
+    return k.advance_kernel(num_steps, *args)
+
+
+def _divergence(agent: Agent, delta: float) -> DivergenceError:
+    return DivergenceError(
+        f"{type(agent).__name__}: the TD error became {delta} at learning step "
+        f"{agent.num_learning_steps_}; the weights diverged. Lower the step size "
+        f"(now {agent.step_size!r}) or use a feature-normalised schedule."
+    )
+
+
+def compile_seconds() -> float | None:
+    """Seconds the first kernel call of this process took (compile or cache load), or None."""
+    return _COMPILE_SECONDS[0] if _COMPILE_SECONDS else None
+
+
+def warm_up() -> float:
+    """Compile the kernel (or load it from the disk cache) and return `compile_seconds`.
+
+    One kernel serves every combination, so a parent process can call this once before
+    starting workers, which then load the cached code.
+    """
+    from conjure.agents.sarsa import SARSA
+    from conjure.domains.chain import ChainMDP
+    from conjure.representations import Tabular
+
+    domain = ChainMDP()
+    agent = SARSA(representation=Tabular()).setup(domain.domain_spec, 0)
+    for_combination(domain, agent, seed=0).advance(1)
+    seconds = compile_seconds()
+    assert seconds is not None  # the advance above called the kernel
+    return seconds
+
+
+def for_combination(
+    domain: Domain, agent: Agent, *, seed: int | None = None
+) -> CompiledStepper | None:
+    """Return a `CompiledStepper` for a set-up ``agent`` on ``domain``, or ``None``.
+
+    ``None`` means some part (domain, representation, agent, policy or schedule) has no
+    compiled kernel; the caller then uses the Python path unchanged. ``seed`` is passed to the
+    first ``domain.reset``, as `conjure.experiments.loop.LearningLoop` does.
+
+    Examples
+    --------
+    >>> from conjure.agents import SARSA
+    >>> from conjure.domains import InvertedPendulum
+    >>> from conjure.representations import TileCoding
+    >>> domain = InvertedPendulum()
+    >>> agent = SARSA(representation=TileCoding()).setup(domain.domain_spec, seed=0)
+    >>> stepper = for_combination(domain, agent, seed=0)
+    >>> stats = stepper.advance(1000)
+    >>> stepper.total_steps, int(stats.episode_lengths.sum()) <= 1000
+    (1000, True)
+    """
+    combination = pack_combination(domain, agent)
+    if combination is None:
+        return None
+    return CompiledStepper(domain, agent, combination, seed=seed)

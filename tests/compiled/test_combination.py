@@ -1,0 +1,97 @@
+"""Which combinations have a compiled path: exact types only, everything else takes Python's."""
+
+import numpy as np
+import pytest
+
+from conjure.agents import LSPI, SARSA, ActorCritic, QLearning
+from conjure.compiled import _kernels as k
+from conjure.compiled.combination import pack_combination
+from conjure.core.errors import NotSetUpError
+from conjure.core.schedules import ConstantStepSize, FeatureNormalizedDecay
+from conjure.domains import BlocksWorld, ChainMDP, GridWorld, InvertedPendulum
+from conjure.policies import EpsilonGreedy, Gibbs
+from conjure.representations import RBF, IndependentDiscretization, Tabular, TileCoding
+
+
+class MySARSA(SARSA):
+    """A user's subclass: its methods may differ, so it must take the Python path."""
+
+
+def _pack(domain, agent):
+    return pack_combination(domain, agent.setup(domain.domain_spec, 0))
+
+
+def test_pendulum_tile_coding_sarsa_lambda_is_packed():
+    schedule = FeatureNormalizedDecay(alpha_0=1.0, n_0=100)
+    agent = SARSA(representation=TileCoding(num_tilings=8), step_size=schedule, trace_decay=0.9)
+    combo = _pack(InvertedPendulum(force_noise=5.0), agent)
+    codes = combo.ints[[k.I_DOMAIN, k.I_REP, k.I_AGENT, k.I_POLICY, k.I_SCHEDULE, k.I_TRACES]]
+    assert codes.tolist() == [
+        k.PENDULUM,
+        k.TILES,
+        k.SARSA,
+        k.EPSILON_GREEDY,
+        k.FEATURE_NORMALIZED,
+        k.REPLACING,
+    ]
+    assert combo.ints[k.I_MAX_ACTIVE] == 8 and combo.ints[k.I_CAP] == 3000
+    assert combo.floats[k.F_TRACE_FACTOR] == pytest.approx(0.95 * 0.9)
+    assert combo.floats[[k.F_ALPHA, k.F_N0, k.F_POLICY]].tolist() == [1.0, 100.0, 0.1]
+    assert combo.domain_arrays[0].tolist() == [5.0, 0.0]  # force noise, start noise
+
+
+def test_gridworld_move_table_matches_the_domain():
+    domain = GridWorld.gridworld_1()
+    combo = _pack(domain, QLearning(representation=Tabular()))
+    dparams, table, cells = combo.domain_arrays
+    start = int(dparams[1])
+    assert (cells[start, k.C_ROW], cells[start, k.C_COL]) == domain.start_
+    for cell in (0, start, table.shape[0] - 1):
+        moves = table[cell, 5 : 5 + table[cell, 4]].tolist()
+        assert moves == list(domain._feasible[cell])
+
+
+def test_actor_critic_with_gibbs_is_packed():
+    agent = ActorCritic(representation=Tabular(), policy=Gibbs(temperature=2.0))
+    combo = _pack(ChainMDP(num_actions=2), agent)
+    assert combo.ints[k.I_AGENT] == k.ACTOR_CRITIC and combo.ints[k.I_POLICY] == k.GIBBS
+    assert combo.floats[k.F_POLICY] == 2.0
+
+
+@pytest.mark.parametrize(
+    ("domain", "agent"),
+    [
+        (InvertedPendulum(), SARSA(representation=RBF())),  # dense features
+        (InvertedPendulum(), MySARSA(representation=Tabular())),  # a subclass
+        (BlocksWorld(), SARSA(representation=IndependentDiscretization())),  # legal actions
+        (ChainMDP(), LSPI(representation=Tabular())),  # a batch learner
+        (
+            ChainMDP(),
+            ActorCritic(representation=Tabular(), actor_representation=Tabular()),
+        ),  # separate actor features
+        (
+            ChainMDP(),
+            SARSA(representation=Tabular(), policy=type("MyPolicy", (EpsilonGreedy,), {})()),
+        ),
+        (
+            ChainMDP(),
+            SARSA(
+                representation=Tabular(),
+                step_size=type("MySchedule", (ConstantStepSize,), {})(),
+            ),
+        ),
+    ],
+)
+def test_combinations_without_kernels_take_the_python_path(domain, agent):
+    assert _pack(domain, agent) is None
+
+
+def test_an_agent_that_is_not_set_up_is_refused():
+    with pytest.raises(NotSetUpError):
+        pack_combination(ChainMDP(), SARSA(representation=Tabular()))
+
+
+def test_packed_arrays_are_contiguous():
+    combo = _pack(InvertedPendulum(), SARSA(representation=TileCoding(memory_size=64)))
+    for array in (*combo.domain_arrays, *combo.representation_arrays):
+        assert array.flags.c_contiguous and array.dtype in (np.int64, np.float64)

@@ -1,0 +1,232 @@
+"""Same seed, same curve: the compiled stepper against the Python `LearningLoop`."""
+
+import numpy as np
+import pytest
+
+from conjure.agents import SARSA, ActorCritic, QLearning
+from conjure.compiled import CompiledStepper, _kernels, compile_seconds, for_combination, warm_up
+from conjure.core.errors import DivergenceError, InvalidParameterError
+from conjure.core.schedules import EpisodicDecay, FeatureNormalizedDecay
+from conjure.domains import ChainMDP, GridWorld, InvertedPendulum
+from conjure.domains.gridworld import open_grid
+from conjure.experiments.loop import LearningLoop
+from conjure.policies import EpsilonGreedy, Gibbs
+from conjure.representations import IndependentDiscretization, Tabular, TileCoding
+
+DECAY = FeatureNormalizedDecay(alpha_0=1.0, n_0=100)
+
+
+def _tiles(**params):
+    return TileCoding(num_tilings=8, tiles_per_dim=10, **params)
+
+
+#: Every compiled combination, with the parameters that take each branch of the kernel.
+COMBINATIONS = {
+    "pendulum-tiles-sarsa": (
+        InvertedPendulum,
+        lambda: SARSA(representation=_tiles(), step_size=DECAY),
+    ),
+    "pendulum-tiles-sarsa-lambda": (
+        InvertedPendulum,
+        lambda: SARSA(representation=_tiles(), step_size=DECAY, trace_decay=0.9),
+    ),
+    "open-gridworld-tiles-sarsa-lambda-grows-traces": (
+        lambda: GridWorld.from_grid(open_grid(30, 30, seed=1), discount=1.0),
+        lambda: SARSA(
+            representation=TileCoding(num_tilings=4, tiles_per_dim=30),
+            step_size=0.01,
+            trace_decay=1.0,
+            trace_kind="accumulating",
+        ),
+    ),
+    "pendulum-start-noise-tiles-qlearning": (
+        lambda: InvertedPendulum(start_noise=0.2),
+        lambda: QLearning(representation=_tiles(), step_size=0.05),
+    ),
+    "pendulum-hashed-tiles-sarsa": (
+        InvertedPendulum,
+        lambda: SARSA(representation=_tiles(memory_size=300), step_size=DECAY),
+    ),
+    "pendulum-independent-sarsa": (
+        InvertedPendulum,
+        lambda: SARSA(representation=IndependentDiscretization(num_buckets=20), step_size=DECAY),
+    ),
+    "gridworld-tabular-sarsa": (
+        GridWorld.gridworld_1,
+        lambda: SARSA(representation=Tabular(), step_size=0.5),
+    ),
+    "gridworld-tabular-qlearning": (
+        GridWorld.gridworld_2,
+        lambda: QLearning(representation=Tabular(), step_size=0.5),
+    ),
+    "gridworld-windy-independent-sarsa-lambda": (
+        GridWorld.gridworld_3,
+        lambda: SARSA(
+            representation=IndependentDiscretization(),
+            step_size=EpisodicDecay(alpha_0=0.3, n_0=10),
+            trace_decay=0.5,
+        ),
+    ),
+    "chain-tabular-qlearning": (
+        lambda: ChainMDP(num_states=6, num_actions=2, slip=0.3),
+        lambda: QLearning(
+            representation=Tabular(), step_size=0.2, policy=EpsilonGreedy(epsilon=0.3)
+        ),
+    ),
+    "chain-tabular-actor-critic": (
+        lambda: ChainMDP(num_states=6, num_actions=2, slip=0.1),
+        lambda: ActorCritic(representation=Tabular(), step_size=0.2),
+    ),
+    "gridworld-tabular-actor-critic": (
+        GridWorld.gridworld_1,
+        lambda: ActorCritic(
+            representation=Tabular(),
+            step_size=0.3,
+            actor_step_size=EpisodicDecay(alpha_0=0.5, n_0=100),
+            policy=Gibbs(temperature=0.5),
+        ),
+    ),
+}
+
+#: Uneven advances: episodes are paused and resumed across calls.
+CHUNKS = (0, 1, 337, 1500, 2162)
+
+
+def _episodes(rewards: list, cap: int) -> tuple[list, list]:
+    """Split the recorded (reward, terminated) steps into finished episodes' returns, lengths."""
+    returns, lengths = [], []
+    total, length = 0.0, 0
+    for reward, terminated in rewards:
+        total += reward
+        length += 1
+        if terminated or length >= cap:
+            returns.append(total)
+            lengths.append(length)
+            total, length = 0.0, 0
+    return returns, lengths
+
+
+def _build(name: str, seed: int):
+    make_domain, make_agent = COMBINATIONS[name]
+    domain = make_domain()
+    agent = make_agent().setup(domain.domain_spec, seed)
+    return domain, agent
+
+
+def _python_path(name: str, seed: int):
+    domain, agent = _build(name, seed)
+    rewards = []
+    step = domain.step
+
+    def recording_step(action):
+        out = step(action)
+        rewards.append((out[1], out[2]))
+        return out
+
+    domain.step = recording_step
+    loop = LearningLoop(domain, agent, seed=seed)
+    for n in CHUNKS:
+        loop.advance(n)
+    return loop, agent, _episodes(rewards, domain.domain_spec.max_episode_steps)
+
+
+def _compiled_path(name: str, seed: int):
+    domain, agent = _build(name, seed)
+    stepper = for_combination(domain, agent, seed=seed)
+    assert isinstance(stepper, CompiledStepper)
+    stats = [stepper.advance(n) for n in CHUNKS]
+    returns = np.concatenate([s.episode_returns for s in stats]).tolist()
+    lengths = np.concatenate([s.episode_lengths for s in stats]).tolist()
+    assert sum(s.num_steps for s in stats) == sum(CHUNKS)
+    return stepper, agent, (returns, lengths)
+
+
+@pytest.mark.parametrize("name", sorted(COMBINATIONS))
+@pytest.mark.parametrize("seed", [0, 7])
+def test_same_seed_gives_the_same_curve_on_both_paths(name, seed):
+    loop, python_agent, (py_returns, py_lengths) = _python_path(name, seed)
+    stepper, agent, (returns, lengths) = _compiled_path(name, seed)
+    assert len(py_returns) > 2  # the runs span several episodes
+    assert returns == py_returns
+    assert lengths == py_lengths
+    np.testing.assert_array_equal(agent.weights_, python_agent.weights_)
+    if isinstance(agent, ActorCritic):
+        np.testing.assert_array_equal(agent.actor_weights_, python_agent.actor_weights_)
+    assert (stepper.total_steps, stepper.num_completed_episodes, stepper.num_failures) == (
+        loop.total_steps,
+        loop.num_completed_episodes,
+        loop.num_failures,
+    )
+    assert stepper.num_episodes == loop.num_episodes == agent.episode_ == python_agent.episode_
+    assert stepper.is_mid_episode == loop.is_mid_episode
+    assert agent.num_learning_steps_ == python_agent.num_learning_steps_
+    assert agent.rng_.bit_generator.state == python_agent.rng_.bit_generator.state
+    state = stepper.domain.np_random.bit_generator.state
+    assert state == loop.domain.np_random.bit_generator.state
+    # The next greedy action agrees too (the Python agent reads the compiled θ).
+    obs = np.zeros(stepper.domain.domain_spec.num_dims)
+    assert agent.act(obs, greedy=True) == python_agent.act(obs, greedy=True)
+
+
+def test_trace_growth_is_exercised():
+    domain, agent = _build("open-gridworld-tiles-sarsa-lambda-grows-traces", 0)
+    for_combination(domain, agent, seed=0).advance(3000)
+    assert agent.trace_values_.shape[0] > 1024  # grew past the initial capacity
+
+
+def test_episode_statistics_are_hand_checkable_on_the_chain():
+    # Deterministic chain of 4 states, one action: every episode is 3 steps earning 1 each.
+    domain = ChainMDP()
+    agent = QLearning(representation=Tabular()).setup(domain.domain_spec, 0)
+    stepper = for_combination(domain, agent, seed=0)
+    stats = stepper.advance(10)
+    assert stats.episode_lengths.tolist() == [3, 3, 3]
+    assert stats.episode_returns.tolist() == [3.0, 3.0, 3.0]
+    assert stats.discounted_returns.tolist() == pytest.approx([1 + 0.9 + 0.81] * 3)
+    assert stats.episode_failures.tolist() == [0, 0, 0]
+    assert stepper.is_mid_episode and stepper.num_completed_episodes == 3
+    assert stepper.advance(2).episode_lengths.tolist() == [3]  # the paused episode ends
+    assert compile_seconds() is not None and compile_seconds() > 0.0
+
+
+def test_failures_are_counted_like_the_python_path():
+    domain = InvertedPendulum()
+    agent = SARSA(representation=_tiles()).setup(domain.domain_spec, 3)
+    stats = for_combination(domain, agent, seed=3).advance(500)
+    # Every pendulum episode that ends before the cap ends with a fall (one failure).
+    assert stats.num_failures == int(stats.episode_failures.sum()) == len(stats.episode_lengths)
+    assert stats.episode_returns.tolist() == [-1.0] * len(stats.episode_lengths)
+
+
+def test_divergence_raises_at_the_same_step_on_both_paths():
+    def build():
+        domain = ChainMDP(num_states=5, discount=1.0)
+        agent = QLearning(representation=Tabular(), step_size=1e300, initial_weight=1e300)
+        return domain, agent.setup(domain.domain_spec, 0)
+
+    domain, agent = build()
+    loop = LearningLoop(domain, agent, seed=0)
+    with pytest.raises(DivergenceError) as python_error:
+        loop.advance(100)
+    domain, agent = build()
+    stepper = for_combination(domain, agent, seed=0)
+    with pytest.raises(DivergenceError) as compiled_error:
+        stepper.advance(100)
+    assert str(compiled_error.value) == str(python_error.value)
+    assert stepper.total_steps == loop.total_steps
+
+
+@pytest.mark.parametrize("bad", [-1, 2.5, True])
+def test_advance_rejects_bad_step_counts(bad):
+    domain = ChainMDP()
+    agent = SARSA(representation=Tabular()).setup(domain.domain_spec, 0)
+    with pytest.raises(InvalidParameterError, match="num_steps"):
+        for_combination(domain, agent).advance(bad)
+
+
+def test_one_compilation_serves_every_combination():
+    assert warm_up() == compile_seconds() > 0.0
+    for name in COMBINATIONS:
+        domain, agent = _build(name, 1)
+        for_combination(domain, agent, seed=1).advance(50)
+    assert len(_kernels.advance_kernel.overloads) == 1
