@@ -48,6 +48,7 @@ from conjure.experiments import registry
 from conjure.experiments.memory import parse_memory_size
 
 __all__ = [
+    "CURVE_COLUMNS",
     "ComponentConfig",
     "ExperimentConfig",
     "apply_overrides",
@@ -59,6 +60,22 @@ __all__ = [
     "resolve",
     "resolve_run",
 ]
+
+#: The columns of a learning curve, one row per policy check.
+CURVE_COLUMNS = (
+    "learning_steps",
+    "learning_episodes",
+    "learning_failures",
+    "return",
+    "discounted_return",
+    "episode_length",
+    "failure_rate",
+    "optimality",
+    "num_features",
+    "wall_time_s",
+    "steps_per_second",
+)
+
 
 _NAME_PATTERN = r"^[A-Za-z0-9][A-Za-z0-9_.\-]*$"
 
@@ -140,8 +157,6 @@ class ExperimentConfig(BaseModel):
     @field_validator("metric")
     @classmethod
     def _metric_is_a_curve_column(cls, metric: str) -> str:
-        from conjure.experiments.run import CURVE_COLUMNS
-
         if metric not in CURVE_COLUMNS:
             raise ValueError(
                 f"metric must be a learning-curve column, one of {', '.join(CURVE_COLUMNS)}; "

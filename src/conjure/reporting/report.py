@@ -31,7 +31,6 @@ import yaml
 from scipy import stats
 
 from conjure.core.errors import InvalidParameterError
-from conjure.experiments.plots import plot_learning_curves
 from conjure.experiments.results import (
     ERRORS_DIR,
     RESOLVED_FILE,
@@ -43,6 +42,7 @@ from conjure.experiments.results import (
     t_confidence,
     write_atomic,
 )
+from conjure.reporting.plots import plot_learning_curves
 
 __all__ = [
     "collect",
@@ -225,7 +225,7 @@ def write_report(
     Parameters
     ----------
     results_dir : str or Path
-        A folder written by `conjure.experiments.parallel.run_sweep` (or ``run_experiment``).
+        A folder written by `conjure.sweeps.sweep.run_sweep` (or ``run_experiment``).
     metric : str or None
         The curve column reported; default the sweep's ``metric``, else ``return``.
     out_dir : str or Path or None

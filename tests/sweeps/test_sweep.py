@@ -17,13 +17,13 @@ from click.testing import CliRunner
 from sweep_fakes import fake_sweep, isolated_fakes, run_with_fakes
 
 from conjure.core.errors import InvalidParameterError
-from conjure.experiments.parallel import run_sweep
 from conjure.experiments.results import RUNS_DIR, read_run, run_id
-from conjure.experiments.sweep import (
+from conjure.sweeps.sweep import (
     expand_sweep,
     load_sweep,
     parse_sweep,
     resolve_sweep,
+    run_sweep,
     sweep_command,
 )
 
@@ -173,7 +173,7 @@ DRIVER = textwrap.dedent(
     import sys
     from sweep_fakes import fake_sweep, run_with_fakes, register_fakes
     from conjure.experiments.executors import LocalExecutor
-    from conjure.experiments.parallel import run_sweep
+    from conjure.sweeps.sweep import run_sweep
     register_fakes()
     sweep = fake_sweep(
         domains={"slow": {"kind": "SlowWalk", "params": {"sleep_s": 0.002}}},

@@ -9,8 +9,8 @@ from click.testing import CliRunner
 from sweep_fakes import fake_sweep, isolated_fakes, run_with_fakes
 
 from conjure.core.errors import InvalidParameterError
-from conjure.experiments.parallel import run_sweep
-from conjure.experiments.report import iqm, iqm_interval, report_command, stratified_bootstrap
+from conjure.reporting.report import iqm, iqm_interval, report_command, stratified_bootstrap
+from conjure.sweeps.sweep import run_sweep
 
 pytestmark = pytest.mark.usefixtures(isolated_fakes.__name__)
 
@@ -53,7 +53,7 @@ def test_report_of_a_sweep_with_selection(tmp_path):
 
 def test_report_errors_are_clear(tmp_path):
     with pytest.raises(InvalidParameterError, match="No runs"):
-        from conjure.experiments.report import write_report
+        from conjure.reporting.report import write_report
 
         write_report(tmp_path)
 
@@ -78,7 +78,7 @@ def _safety_results(tmp_path, with_bounds: bool):
 
 
 def test_report_tables_show_failure_rate_learning_failures_and_optimality(tmp_path):
-    from conjure.experiments.report import write_report
+    from conjure.reporting.report import write_report
 
     text = write_report(_safety_results(tmp_path, with_bounds=True)).read_text()
     assert "final failure rate ± 95% t" in text and "final optimality ± 95% t" in text
@@ -90,8 +90,8 @@ def test_report_tables_show_failure_rate_learning_failures_and_optimality(tmp_pa
 
 
 def test_report_and_plot_skip_all_nan_columns(tmp_path):
-    from conjure.experiments.plots import plot_results_dir
-    from conjure.experiments.report import write_report
+    from conjure.reporting.plots import plot_results_dir
+    from conjure.reporting.report import write_report
 
     results = _safety_results(tmp_path, with_bounds=False)
     text = write_report(results).read_text()

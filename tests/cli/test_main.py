@@ -7,7 +7,7 @@ import textwrap
 import pytest
 from click.testing import CliRunner
 
-from conjure.experiments.cli import main
+from conjure.cli.main import main
 from conjure.experiments.results import read_run
 
 TINY = textwrap.dedent(
@@ -192,3 +192,35 @@ def test_invalid_component_value_exits_2(config_file, tmp_path):
     )
     assert result.exit_code == 2
     assert "domain.params.num_actions" in result.output
+
+
+def test_lazy_commands_show_their_own_help_and_run():
+    import importlib
+
+    from conjure.cli.main import LAZY_COMMANDS
+
+    listing = CliRunner().invoke(main, ["--help"], terminal_width=200)
+    assert listing.exit_code == 0, listing.output
+    for name, (module, attribute, text) in LAZY_COMMANDS.items():
+        command = getattr(importlib.import_module(module), attribute)
+        assert command.help.splitlines()[0] == text  # the table's help is the command's own
+        assert f" {name} " in listing.output
+        assert command.get_short_help_str() in listing.output
+        assert CliRunner().invoke(main, [name, "--help"]).exit_code == 0
+    again = CliRunner().invoke(main, ["--help"], terminal_width=200).output
+    assert again == listing.output  # loaded commands are listed once, the same way
+
+
+def test_starting_the_command_line_imports_no_heavy_library():
+    import subprocess
+    import sys
+
+    code = (
+        "import sys; from conjure.cli import main\n"
+        "try: main(['--help'])\n"
+        "except SystemExit: pass\n"
+        "print(sorted(m for m in ('pandas', 'matplotlib', 'scipy.stats', 'numba', "
+        "'conjure.experiments.registry') if m in sys.modules))"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip().splitlines()[-1] == "[]"

@@ -37,11 +37,12 @@ runs. A run config is `resolve_run`'s, plus ``domain_label`` (with ``domains``) 
 
 from __future__ import annotations
 
+import functools
 import itertools
 import json
 from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import Annotated, Any, Literal
+from typing import TYPE_CHECKING, Annotated, Any, Literal
 
 import click
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
@@ -53,11 +54,21 @@ from conjure.experiments.config import (
     ExperimentConfig,
     MemorySize,
     apply_overrides,
+    dump_yaml,
     load_yaml,
     parse_config,
     resolve_run,
 )
 from conjure.experiments.memory import max_memory_option
+from conjure.experiments.parallel import ExperimentResult, RunFunction, open_executor, run_batch
+from conjure.experiments.results import RESOLVED_FILE, is_run_done, write_atomic
+from conjure.experiments.run import run_resolved
+from conjure.sweeps.selection import fresh_seeds, select_best, selected_runs
+
+if TYPE_CHECKING:
+    from rich.console import Console
+
+    from conjure.experiments.executors import Executor
 
 __all__ = [
     "SelectionConfig",
@@ -67,6 +78,7 @@ __all__ = [
     "load_sweep",
     "parse_sweep",
     "resolve_sweep",
+    "run_sweep",
     "setting_runs",
     "sweep_command",
 ]
@@ -382,7 +394,6 @@ def sweep_command(
     from rich.console import Console
 
     from conjure.experiments.executors import make_executor
-    from conjure.experiments.parallel import run_sweep
 
     sweep = load_sweep(config, overrides)
     out_dir = out_dir or Path("results") / sweep.name
@@ -398,3 +409,86 @@ def sweep_command(
     console.print(f"Results in {out_dir}; `conjure report {out_dir}` writes the report.")
     if outcome.errors:
         raise click.exceptions.Exit(1)
+
+
+def run_sweep(
+    sweep: SweepConfig | ExperimentConfig | Mapping[str, Any],
+    out_dir: str | Path,
+    *,
+    executor: Executor | None = None,
+    max_workers: int | None = None,
+    max_memory: int | str | None = None,
+    run_fn: RunFunction = run_resolved,
+    progress: bool = True,
+    console: Console | None = None,
+) -> ExperimentResult:
+    """Run every run of a sweep under ``out_dir``; with ``selection``, rerun the best settings.
+
+    Parameters
+    ----------
+    sweep : SweepConfig, ExperimentConfig or dict
+        The sweep.
+    out_dir : str or Path
+        The results folder; finished runs in it are reused. The fresh-seed rerun of the
+        selected settings goes to ``out_dir/selected``, the choice to ``selection.csv``.
+    executor : Executor or None
+        Default a `LocalExecutor` with ``max_workers`` (else the sweep's, else the CPU count)
+        and ``max_memory`` (else the sweep's). A given executor keeps its own limits.
+    max_workers : int or None
+        See ``executor``.
+    max_memory : int, str or None
+        Each run's memory limit (``"4GiB"``; `conjure.experiments.memory`); see ``executor``.
+    run_fn : callable, default `run_resolved`
+        See `conjure.experiments.parallel.execute_runs`.
+    progress : bool, default True
+        Show progress and print the summary tables.
+    console : rich.console.Console or None
+        Where to print.
+
+    Returns
+    -------
+    ExperimentResult
+    """
+    from rich.console import Console
+
+    sweep = parse_sweep(sweep)
+    out_dir = Path(out_dir)
+    console = console or Console()
+    runs = expand_sweep(sweep)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    write_atomic(out_dir / RESOLVED_FILE, dump_yaml(resolve_sweep(sweep)))
+    pending = [spec for spec in runs if not is_run_done(out_dir, spec)]
+    with open_executor(
+        executor,
+        pending,
+        max_workers=max_workers or sweep.max_workers,
+        max_memory=max_memory or sweep.max_memory,
+        run_fn=run_fn,
+    ) as engine:
+        batch = functools.partial(
+            run_batch, executor=engine, metric=sweep.metric, run_fn=run_fn, progress=progress
+        )
+        outcome = batch(runs, out_dir, console=console, description=sweep.name)
+        if sweep.selection is None or outcome.results.empty:
+            return outcome
+        choice = sweep.selection
+        best = select_best(
+            outcome.results, metric=sweep.metric, criterion=choice.criterion, mode=choice.mode
+        )
+        write_atomic(out_dir / "selection.csv", best.to_csv(index=False))
+        if progress:
+            console.print(
+                f"Best setting per method by {choice.criterion} of {sweep.metric} "
+                f"({choice.mode}): see {out_dir / 'selection.csv'}"
+            )
+        seeds = fresh_seeds(sweep.seed_list(), choice.fresh_seeds)
+        final_runs = selected_runs(runs, best, seeds)
+        outcome.selected = batch(
+            final_runs,
+            out_dir / "selected",
+            console=console,
+            description=f"{sweep.name}: best settings, fresh seeds",
+        )
+        outcome.selection = best
+        outcome.errors.update(outcome.selected.errors)
+        return outcome

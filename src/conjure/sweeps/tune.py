@@ -1,6 +1,6 @@
 """Hyperparameter search with Optuna (optional extra ``tune``): ``conjure tune CONFIG``.
 
-A tuning YAML is a sweep YAML (`conjure.experiments.sweep`) without ``grid`` or
+A tuning YAML is a sweep YAML (`conjure.sweeps.sweep`) without ``grid`` or
 ``selection``, plus a ``search`` section::
 
     search:
@@ -9,7 +9,7 @@ A tuning YAML is a sweep YAML (`conjure.experiments.sweep`) without ``grid`` or
         agents.sarsa.params.step_size.params.decay: {choices: [100, 1000, 1000000]}
         agents.sarsa.params.trace_decay: {low: 0.0, high: 0.9}
       num_trials: 20            # completed trials per method
-      criterion: auc            # or final (see conjure.experiments.selection)
+      criterion: auc            # or final (see conjure.sweeps.selection)
       mode: max                 # or min
       sampler_seed: 0
       heartbeat_interval: 10    # seconds
@@ -56,8 +56,8 @@ from conjure.experiments.memory import max_memory_option
 from conjure.experiments.parallel import RunFunction, execute_runs, prepare_executor
 from conjure.experiments.results import load_results, write_atomic
 from conjure.experiments.run import run_resolved
-from conjure.experiments.selection import score_runs
-from conjure.experiments.sweep import SweepConfig, grid_keys_for, parse_sweep, setting_runs
+from conjure.sweeps.selection import score_runs
+from conjure.sweeps.sweep import SweepConfig, grid_keys_for, parse_sweep, setting_runs
 
 __all__ = ["SearchConfig", "SearchRange", "TuneConfig", "load_tune", "tune", "tune_command"]
 

@@ -7,7 +7,7 @@ import pandas as pd
 import pytest
 
 from conjure.core.errors import InvalidParameterError
-from conjure.experiments.plots import plot_learning_curves, plot_results_dir
+from conjure.reporting.plots import plot_learning_curves, plot_results_dir
 
 
 def results_frame() -> pd.DataFrame:
