@@ -39,7 +39,7 @@ from conjure.core.errors import DivergenceError, InvalidParameterError
 from conjure.core.interfaces import Agent, Domain
 from conjure.core.seeding import seed_to_int, split_seed
 from conjure.experiments.config import CURVE_COLUMNS
-from conjure.experiments.loop import LearningLoop, run_episode
+from conjure.experiments.loop import learning_stepper, run_episode
 
 __all__ = ["CURVE_COLUMNS", "TIMING_COLUMNS", "Result", "run", "run_config", "run_resolved"]
 
@@ -197,7 +197,7 @@ def run(
     agent.setup(domain.domain_spec, seeds["agent"])
     eval_domain = domain.clone()
     eval_seed = seed_to_int(seeds["evaluation"])
-    loop = LearningLoop(domain, agent, seed=seed_to_int(seeds["domain"]))
+    loop = learning_stepper(domain, agent, seed=seed_to_int(seeds["domain"]))
     names = {"agent_name": type(agent).__name__, "domain_name": domain.domain_spec.name}
     int_seed = int(seed) if isinstance(seed, (int, np.integer)) else -1
 
