@@ -158,11 +158,11 @@ def _run_task(run_spec: dict[str, Any], run_fn: RunFunction = run_resolved) -> d
             "curve": None,
             "error": error,
             "message": message,
-            "partial": None if partial is None else partial.curve.to_dict(orient="list"),
+            "partial": None if partial is None else partial.columns(),
             "meta": meta,
         }
     meta["run_seconds"] = time.perf_counter() - started
-    return {"curve": result.curve.to_dict(orient="list"), "error": None, "meta": meta}
+    return {"curve": result.columns(), "error": None, "meta": meta}
 
 
 def _structure(spec: Any) -> Any:
