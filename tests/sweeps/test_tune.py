@@ -21,7 +21,7 @@ optuna = pytest.importorskip("optuna")
 
 from conjure.sweeps.tune import parse_tune, tune  # noqa: E402
 
-HERE = Path(__file__).resolve().parent
+HERE = Path(__file__).resolve().parents[1] / "experiments"  # sweep_fakes and test_loop
 ROOT = HERE.parents[1]
 
 pytestmark = pytest.mark.usefixtures(isolated_fakes.__name__)

@@ -37,6 +37,7 @@ runs. A run config is `resolve_run`'s, plus ``domain_label`` (with ``domains``) 
 
 from __future__ import annotations
 
+import copy
 import functools
 import itertools
 import json
@@ -57,7 +58,9 @@ from conjure.experiments.config import (
     dump_yaml,
     load_yaml,
     parse_config,
+    parse_overridden,
     resolve_run,
+    set_component_value,
 )
 from conjure.experiments.memory import max_memory_option
 from conjure.experiments.parallel import ExperimentResult, RunFunction, open_executor, run_batch
@@ -73,6 +76,7 @@ if TYPE_CHECKING:
 __all__ = [
     "SelectionConfig",
     "SweepConfig",
+    "apply_sweep_overrides",
     "expand_sweep",
     "grid_keys_for",
     "load_sweep",
@@ -268,10 +272,10 @@ def _experiment(
         overrides.append(f"{path}={json.dumps(value)}")
     where = f"{source}: grid setting {dict(setting)!r}" if setting else source
     try:
-        return parse_config(apply_overrides(data, overrides), source=where)
+        data = apply_overrides(data, overrides)
     except InvalidParameterError as exc:
-        message = str(exc).replace("--set ", "grid key ")
-        raise InvalidParameterError(message) from None
+        raise InvalidParameterError(str(exc).replace("--set ", "grid key ", 1)) from None
+    return parse_config(data, source=where)
 
 
 def expand_sweep(
@@ -329,7 +333,11 @@ def resolve_sweep(sweep: SweepConfig | Mapping[str, Any]) -> dict[str, Any]:
 
 
 def load_sweep(path: str | Path, overrides: Sequence[str] = ()) -> SweepConfig:
-    """Read a sweep YAML, apply ``field=value`` overrides of top-level fields, and validate it."""
+    """Read a sweep YAML, apply ``dotted.path=value`` overrides and validate it.
+
+    Overrides take the paths of `apply_sweep_overrides`; a value that makes the file invalid is
+    reported against its ``--set`` flag (`conjure.experiments.config.parse_overridden`).
+    """
     path = Path(path)
     try:
         text = path.read_text()
@@ -338,17 +346,55 @@ def load_sweep(path: str | Path, overrides: Sequence[str] = ()) -> SweepConfig:
     data = load_yaml(text, source=str(path))
     if not isinstance(data, Mapping):
         raise InvalidParameterError(f"{path}: a sweep config must be a mapping.")
-    data = dict(data)
+    return parse_overridden(data, overrides, apply_sweep_overrides, parse_sweep, source=str(path))
+
+
+def apply_sweep_overrides(data: Mapping[str, Any], overrides: Sequence[str]) -> dict[str, Any]:
+    """Return a copy of raw sweep ``data`` with each ``dotted.path=value`` override applied.
+
+    The paths of ``conjure run --set`` (``agents.<label>.params...``, ``domain.params...``,
+    plain fields), plus ``domains.<label>.params...``, ``selection.<field>``,
+    ``grid.<grid key>`` and ``domain_grids.<label>.<grid key>``.
+    """
+    result = copy.deepcopy(dict(data))
     for override in overrides:
-        key, sep, value = override.partition("=")
-        if not sep or key.strip() not in _SWEEP_FIELDS:
-            name = key.strip()
+        key, sep, text = override.partition("=")
+        parts = key.strip().split(".")
+        head, rest = parts[0], parts[1:]
+        if not sep or head not in _SWEEP_FIELDS:
             raise InvalidParameterError(
-                f"--set {override!r}: expected FIELD=VALUE with a top-level sweep field."
-                f"{did_you_mean(name, _SWEEP_FIELDS)} Known: {', '.join(_SWEEP_FIELDS)}."
+                f"--set {override!r}: expected dotted.path=value starting with a sweep field."
+                f"{did_you_mean(head, _SWEEP_FIELDS)} Known: {', '.join(_SWEEP_FIELDS)}."
             )
-        data[key.strip()] = load_yaml(value, source=f"--set {key}")
-    return parse_sweep(data, source=str(path))
+        if head in ("domain", "agents", *_PLAIN_FIELDS, "seeds", "metric", "name"):
+            result = apply_overrides(result, [override])
+            continue
+        value = load_yaml(text, source=f"--set {key}")
+        if not rest:
+            result[head] = value
+        elif head == "domains":
+            domains = result.get("domains")
+            labels = list(domains) if isinstance(domains, Mapping) else []
+            if rest[0] not in labels:
+                raise InvalidParameterError(
+                    f"--set {override!r}: unknown domain label {rest[0]!r}."
+                    f"{did_you_mean(rest[0], labels)} Known: {', '.join(labels) or '(none)'}."
+                )
+            set_component_value(domains[rest[0]], rest[1:], value, override, f"domains.{rest[0]}")
+        elif head == "grid":
+            result.setdefault("grid", {})[".".join(rest)] = value
+        elif head == "domain_grids" and len(rest) > 1:
+            result.setdefault("domain_grids", {}).setdefault(rest[0], {})[".".join(rest[1:])] = (
+                value
+            )
+        elif head == "selection" and len(rest) == 1:
+            result.setdefault("selection", {})[rest[0]] = value
+        else:
+            raise InvalidParameterError(
+                f"--set {override!r}: `{head}` takes {head}=VALUE"
+                + (" or domain_grids.<label>.<grid key>=[...]." if head == "domain_grids" else ".")
+            )
+    return result
 
 
 @click.command("sweep")
@@ -376,8 +422,9 @@ def load_sweep(path: str | Path, overrides: Sequence[str] = ()) -> SweepConfig:
     "--set",
     "overrides",
     multiple=True,
-    metavar="FIELD=VALUE",
-    help="Override a top-level sweep field, e.g. seeds=3 or budget_steps=1000 (repeatable).",
+    metavar="PATH=VALUE",
+    help="Override a config value, e.g. seeds=3 or agents.sarsa.params.step_size=0.05 "
+    "(repeatable).",
 )
 @click.option("--quiet", is_flag=True, help="No progress bar or summary table.")
 def sweep_command(
