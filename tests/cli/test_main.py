@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import os
 import textwrap
+from pathlib import Path
 
 import pytest
 from click.testing import CliRunner
@@ -224,3 +226,31 @@ def test_starting_the_command_line_imports_no_heavy_library():
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip().splitlines()[-1] == "[]"
+
+
+def _unwritable_out(kind, tmp_path):
+    if kind == "a file":
+        path = tmp_path / "taken"
+        path.write_text("not a folder")
+        return path
+    if kind == "under /proc":
+        return Path("/proc/conjure-results")
+    locked = tmp_path / "locked"
+    locked.mkdir()
+    locked.chmod(0o500)
+    # root ignores permission bits; /sys refuses it folders all the same
+    return Path("/sys/conjure-results") if os.geteuid() == 0 else locked / "out"
+
+
+@pytest.mark.parametrize("kind", ["a file", "under /proc", "no permission"])
+@pytest.mark.parametrize("command", ["run", "sweep"])
+def test_an_unwritable_out_is_one_line_naming_the_path_with_status_2(
+    config_file, tmp_path, kind, command
+):
+    out = _unwritable_out(kind, tmp_path)
+    result = CliRunner().invoke(main, [command, str(config_file), "--out", str(out)])
+    assert result.exit_code == 2, result.output
+    lines = result.output.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("Error: Cannot write results to ")
+    assert repr(str(out)) in lines[0]
+    assert "Traceback" not in result.output

@@ -106,7 +106,7 @@ def main() -> None:
 @click.option(
     "--out",
     "out_dir",
-    type=click.Path(file_okay=False, path_type=Path),
+    type=click.Path(path_type=Path),  # make_out_dir checks it (one clear line)
     default=None,
     help="Experiment folder (default results/<config name>).",
 )

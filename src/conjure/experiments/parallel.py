@@ -58,6 +58,7 @@ from conjure.experiments.results import (
     error_path,
     is_run_done,
     load_results,
+    make_out_dir,
     remove_stale_temporaries,
     run_id,
     save_run,
@@ -416,7 +417,7 @@ def run_experiment(
     ExperimentResult
     """
     experiment = parse_config(config)
-    out_dir = Path(out_dir)
+    out_dir = make_out_dir(out_dir)
     runs = [
         resolve_run(experiment, label, seed)
         for label in experiment.agents

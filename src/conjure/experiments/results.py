@@ -51,6 +51,7 @@ __all__ = [
     "has_finite_values",
     "is_run_done",
     "load_results",
+    "make_out_dir",
     "read_run",
     "read_run_ids",
     "remove_stale_temporaries",
@@ -74,6 +75,43 @@ SUMMARY_FILE = "summary.csv"
 #: The run-config keys that identify a method's setting, in grouping order (when present).
 GROUP_COLUMNS = ("domain_label", "label", "setting")
 _TEMP_MARK = ".tmp-"
+
+
+def make_out_dir(out_dir: str | Path) -> Path:
+    """Create the results folder ``out_dir`` (and its parents) and check that files can go there.
+
+    Raises
+    ------
+    InvalidParameterError
+        Naming the folder and the reason (a file of that name, a read-only or virtual file
+        system such as /proc, no permission), before any run starts.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> make_out_dir(Path(tempfile.mkdtemp()) / "a" / "b").is_dir()
+    True
+    >>> make_out_dir("/proc/results")
+    Traceback (most recent call last):
+    ...
+    conjure.core.errors.InvalidParameterError: Cannot write results to '/proc/results': No such file or directory.
+    """  # noqa: E501
+    out_dir = Path(out_dir)
+    if out_dir.exists() and not out_dir.is_dir():
+        raise InvalidParameterError(
+            f"Cannot write results to {str(out_dir)!r}: it is a file, not a folder."
+        )
+    try:
+        out_dir.mkdir(parents=True, exist_ok=True)
+        probe = out_dir / f"{_TEMP_MARK}{uuid.uuid4().hex[:8]}"
+        probe.touch()
+        probe.unlink()
+    except OSError as exc:
+        reason = exc.strerror or type(exc).__name__
+        raise InvalidParameterError(
+            f"Cannot write results to {str(out_dir)!r}: {reason}."
+        ) from None
+    return out_dir
 
 
 def write_atomic(path: str | Path, data: str | bytes) -> Path:

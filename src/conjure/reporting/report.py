@@ -39,6 +39,7 @@ from conjure.experiments.results import (
     final_rows,
     has_finite_values,
     load_results,
+    make_out_dir,
     t_confidence,
     write_atomic,
 )
@@ -237,7 +238,7 @@ def write_report(
         The markdown report.
     """
     results_dir = Path(results_dir)
-    out_dir = Path(out_dir) if out_dir is not None else results_dir
+    out_dir = make_out_dir(out_dir if out_dir is not None else results_dir)
     figures = out_dir / "figures"
     resolved: dict[str, Any] = {}
     if (results_dir / RESOLVED_FILE).is_file():
@@ -335,7 +336,7 @@ def write_report(
 @click.option(
     "--out",
     "out_dir",
-    type=click.Path(file_okay=False, path_type=Path),
+    type=click.Path(path_type=Path),  # make_out_dir checks it (one clear line)
     default=None,
     help="Where to write report.md and figures/ (default RESULTS_DIR).",
 )

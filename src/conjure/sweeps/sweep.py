@@ -64,7 +64,7 @@ from conjure.experiments.config import (
 )
 from conjure.experiments.memory import max_memory_option
 from conjure.experiments.parallel import ExperimentResult, RunFunction, open_executor, run_batch
-from conjure.experiments.results import RESOLVED_FILE, is_run_done, write_atomic
+from conjure.experiments.results import RESOLVED_FILE, is_run_done, make_out_dir, write_atomic
 from conjure.experiments.run import run_resolved
 from conjure.sweeps.selection import fresh_seeds, select_best, selected_runs
 
@@ -402,7 +402,7 @@ def apply_sweep_overrides(data: Mapping[str, Any], overrides: Sequence[str]) -> 
 @click.option(
     "--out",
     "out_dir",
-    type=click.Path(file_okay=False, path_type=Path),
+    type=click.Path(path_type=Path),  # make_out_dir checks it (one clear line)
     default=None,
     help="Results folder (default results/<sweep name>); finished runs in it are reused.",
 )
@@ -499,7 +499,7 @@ def run_sweep(
     from rich.console import Console
 
     sweep = parse_sweep(sweep)
-    out_dir = Path(out_dir)
+    out_dir = make_out_dir(out_dir)
     console = console or Console()
     runs = expand_sweep(sweep)
     out_dir.mkdir(parents=True, exist_ok=True)
