@@ -76,7 +76,7 @@ def test_run_then_plot(config_file, tmp_path):
     )
     assert result.exit_code == 0, result.output
     assert (out / "results.parquet").is_file() and (out / "summary.csv").is_file()
-    assert (out / "learning_curve.png").is_file()
+    assert (out / "learning_curve_return.png").is_file()
     runs = [read_run(p)["config"] for p in (out / "runs").glob("*.json")]
     assert sorted((r["label"], r["seed"]) for r in runs if r["label"] == "q") == [
         ("q", 0),
@@ -174,7 +174,7 @@ def test_failed_runs_give_exit_code_1(tmp_path, monkeypatch):
     assert result.exit_code == 1, result.output
     assert "broken/seed_0" in result.output and "fake setup failure" in result.output
     assert len(list((tmp_path / "o" / "errors").glob("*.txt"))) == 1
-    assert (tmp_path / "o" / "learning_curve.png").is_file()
+    assert (tmp_path / "o" / "learning_curve_return.png").is_file()
 
 
 def test_invalid_component_value_exits_2(config_file, tmp_path):
@@ -254,3 +254,19 @@ def test_an_unwritable_out_is_one_line_naming_the_path_with_status_2(
     assert len(lines) == 1 and lines[0].startswith("Error: Cannot write results to ")
     assert repr(str(out)) in lines[0]
     assert "Traceback" not in result.output
+
+
+def test_plot_draws_the_configured_metric_and_never_replaces_another_metrics_plot(
+    config_file, tmp_path
+):
+    config_file.write_text(config_file.read_text() + "metric: episode_length\n")
+    out = tmp_path / "out"
+    ran = CliRunner().invoke(main, ["run", str(config_file), "--out", str(out), "--quiet"])
+    assert ran.exit_code == 0, ran.output
+    drawn = out / "learning_curve_episode_length.png"
+    plotted = CliRunner().invoke(main, ["plot", str(out)])
+    assert plotted.exit_code == 0 and str(drawn) in plotted.output  # the config's metric
+    before = drawn.read_bytes()
+    other = CliRunner().invoke(main, ["plot", str(out), "--metric", "return"])
+    assert str(out / "learning_curve_return.png") in other.output
+    assert drawn.read_bytes() == before  # the episode-length plot is still there, unchanged

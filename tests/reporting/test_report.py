@@ -46,7 +46,7 @@ def test_report_of_a_sweep_with_selection(tmp_path):
         "selected/report.md",
     ):
         assert expected in text
-    for name in ("learning_curve_short", "features_long"):
+    for name in ("learning_curve_return_short", "features_long"):
         assert (tmp_path / "figures" / f"{name}.png").stat().st_size > 1000
     assert (tmp_path / "selected" / "report.md").is_file()
 

@@ -134,7 +134,7 @@ def run_command(
 
     from conjure.experiments.config import load_config
     from conjure.experiments.parallel import run_experiment
-    from conjure.reporting.plots import plot_learning_curves
+    from conjure.reporting.plots import curve_file_name, plot_learning_curves
 
     overrides = (*overrides, *((f"seeds={seeds}",) if seeds is not None else ()))
     experiment = load_config(config, overrides)
@@ -151,7 +151,7 @@ def run_command(
     if not outcome.results.empty:
         figure = plot_learning_curves(
             outcome.results,
-            out_dir / "learning_curve.png",
+            out_dir / curve_file_name(experiment.metric),
             metric=experiment.metric,
             title=experiment.name,
         )
@@ -187,8 +187,12 @@ def list_command() -> None:
 
 @main.command("plot")
 @click.argument("results_dir", type=click.Path(file_okay=False, path_type=Path))
-@click.option("--metric", default="return", show_default=True, help="Curve column to plot.")
-def plot_command(results_dir: Path, metric: str) -> None:
+@click.option(
+    "--metric",
+    default=None,
+    help="Curve column to plot (default: the metric the experiment's config chose).",
+)
+def plot_command(results_dir: Path, metric: str | None) -> None:
     """Plot learning curves of the experiment in RESULTS_DIR (mean ± 95% CI over seeds)."""
     from conjure.reporting.plots import plot_results_dir
 

@@ -282,7 +282,7 @@ def write_report(
             continue
         curve = plot_learning_curves(
             frame.assign(label=frame["method"]),
-            figures / f"learning_curve{tag}.png",
+            figures / f"learning_curve_{metric}{tag}.png",
             metric=metric,
             title=f"{name}{'' if domain is None else f' / {domain}'}",
         )
