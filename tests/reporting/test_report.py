@@ -46,6 +46,7 @@ def test_report_of_a_sweep_with_selection(tmp_path):
         "selected/report.md",
     ):
         assert expected in text
+    assert "errors/" not in text and "none failed" in text  # no errors/ folder to point at
     for name in ("learning_curve_return_short", "features_long"):
         assert (tmp_path / "figures" / f"{name}.png").stat().st_size > 1000
     assert (tmp_path / "selected" / "report.md").is_file()
@@ -101,3 +102,12 @@ def test_report_and_plot_skip_all_nan_columns(tmp_path):
     with pytest.raises(InvalidParameterError, match=r"optimality.*no finite value"):
         plot_results_dir(results, metric="optimality")
     assert plot_results_dir(results, metric="failure_rate").is_file()
+
+
+def test_report_points_at_errors_only_when_a_run_failed(tmp_path):
+    sweep = fake_sweep(grid={}, seeds=1)
+    sweep["agents"]["b"] = {"kind": "FakeAgent", "params": {"diverge_at": 3}}
+    run_sweep(sweep, tmp_path, max_workers=1, run_fn=run_with_fakes, progress=False)
+    assert CliRunner().invoke(report_command, [str(tmp_path)]).exit_code == 0
+    text = (tmp_path / "report.md").read_text()
+    assert "2 failed (tracebacks in `errors/`)" in text

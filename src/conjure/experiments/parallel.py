@@ -56,6 +56,7 @@ from conjure.experiments.memory import explain_memory_error
 from conjure.experiments.results import (
     RESOLVED_FILE,
     error_path,
+    format_interval,
     is_run_done,
     load_results,
     make_out_dir,
@@ -459,13 +460,11 @@ def print_summary(outcome: ExperimentResult, console: Console | None = None) -> 
     for name in ("seeds", f"final {metric.replace('_', ' ')} ± 95% CI", "features", "steps/s"):
         table.add_column(name, justify="right")
     for row in summary.to_dict("records"):
-        half = row[f"final_{metric}_ci95"]
-        ci = "" if pd.isna(half) else f" ± {half:.4g}"
         rate = row["mean_steps_per_second"]
         table.add_row(
             *(str(row[k]) for k in keys),
             str(row["num_seeds"]),
-            f"{row[f'final_{metric}_mean']:.4g}{ci}",
+            format_interval(row[f"final_{metric}_mean"], row[f"final_{metric}_ci95"]),
             f"{row['final_num_features']:,.0f}",
             "n/a" if pd.isna(rate) or math.isinf(rate) else f"{rate:,.0f}",
         )

@@ -47,6 +47,7 @@ __all__ = [
     "error_path",
     "final_rows",
     "flatten_params",
+    "format_interval",
     "group_columns",
     "has_finite_values",
     "is_run_done",
@@ -389,6 +390,26 @@ def has_finite_values(results: pd.DataFrame, column: str) -> bool:
         return False
     values = pd.to_numeric(results[column], errors="coerce").to_numpy(dtype=np.float64)
     return bool(np.isfinite(values).any())
+
+
+def format_interval(mean: float, half: float) -> str:
+    """Return ``mean ± half`` with 4 significant digits of the larger, both to the same decimals.
+
+    A half-width that is NaN (one seed) is left out; a non-finite mean reads ``n/a``.
+
+    Examples
+    --------
+    >>> format_interval(-1.0, 1.674e-16)
+    '-1.000 ± 0.000'
+    >>> format_interval(1234.56, 12.3), format_interval(0.01234, 0.0021), format_interval(2.5, float("nan"))
+    ('1235 ± 12', '0.01234 ± 0.00210', '2.500')
+    """  # noqa: E501
+    if not math.isfinite(mean):
+        return "n/a"
+    scale = max(abs(mean), abs(half) if math.isfinite(half) else 0.0)
+    decimals = 3 if scale == 0 else min(max(3 - math.floor(math.log10(scale)), 0), 8)
+    text = f"{mean:.{decimals}f}"
+    return text if not math.isfinite(half) else f"{text} ± {half:.{decimals}f}"
 
 
 def t_confidence(values: Iterable[float], level: float = 0.95) -> tuple[float, float]:

@@ -37,6 +37,7 @@ from conjure.experiments.results import (
     RESULTS_FILE,
     RUNS_DIR,
     final_rows,
+    format_interval,
     has_finite_values,
     load_results,
     make_out_dir,
@@ -168,8 +169,7 @@ SAFETY_COLUMNS = {"failure_rate": "failure rate", "optimality": "optimality"}
 
 
 def _mean_interval(values: pd.Series) -> str:
-    mean, half = t_confidence(values.to_numpy(dtype=float))
-    return f"{_number(mean)} ± {_number(half)}"
+    return format_interval(*t_confidence(values.to_numpy(dtype=float)))
 
 
 def _finite_mean(values: pd.Series) -> float:
@@ -263,9 +263,10 @@ def write_report(
     lines = [
         f"# Report: {name}",
         "",
-        f"{results['run_id'].nunique()} finished runs, {len(errors)} failed "
-        f"(tracebacks in `{ERRORS_DIR}/`); seeds per method shown as `n`. Curves are means "
-        "over seeds with 95% Student-t bands; the final performance is the last policy check.",
+        f"{results['run_id'].nunique()} finished runs, "
+        + (f"{len(errors)} failed (tracebacks in `{ERRORS_DIR}/`)" if errors else "none failed")
+        + "; seeds per method shown as `n`. Curves are means over seeds with 95% confidence "
+        "bands (Student t); the final performance is the last policy check.",
         "",
     ]
     domains = (
