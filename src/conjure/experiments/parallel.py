@@ -455,14 +455,14 @@ def print_summary(outcome: ExperimentResult, console: Console | None = None) -> 
     summary = outcome.summary
     keys = [c for c in ("domain_label", "label", "setting") if c in summary.columns]
     table = Table(title=f"{outcome.out_dir}: final policy check, mean over seeds")
-    for name in keys:
-        table.add_column(name.replace("_", " "), justify="left")
-    for name in ("seeds", f"final {metric.replace('_', ' ')} ± 95% CI", "features", "steps/s"):
-        table.add_column(name, justify="right")
+    for name in keys:  # labels wrap (fold) but are never cut: sweeps differ at their ends
+        table.add_column(name.replace("_", " "), justify="left", overflow="fold")
+    for name in ("seeds", f"final {metric.replace('_', ' ')}\n± 95% CI", "features", "steps/s"):
+        table.add_column(name, justify="right", no_wrap=True)
     for row in summary.to_dict("records"):
         rate = row["mean_steps_per_second"]
         table.add_row(
-            *(str(row[k]) for k in keys),
+            *(str(row[k]).replace(", ", ",\n") for k in keys),  # a setting: one value a line
             str(row["num_seeds"]),
             format_interval(row[f"final_{metric}_mean"], row[f"final_{metric}_ci95"]),
             f"{row['final_num_features']:,.0f}",
