@@ -84,7 +84,7 @@ def test_report_tables_show_failure_rate_learning_failures_and_optimality(tmp_pa
     text = write_report(_safety_results(tmp_path, with_bounds=True)).read_text()
     assert "final failure rate ± 95% t" in text and "final optimality ± 95% t" in text
     assert "learning failures" in text
-    assert "| reckless | 2 |" in text and "| 0.5 ± 0 |" in text  # failure rate 0.5, no spread
+    assert "| reckless | 2 |" in text and "| 0.5000 ± 0.0000 |" in text  # rate 0.5, no spread
     assert "| 4.5 |" in text  # learning failures, mean of 4 and 5
     curve = write_report(tmp_path, metric="optimality", out_dir=tmp_path / "by_optimality")
     assert "mean optimality ± 95% t" in curve.read_text()

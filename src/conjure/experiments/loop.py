@@ -103,6 +103,11 @@ class Stepper:
     timed : bool, default False
         Time every ``domain.step``, ``agent.act`` and ``agent.learn`` call (see `timings`).
 
+    Notes
+    -----
+    ``domain`` and ``agent`` are read at every ``advance``: assigning a restored agent to
+    ``stepper.agent`` continues the same episode with it.
+
     Attributes
     ----------
     total_steps : int
@@ -155,7 +160,7 @@ class Stepper:
         self.timings: dict[str, float] = {}
         self._seed = seed
         self._cap = _check_cap(max_episode_steps, domain)
-        self._calls = self._timed_calls() if timed else (domain.step, agent.act, agent.learn)
+        self.timed = timed
         self._state: np.ndarray | None = None
         self._action = 0
         self._episode = (0, 0.0, 0.0, 1.0, 0)  # steps, return, discounted, γ^t, failures
@@ -191,12 +196,10 @@ class Stepper:
 
     def _steps(self, num_steps: int, *, stop_at_episode_end: bool) -> None:
         domain, agent, learning = self.domain, self.agent, self.learn
-        reset, legal_actions, begin_episode = (
-            domain.reset,
-            domain.legal_actions,
-            agent.begin_episode,
-        )
-        step, act, learn = self._calls
+        reset, legal_actions = domain.reset, domain.legal_actions
+        begin_episode = agent.begin_episode
+        calls = (domain.step, agent.act, agent.learn)
+        step, act, learn = self._timed_calls() if self.timed else calls
         is_constrained = domain.domain_spec.has_action_constraints
         discount = float(domain.domain_spec.discount)
         greedy, cap = not learning, self._cap
@@ -254,10 +257,12 @@ class Stepper:
             self._episode = (episode_steps, total, discounted, weight, episode_failures)
 
     def _timed_calls(self) -> tuple[Callable[..., Any], ...]:
+        """``domain.step``, ``agent.act`` and ``agent.learn`` adding their time to `timings`."""
         clock, timings = time.perf_counter, self.timings
 
         def timed(name: str, call: Callable[..., Any]) -> Callable[..., Any]:
-            timings[f"{name}_s"] = timings[f"{name}_calls"] = 0
+            timings.setdefault(f"{name}_s", 0.0)
+            timings.setdefault(f"{name}_calls", 0)
 
             def timed_call(*args: Any) -> Any:
                 started = clock()
