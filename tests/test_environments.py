@@ -96,3 +96,11 @@ def test_registration_is_idempotent_in_this_process():
     register_environments()
     after = {i: gym.registry[i] for i in gym.registry if i.startswith("conjure/")}
     assert after == before and len(after) == len(ENVIRONMENTS)
+
+
+def test_import_conjure_loads_no_pandas_matplotlib_or_scipy_stats():
+    out = python(
+        "import conjure, sys; "
+        "print(sorted(m for m in ('pandas', 'matplotlib', 'scipy.stats') if m in sys.modules))"
+    )
+    assert out.stdout.strip() == "[]", out.stdout + out.stderr

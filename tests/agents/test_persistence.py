@@ -62,7 +62,7 @@ def _rewrite_document(directory, change):
 @pytest.mark.parametrize(
     "qualified",
     [
-        "conjure.experiments.cli.main",  # a callable under conjure.*, not a component class
+        "conjure.cli.main.main",  # a callable under conjure.*, not a component class
         "conjure.experiments.run.Result",  # a class in a layer a saved agent never names
         "conjure.testing.fakes.SharedObservationBuffer",  # a component outside the packages
         "conjure.agents.persistence.SavedAgent",  # not Configurable
@@ -72,7 +72,7 @@ def _rewrite_document(directory, change):
     ],
 )
 def test_a_crafted_class_name_is_refused_and_never_called(tmp_path, monkeypatch, qualified):
-    import conjure.experiments.cli as cli
+    import conjure.cli.main as cli
 
     monkeypatch.setattr(cli, "main", lambda **_: pytest.fail("the loader called main"))
     directory = _saved_chain_agent(tmp_path)

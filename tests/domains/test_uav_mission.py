@@ -10,10 +10,10 @@ from click.testing import CliRunner
 from gymnasium.utils.env_checker import check_env
 
 import conjure.domains  # noqa: F401  (registers the Gymnasium ids)
+from conjure.cli.main import main
 from conjure.core.errors import InvalidParameterError
 from conjure.domains import UAVMission
 from conjure.domains._mission_kernels import mission_step
-from conjure.experiments.cli import main
 from conjure.testing.checks import check_pickle_round_trip, check_seeded_rollout
 
 

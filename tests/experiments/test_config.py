@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 import textwrap
 
 import pytest
@@ -243,3 +244,20 @@ def test_max_memory_is_a_size_that_does_not_change_run_ids(config_file):
     assert config_hash(resolve_run(config, "sarsa", 0)) == config_hash(plain)
     with pytest.raises(InvalidParameterError, match=r"max_memory: a memory size .*got '4XB'"):
         load_config(config_file, ["max_memory=4XB"])
+
+
+def test_a_bad_set_value_is_blamed_on_the_flag_and_a_bad_file_on_the_file(tmp_path):
+    path = tmp_path / "tiny.yaml"
+    path.write_text(
+        "name: tiny\n"
+        "domain: {kind: ChainMDP, params: {num_states: 4}}\n"
+        "agents: {q: {kind: QLearning, params: {representation: {kind: Tabular}}}}\n"
+        "budget_steps: 100\n"
+    )
+    with pytest.raises(InvalidParameterError) as bad:
+        load_config(path, ["seeds=2", "agents.q.params.step_size=-3"])
+    assert str(bad.value).startswith("--set 'agents.q.params.step_size=-3': agents.q.params")
+    path.write_text(path.read_text().replace("budget_steps: 100", "budget_steps: -1"))
+    with pytest.raises(InvalidParameterError, match=rf"^{re.escape(str(path))}: budget_steps"):
+        load_config(path, ["seeds=2"])
+    assert load_config(path, ["budget_steps=5"]).budget_steps == 5  # the flag fixes the file

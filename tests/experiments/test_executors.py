@@ -30,7 +30,7 @@ from conjure.experiments.executors import (
 )
 from conjure.experiments.parallel import execute_runs
 from conjure.experiments.results import RUNS_DIR, error_path, run_id
-from conjure.experiments.sweep import expand_sweep
+from conjure.sweeps.sweep import expand_sweep
 
 pytestmark = pytest.mark.usefixtures(isolated_fakes.__name__)
 GiB = 2**30

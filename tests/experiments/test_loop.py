@@ -1,4 +1,4 @@
-"""Tests of the run loop (run_episode, LearningLoop), with tiny fake components.
+"""Tests of the run loop (the Stepper, run_episode, profile_steps), with tiny fake components.
 
 The fakes defined here (`FakeWalk`, `FakeAgent`) are reused by the other experiments tests.
 """
@@ -16,7 +16,13 @@ from conjure.core.errors import DivergenceError, InvalidParameterError
 from conjure.core.interfaces import Agent, Domain, DomainSpec, Transition
 from conjure.core.params import InstanceOf, Interval
 from conjure.core.seeding import make_rng
-from conjure.experiments.loop import LearningLoop, profile_steps, run_episode
+from conjure.experiments.loop import (
+    LearningLoop,
+    Stepper,
+    learning_stepper,
+    profile_steps,
+    run_episode,
+)
 
 
 class FakeWalk(Domain):
@@ -325,3 +331,43 @@ def test_learning_loop_counts_failures_of_the_steps_it_took():
     assert at_wall > 10 and loop.num_failures == at_wall
     loop.advance(50)
     assert loop.num_failures == sum(t.next_state[0] == 0 for t in agent.transitions_)
+
+
+def test_learning_stepper_uses_the_compiled_path_only_when_it_answers(monkeypatch):
+    import sys
+    import types
+
+    domain = FakeWalk(length=5)
+    agent = make_agent(domain.domain_spec)
+    asked = []
+    compiled = types.ModuleType("conjure.compiled")
+
+    def for_combination(d, a, *, seed=None):
+        asked.append((d, a, seed))
+        return "compiled stepper" if len(asked) == 1 else None
+
+    compiled.for_combination = for_combination
+    monkeypatch.setitem(sys.modules, "conjure.compiled", compiled)
+    assert learning_stepper(domain, agent, seed=4) == "compiled stepper"
+    fallback = learning_stepper(domain, agent, seed=4)
+    assert type(fallback) is Stepper and fallback.learn
+    assert asked == [(domain, agent, 4)] * 2
+
+
+def test_greedy_and_timed_steppers_take_the_learning_steppers_steps():
+    # One step order: a greedy stepper's episode equals run_episode's, and a timed learning
+    # stepper learns exactly what an untimed one does from the same seeds.
+    domain = FakeWalk(length=6, max_episode_steps=9)
+    agent = make_agent(domain.domain_spec)
+    episode = Stepper(domain, agent, learn=False, seed=5).play_episode()
+    assert episode == run_episode(domain, agent, seed=5)
+    results = []
+    for timed in (False, True):
+        d = FakeWalk(length=6, max_episode_steps=9)
+        a = make_agent(d.domain_spec, seed=2)
+        stepper = Stepper(d, a, seed=1, timed=timed)
+        stepper.advance(40)
+        actions = [(t.action, t.reward, t.terminated) for t in a.transitions_]
+        results.append((actions, a.events_, stepper.num_episodes, stepper.last_episode))
+    assert results[0] == results[1]
+    assert stepper.timings["step_calls"] == stepper.timings["learn_calls"] == 40

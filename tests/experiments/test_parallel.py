@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import pandas as pd
 import pytest
 from test_loop import FakeAgent, FakeWalk
@@ -143,3 +145,31 @@ def test_process_pool_matches_in_process_runs(tmp_path):
                 direct.drop(columns=list(TIMING_COLUMNS)),
             )
     assert read_run(path_of(tmp_path, config, "q", 1))["config"] == resolve_run(config, "q", 1)
+
+
+def test_the_summary_table_keeps_long_labels_whole_at_80_columns():
+    from rich.console import Console
+
+    from conjure.experiments.parallel import ExperimentResult, print_summary
+
+    labels = [f"sarsa_ifdd_plus_threshold_discovery_{end}" for end in ("first", "second")]
+    summary = pd.DataFrame(
+        {
+            "label": labels,
+            "setting": [f"step_size.alpha_0={v}, step_size.n_0=1000000" for v in (0.1, 1.0)],
+            "num_seeds": 5,
+            "final_return_mean": -1.0,
+            "final_return_ci95": 1.674e-16,
+            "final_num_features": 1234.0,
+            "mean_steps_per_second": 45678.0,
+        }
+    )
+    console = Console(width=80, record=True)
+    print_summary(ExperimentResult(Path("out"), pd.DataFrame(), summary), console)
+    text = console.export_text()
+    rows = [line.split("│") for line in text.splitlines() if line.startswith("│")]
+    flat = "".join(cells[1].strip() for cells in rows)  # the label column, unwrapped
+    assert "…" not in text
+    for label in labels:
+        assert label in flat
+    assert "-1.000 ± 0.000" in text

@@ -127,3 +127,23 @@ def test_malformed_component():
 def test_wrong_layer_is_unknown():
     with pytest.raises(InvalidParameterError, match="unknown agent kind 'TileCoding'"):
         registry.build("agent", {"kind": "TileCoding"})
+
+
+def test_kinds_match_case_insensitively_and_resolve_to_the_registered_spelling():
+    from conjure.experiments.config import parse_config, resolve_run
+
+    agent = registry.build(
+        "agent", {"kind": "Sarsa", "params": {"representation": {"kind": "tabular"}}}
+    )
+    assert type(agent).__name__ == "SARSA"
+    config = parse_config(
+        {
+            "name": "case",
+            "domain": {"kind": "chainmdp"},
+            "agents": {"s": {"kind": "Sarsa", "params": {"representation": {"kind": "TABULAR"}}}},
+            "budget_steps": 10,
+        }
+    )
+    spec = resolve_run(config, "s", 0)
+    assert (spec["agent"]["kind"], spec["domain"]["kind"]) == ("SARSA", "ChainMDP")
+    assert spec["agent"]["params"]["representation"]["kind"] == "Tabular"

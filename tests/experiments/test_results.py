@@ -71,3 +71,13 @@ def test_run_files_are_named_by_hash_and_written_atomically(tmp_path):
     assert remove_stale_temporaries(tmp_path) == 1
     write_atomic(tmp_path / "f.txt", "x")
     assert [p.name for p in tmp_path.iterdir() if p.name.startswith(".")] == []
+
+
+def test_intervals_read_at_the_means_precision():
+    from conjure.experiments.results import format_interval
+
+    assert format_interval(-1.0, 1.674e-16) == "-1.000 ± 0.000"  # not "-1 ± 1.674e-16"
+    assert format_interval(0.5, 0.25) == "0.5000 ± 0.2500"  # 4 significant digits
+    assert format_interval(-3012.4, 150.2) == "-3012 ± 150"
+    assert format_interval(0.0, 0.0) == "0.000 ± 0.000"
+    assert format_interval(float("nan"), 1.0) == "n/a"

@@ -13,8 +13,11 @@ import pandas as pd
 import pytest
 from test_loop import FakeAgent, FakeWalk
 
+from conjure.agents import SARSA, QLearning
 from conjure.core.errors import DivergenceError, InvalidParameterError
+from conjure.domains import BlocksWorld, ChainMDP
 from conjure.experiments.run import CURVE_COLUMNS, TIMING_COLUMNS, Result, run
+from conjure.representations import Tabular
 
 
 def fake_run(seed: int = 0, **kwargs) -> Result:
@@ -206,3 +209,81 @@ def test_before_policy_check_is_called_before_every_check():
     checks = [i for i, event in enumerate(result.agent.events_) if event == "check"]
     assert len(checks) == 5
     assert result.agent.steps_at_check_ == [0, 25, 50, 75, 100]
+
+
+def hand_written_run(domain, agent, *, budget_steps, num_policy_checks, seed):
+    """An independent reference of `run`'s documented protocol, written out by hand."""
+    from conjure.core.interfaces import Transition
+    from conjure.core.seeding import seed_to_int, split_seed
+
+    seeds = split_seed(seed, ("domain", "evaluation", "agent"))
+    agent.setup(domain.domain_spec, seeds["agent"])
+    eval_domain = domain.clone()
+    spec = domain.domain_spec
+
+    def legal(d, s):
+        return d.legal_actions(s) if spec.has_action_constraints else None
+
+    def greedy_episode():
+        s = eval_domain.reset(seed=seed_to_int(seeds["evaluation"]))[0]
+        a = agent.act(s, True, legal(eval_domain, s))
+        total = discounted = 0.0
+        for t in range(spec.max_episode_steps):
+            s, r, terminated, truncated, _ = eval_domain.step(a)
+            total, discounted = total + r, discounted + spec.discount**t * r
+            if terminated or truncated:
+                break
+            a = agent.act(s, True, legal(eval_domain, s))
+        return total, discounted, t + 1
+
+    rows, steps, episodes, state, action, length = [], 0, 0, None, 0, 0
+    domain_seed = seed_to_int(seeds["domain"])
+    for i in range(num_policy_checks + 1):
+        while steps < budget_steps * i // num_policy_checks:
+            if state is None:
+                state = domain.reset(seed=domain_seed if episodes == 0 else None)[0].copy()
+                agent.begin_episode()
+                action, length = agent.act(state, False, legal(domain, state)), 0
+            next_state, r, terminated, truncated, _ = domain.step(action)
+            next_state, steps, length = next_state.copy(), steps + 1, length + 1
+            next_legal = None if terminated else legal(domain, next_state)
+            next_action = 0 if terminated else agent.act(next_state, False, next_legal)
+            agent.learn(
+                Transition(state, action, r, next_state, next_action, terminated, next_legal)
+            )
+            if terminated or truncated or length >= spec.max_episode_steps:
+                state, episodes = None, episodes + 1
+            else:
+                state, action = next_state, next_action
+        agent.before_policy_check()
+        rows.append((steps, episodes, *greedy_episode(), agent.num_features))
+    return rows
+
+
+@pytest.mark.parametrize(
+    "make",
+    [
+        lambda: (ChainMDP(num_states=6), SARSA(representation=Tabular(), step_size=0.5)),
+        lambda: (
+            BlocksWorld(num_blocks=3, max_episode_steps=40),
+            QLearning(representation=Tabular(), step_size=0.3),
+        ),
+    ],
+    ids=["chain-sarsa", "blocksworld-q-legal-actions"],
+)
+def test_run_takes_the_same_steps_as_a_hand_written_loop(make):
+    domain, agent = make()
+    curve = run(domain=domain, agent=agent, budget_steps=700, num_policy_checks=7, seed=3).curve
+    domain, agent = make()
+    expected = hand_written_run(domain, agent, budget_steps=700, num_policy_checks=7, seed=3)
+    columns = [
+        "learning_steps",
+        "learning_episodes",
+        "return",
+        "discounted_return",
+        "episode_length",
+        "num_features",
+    ]
+    assert len(curve) == len(expected) == 8
+    np.testing.assert_allclose(curve[columns].to_numpy(float), np.array(expected), rtol=1e-12)
+    assert curve["learning_episodes"].iloc[-1] > 0  # episodes ended and restarted

@@ -1,6 +1,5 @@
 from pathlib import Path
 
-import pytest
 from click.testing import CliRunner
 
 from conjure.core.errors import InvalidParameterError
@@ -48,11 +47,15 @@ def test_unknown_planner_suggests(tmp_path):
     assert "ValueIteration" in str(result.exception)
 
 
-@pytest.mark.parametrize("render", [True])
-def test_render_needs_a_gridworld(tmp_path, render):
+def test_render_needs_a_gridworld_and_says_so_before_solving(tmp_path, monkeypatch):
+    import conjure.experiments.solve as solve_module
+
+    solved = []
+    monkeypatch.setattr(solve_module, "solve", lambda *a, **k: solved.append(a))
     config = tmp_path / "chain.yaml"
     config.write_text("domain: {kind: ChainMDP}\nplanner: {kind: ValueIteration}\n")
     result = CliRunner().invoke(
         solve_command, [str(config), "--episodes", "1", "--render", str(tmp_path / "x.png")]
     )
     assert result.exception is not None and "GridWorld" in str(result.exception)
+    assert solved == []  # refused before planning, not after

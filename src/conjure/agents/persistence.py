@@ -13,7 +13,7 @@ Loading trusts nothing in the files:
 
 - only *component classes* are rebuilt: a public class, defined in a module of one of the
   `COMPONENT_PACKAGES` (never ``conjure.experiments`` or ``conjure.testing``), that subclasses
-  `Configurable`; anything else (a function such as ``conjure.experiments.cli.main``, a
+  `Configurable`; anything else (a function such as ``conjure.cli.main.main``, a
   foreign class) is refused before its module is imported;
 - every array is checked against what the agent, set up from the saved spec and parameters,
   expects: its shape, its dtype and, for floats, that it is finite (`SavedAgent.array`);
@@ -99,10 +99,10 @@ def component_from_dict(tree: dict[str, Any]) -> Configurable:
     >>> component_from_dict({"class": "conjure.policies.epsilon_greedy.EpsilonGreedy",
     ...                      "params": {"epsilon": 0.2}})
     EpsilonGreedy(epsilon=0.2)
-    >>> component_from_dict({"class": "conjure.experiments.cli.main", "params": {}})
+    >>> component_from_dict({"class": "conjure.cli.main.main", "params": {}})
     Traceback (most recent call last):
     ...
-    conjure.core.errors.InvalidParameterError: A saved agent may only name conjure component classes (in conjure.agents, conjure.core.schedules, conjure.domains, conjure.models, conjure.planners, conjure.policies, conjure.representations, conjure.safety); got 'conjure.experiments.cli.main'.
+    conjure.core.errors.InvalidParameterError: A saved agent may only name conjure component classes (in conjure.agents, conjure.core.schedules, conjure.domains, conjure.models, conjure.planners, conjure.policies, conjure.representations, conjure.safety); got 'conjure.cli.main.main'.
     """  # noqa: E501
     if not isinstance(tree, dict) or set(tree) != {"class", "params"}:
         raise InvalidParameterError(

@@ -1,42 +1,64 @@
-"""Experiments layer: the run loop, runs, configs, the registry, results, plots and the CLI.
+"""Experiments layer: the run loop, runs, configs, the registry, results and parallel execution.
 
 ``run(domain=..., agent=..., budget_steps=..., seed=...)`` learns and records a learning curve;
 ``run_experiment(load_config("examples/pendulum.yaml"), "results/pendulum")`` compares several
-agents over seeds in parallel; ``conjure run CONFIG`` does the same from the shell.
+agents over seeds in parallel; ``conjure run CONFIG`` does the same from the shell. Sweeps
+(`conjure.sweeps`), reports and plots (`conjure.reporting`) and the command line
+(`conjure.cli`) build on this layer.
+
+The names below are imported on first use (importing the package loads none of them).
 """
 
-from conjure.experiments.config import (
-    ComponentConfig,
-    ExperimentConfig,
-    load_config,
-    parse_config,
-    resolve,
-    resolve_run,
-)
-from conjure.experiments.loop import EpisodeStats, LearningLoop, run_episode
-from conjure.experiments.parallel import ExperimentResult, run_experiment
-from conjure.experiments.plots import plot_learning_curves
-from conjure.experiments.registry import build
-from conjure.experiments.results import load_results, summarize
-from conjure.experiments.run import Result, run, run_config
+from __future__ import annotations
 
-__all__ = [
-    "ComponentConfig",
-    "EpisodeStats",
-    "ExperimentConfig",
-    "ExperimentResult",
-    "LearningLoop",
-    "Result",
-    "build",
-    "load_config",
-    "load_results",
-    "parse_config",
-    "plot_learning_curves",
-    "resolve",
-    "resolve_run",
-    "run",
-    "run_config",
-    "run_episode",
-    "run_experiment",
-    "summarize",
-]
+import importlib
+import sys
+import types
+from typing import Any
+
+#: Each exported name and the submodule that defines it.
+_EXPORTS = {
+    "ComponentConfig": "config",
+    "ExperimentConfig": "config",
+    "load_config": "config",
+    "parse_config": "config",
+    "resolve": "config",
+    "resolve_run": "config",
+    "EpisodeStats": "loop",
+    "LearningLoop": "loop",
+    "run_episode": "loop",
+    "ExperimentResult": "parallel",
+    "run_experiment": "parallel",
+    "build": "registry",
+    "load_results": "results",
+    "summarize": "results",
+    "Result": "run",
+    "run": "run",
+    "run_config": "run",
+}
+
+__all__ = sorted(_EXPORTS)
+
+
+def __getattr__(name: str) -> Any:
+    if name not in _EXPORTS:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    value = getattr(importlib.import_module(f"{__name__}.{_EXPORTS[name]}"), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted({*globals(), *_EXPORTS})
+
+
+class _Package(types.ModuleType):
+    """The package module; importing the submodule ``run`` does not hide the function `run`."""
+
+    def __setattr__(self, name: str, value: Any) -> None:
+        if name in _EXPORTS and isinstance(value, types.ModuleType):
+            return
+        super().__setattr__(name, value)
+
+
+sys.modules[__name__].__class__ = _Package

@@ -35,7 +35,7 @@ import copy
 import hashlib
 import json
 import re
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Annotated, Any
 
@@ -48,6 +48,7 @@ from conjure.experiments import registry
 from conjure.experiments.memory import parse_memory_size
 
 __all__ = [
+    "CURVE_COLUMNS",
     "ComponentConfig",
     "ExperimentConfig",
     "apply_overrides",
@@ -56,9 +57,27 @@ __all__ = [
     "load_config",
     "load_yaml",
     "parse_config",
+    "parse_overridden",
     "resolve",
     "resolve_run",
+    "set_component_value",
 ]
+
+#: The columns of a learning curve, one row per policy check.
+CURVE_COLUMNS = (
+    "learning_steps",
+    "learning_episodes",
+    "learning_failures",
+    "return",
+    "discounted_return",
+    "episode_length",
+    "failure_rate",
+    "optimality",
+    "num_features",
+    "wall_time_s",
+    "steps_per_second",
+)
+
 
 _NAME_PATTERN = r"^[A-Za-z0-9][A-Za-z0-9_.\-]*$"
 
@@ -140,8 +159,6 @@ class ExperimentConfig(BaseModel):
     @field_validator("metric")
     @classmethod
     def _metric_is_a_curve_column(cls, metric: str) -> str:
-        from conjure.experiments.run import CURVE_COLUMNS
-
         if metric not in CURVE_COLUMNS:
             raise ValueError(
                 f"metric must be a learning-curve column, one of {', '.join(CURVE_COLUMNS)}; "
@@ -275,15 +292,50 @@ def load_config(path: str | Path, overrides: Sequence[str] = ()) -> ExperimentCo
     except OSError as exc:
         raise InvalidParameterError(f"Cannot read config {str(path)!r}: {exc.strerror}.") from None
     data = load_yaml(text, source=str(path))
-    if overrides:
-        if not isinstance(data, Mapping):
-            raise InvalidParameterError(f"{path}: an experiment config must be a mapping.")
-        data = apply_overrides(data, overrides)
-    return parse_config(data, source=str(path))
+    if not overrides:
+        return parse_config(data, source=str(path))
+    if not isinstance(data, Mapping):
+        raise InvalidParameterError(f"{path}: an experiment config must be a mapping.")
+    return parse_overridden(data, overrides, apply_overrides, parse_config, source=str(path))
 
 
 # ---------------------------------------------------------------------------------------------
 # Overrides
+
+
+def parse_overridden(
+    data: Mapping[str, Any],
+    overrides: Sequence[str],
+    apply: Callable[[Mapping[str, Any], Sequence[str]], dict[str, Any]],
+    parse: Callable[..., Any],
+    *,
+    source: str,
+) -> Any:
+    """Apply ``--set`` overrides to a config file's ``data`` and validate: blame who is at fault.
+
+    An invalid path is reported by ``apply`` (naming the flag). An invalid value is reported
+    against the first override that makes the valid file invalid (``--set 'path=value': ...``);
+    when the file itself is invalid, against the file (``source``).
+    """
+    try:
+        return parse(apply(data, overrides), source=source)
+    except InvalidParameterError:
+        if not _parses(parse, data):
+            raise
+    culprit = next(
+        override
+        for count, override in enumerate(overrides, 1)
+        if not _parses(parse, apply(data, overrides[:count]))
+    )
+    return parse(apply(data, overrides), source=f"--set {culprit!r}")  # raises
+
+
+def _parses(parse: Callable[..., Any], data: Mapping[str, Any]) -> bool:
+    try:
+        parse(data, source="")
+    except InvalidParameterError:
+        return False
+    return True
 
 
 def apply_overrides(data: Mapping[str, Any], overrides: Sequence[str]) -> dict[str, Any]:
@@ -312,7 +364,7 @@ def _set_experiment(node: dict[str, Any], keys: list[str], value: Any, override:
     if not rest:
         node[head] = value
     elif head == "domain":
-        _set_component(node.setdefault("domain", {}), rest, value, override, "domain")
+        set_component_value(node.setdefault("domain", {}), rest, value, override, "domain")
     elif head == "agents":
         agents = node.get("agents")
         labels = list(agents) if isinstance(agents, Mapping) else []
@@ -325,14 +377,19 @@ def _set_experiment(node: dict[str, Any], keys: list[str], value: Any, override:
         if len(rest) == 1:
             agents[label] = value
         else:
-            _set_component(agents[label], rest[1:], value, override, f"agents.{label}")
+            set_component_value(agents[label], rest[1:], value, override, f"agents.{label}")
     else:
         raise InvalidParameterError(
             f"--set {override!r}: `{head}` is a plain value; use --set {head}=VALUE."
         )
 
 
-def _set_component(node: Any, keys: list[str], value: Any, override: str, where: str) -> None:
+def set_component_value(node: Any, keys: list[str], value: Any, override: str, where: str) -> None:
+    """Set ``value`` at the path ``keys`` (``params.<name>...``) inside the component ``node``.
+
+    Each name is checked against the component's fields and its kind's parameters; errors name
+    the ``--set`` ``override`` and ``where`` (the component's path).
+    """
     if not isinstance(node, dict):
         raise InvalidParameterError(
             f"--set {override!r}: `{where}` is not a {{kind, params}} component."
@@ -368,7 +425,7 @@ def _set_component(node: Any, keys: list[str], value: Any, override: str, where:
         inner = registry.to_spec(default) if isinstance(default, Configurable) else {}
         params[name] = inner
     if isinstance(inner, dict) and rest[0] in _COMPONENT_FIELDS and ("kind" in inner or not inner):
-        _set_component(inner, rest, value, override, f"{where}.params.{name}")
+        set_component_value(inner, rest, value, override, f"{where}.params.{name}")
     elif isinstance(inner, dict):  # a plain mapping parameter, e.g. env_kwargs
         for key in rest[:-1]:
             inner = inner.setdefault(key, {})

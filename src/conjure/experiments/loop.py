@@ -1,26 +1,39 @@
 """The run loop: the only place a domain meets an agent (STYLE §8).
 
-Two entry points share one step order (Algorithm 11, lines 3-8 as an interaction loop):
+One stepper, `Stepper`, holds the step order (Algorithm 11, lines 3-8 as an interaction loop);
+every caller uses it:
 
-- `run_episode` plays one whole episode, greedily for a policy check or learning;
-- `LearningLoop` is the resumable learning stepper `run` drives: ``advance(num_steps)`` takes
-  exactly that many learning steps, ending and starting episodes as needed, and can stop in the
-  middle of an episode (for a policy check, or when the budget runs out) and later continue it.
+- learning (`run`): ``Stepper(domain, agent, seed=...)``, resumable: ``advance(num_steps)``
+  takes exactly that many learning steps, ending and starting episodes as needed, and can stop
+  in the middle of an episode (for a policy check, or when the budget runs out) and continue
+  it later; `learning_stepper` picks the compiled path when there is one (below);
+- policy checks and planners' episodes: `run_episode` (``Stepper(..., learn=False)``, one
+  episode with ``play_episode``);
+- profiling: `profile_steps` (``Stepper(..., timed=True)``, a timer around every call).
 
 Per step: ``s', r, terminated, truncated, info = domain.step(a)``; ``a' = agent.act(s')``
-(skipped on termination, where ``a' = 0``);
+(skipped on termination, where ``a' = 0``); when learning,
 ``agent.learn(Transition(s, a, r, s', a', terminated, legal'))``; the step is a failure when
 ``info.get("cost", 0) > 0`` (`Domain.is_constrained`); the episode ends at termination,
-truncation or the cap ``domain_spec.max_episode_steps``.
+truncation or the cap ``domain_spec.max_episode_steps``. A learning episode starts with
+``agent.begin_episode()`` after the reset and acts with exploration; a greedy one does neither.
+
+The compiled path
+-----------------
+`learning_stepper` asks ``conjure.compiled.for_combination(domain, agent, seed=seed)`` for a
+stepper whose ``advance(n)`` runs the n steps in one compiled function (same counters, same
+step order, same seeded draws); it answers ``None`` unless the domain, representation and
+agent all have compiled kernels, and then (or when ``conjure.compiled`` is absent) the Python
+`Stepper` runs. This is the one place the choice is made.
 
 Notes
 -----
 - Choice: the loop is the library's hot path (target about 20 µs per SARSA + tile-coding step,
   all included), so it binds methods to locals, allocates nothing per step but the
-  `Transition` and the observation's copy (below), and never times single steps;
-  throughput is measured around whole ``advance`` calls by `conjure.experiments.run`.
-  `profile_steps` gives the per-call microseconds of ``step``, ``act`` and ``learn`` (STYLE
-  §2) in a separate, slower loop.
+  `Transition` and the observation's copy (below), and never times single steps unless
+  ``timed``; throughput is measured around whole ``advance`` calls by `conjure.experiments.run`.
+  A timed stepper (`profile_steps`) gives the per-call microseconds of ``step``, ``act`` and
+  ``learn`` (STYLE §2) and is slower by the timers.
 - Choice: ``domain.legal_actions`` is called only when ``domain_spec.has_action_constraints``;
   otherwise agents receive ``legal_actions=None`` (every action).
 - Choice: on truncation (cap or a Gymnasium ``TimeLimit``) the agent still chooses a' for s' so
@@ -33,14 +46,22 @@ Notes
 from __future__ import annotations
 
 import time
-from typing import NamedTuple
+from collections.abc import Callable
+from typing import Any, NamedTuple
 
 import numpy as np
 
 from conjure.core.errors import InvalidParameterError
 from conjure.core.interfaces import Agent, Domain, Transition
 
-__all__ = ["EpisodeStats", "LearningLoop", "profile_steps", "run_episode"]
+__all__ = [
+    "EpisodeStats",
+    "LearningLoop",
+    "Stepper",
+    "learning_stepper",
+    "profile_steps",
+    "run_episode",
+]
 
 
 class EpisodeStats(NamedTuple):
@@ -61,6 +82,222 @@ def _check_cap(max_steps: int | None, domain: Domain) -> int:
     if isinstance(cap, bool) or not isinstance(cap, (int, np.integer)) or cap < 1:
         raise InvalidParameterError(f"`max_steps` must be an int in [1, inf); got {cap!r}.")
     return int(cap)
+
+
+class Stepper:
+    """The interaction loop: resumable, exact step counts, pausable in the middle of an episode.
+
+    Parameters
+    ----------
+    domain : Domain
+        The domain (used only by this stepper: policy checks run on their own domain).
+    agent : Agent
+        A set-up agent.
+    learn : bool, default True
+        Learning (``agent.begin_episode`` after each reset, exploring ``act``, ``agent.learn``
+        on every transition) or greedy (a policy check: greedy ``act``, nothing learned).
+    seed : int or None, default None
+        Passed to the first ``domain.reset(seed=...)``; later resets continue its RNG.
+    max_episode_steps : int or None, default None
+        The episode cap, in [1, inf); ``None`` uses ``domain.domain_spec.max_episode_steps``.
+    timed : bool, default False
+        Time every ``domain.step``, ``agent.act`` and ``agent.learn`` call (see `timings`).
+
+    Notes
+    -----
+    ``domain`` and ``agent`` are read at every ``advance``: assigning a restored agent to
+    ``stepper.agent`` continues the same episode with it.
+
+    Attributes
+    ----------
+    total_steps : int
+        Steps taken so far.
+    num_episodes : int
+        Episodes started so far (the current one included).
+    num_completed_episodes : int
+        Episodes finished so far.
+    num_failures : int
+        Steps so far whose ``info["cost"]`` was positive (entering a failure state).
+    is_mid_episode : bool
+        Whether the next ``advance`` continues an unfinished episode.
+    last_episode : EpisodeStats or None
+        The statistics of the last episode that ended.
+    timings : dict
+        With ``timed``: total seconds in ``step``, ``act`` and ``learn`` and their call counts
+        (``step_calls`` ...); empty otherwise.
+
+    Examples
+    --------
+    >>> from conjure.agents import SARSA
+    >>> from conjure.domains import ChainMDP
+    >>> from conjure.representations import Tabular
+    >>> domain = ChainMDP(num_states=4)
+    >>> agent = SARSA(representation=Tabular()).setup(domain.domain_spec, seed=0)
+    >>> stepper = Stepper(domain, agent, seed=0)
+    >>> stepper.advance(30), stepper.advance(20)
+    (30, 50)
+    >>> Stepper(domain.clone(), agent, learn=False, seed=1).play_episode().num_steps <= 100
+    True
+    """
+
+    def __init__(
+        self,
+        domain: Domain,
+        agent: Agent,
+        *,
+        learn: bool = True,
+        seed: int | None = None,
+        max_episode_steps: int | None = None,
+        timed: bool = False,
+    ):
+        self.domain = domain
+        self.agent = agent
+        self.learn = learn
+        self.total_steps = 0
+        self.num_episodes = 0
+        self.num_failures = 0
+        self.last_episode: EpisodeStats | None = None
+        self.timings: dict[str, float] = {}
+        self._seed = seed
+        self._cap = _check_cap(max_episode_steps, domain)
+        self.timed = timed
+        self._state: np.ndarray | None = None
+        self._action = 0
+        self._episode = (0, 0.0, 0.0, 1.0, 0)  # steps, return, discounted, γ^t, failures
+
+    @property
+    def is_mid_episode(self) -> bool:
+        """Whether an episode is in progress."""
+        return self._state is not None
+
+    @property
+    def num_completed_episodes(self) -> int:
+        """Episodes finished so far (the current unfinished one excluded)."""
+        return self.num_episodes - int(self.is_mid_episode)
+
+    def advance(self, num_steps: int) -> int:
+        """Take exactly ``num_steps`` steps and return ``total_steps``.
+
+        An exception from the agent or domain (e.g. `DivergenceError`) leaves ``total_steps``
+        counting the steps completed before the failing one; the episode cannot be continued.
+        """
+        if isinstance(num_steps, bool) or not isinstance(num_steps, (int, np.integer)):
+            raise InvalidParameterError(f"`num_steps` must be an int; got {num_steps!r}.")
+        if num_steps < 0:
+            raise InvalidParameterError(f"`num_steps` must be >= 0; got {num_steps!r}.")
+        self._steps(int(num_steps), stop_at_episode_end=False)
+        return self.total_steps
+
+    def play_episode(self) -> EpisodeStats:
+        """Step until the current episode (a new one if none is in progress) ends; return it."""
+        self._steps(self._cap, stop_at_episode_end=True)
+        assert self.last_episode is not None  # an episode ends within the cap
+        return self.last_episode
+
+    def _steps(self, num_steps: int, *, stop_at_episode_end: bool) -> None:
+        domain, agent, learning = self.domain, self.agent, self.learn
+        reset, legal_actions = domain.reset, domain.legal_actions
+        begin_episode = agent.begin_episode
+        calls = (domain.step, agent.act, agent.learn)
+        step, act, learn = self._timed_calls() if self.timed else calls
+        is_constrained = domain.domain_spec.has_action_constraints
+        discount = float(domain.domain_spec.discount)
+        greedy, cap = not learning, self._cap
+        state, action = self._state, self._action
+        episode_steps, total, discounted, weight, episode_failures = self._episode
+        done = failures = 0
+        try:
+            while done < num_steps:
+                if state is None:
+                    state = reset(seed=self._seed)[0].copy()
+                    self._seed = None
+                    self.num_episodes += 1
+                    if learning:
+                        begin_episode()
+                    legal = legal_actions(state) if is_constrained else None
+                    action = act(state, greedy, legal)
+                    episode_steps, total, discounted, weight, episode_failures = 0, 0.0, 0.0, 1.0, 0
+                next_state, reward, terminated, truncated, info = step(action)
+                next_state = next_state.copy()
+                episode_steps += 1
+                total += reward
+                discounted += weight * reward
+                weight *= discount
+                if terminated:
+                    next_action, next_legal = 0, None
+                else:
+                    next_legal = legal_actions(next_state) if is_constrained else None
+                    next_action = act(next_state, greedy, next_legal)
+                if learning:
+                    learn(
+                        Transition(
+                            state, action, reward, next_state, next_action, terminated, next_legal
+                        )
+                    )
+                done += 1
+                if info.get("cost", 0.0) > 0.0:
+                    failures += 1
+                    episode_failures += 1
+                if terminated or truncated or episode_steps >= cap:
+                    state = None
+                    self.last_episode = EpisodeStats(
+                        float(total), float(discounted), episode_steps, episode_failures
+                    )
+                    if stop_at_episode_end:
+                        break
+                else:
+                    state, action = next_state, next_action
+        except BaseException:
+            state = None  # the failing step is not counted; the episode cannot be continued
+            raise
+        finally:
+            self.total_steps += done
+            self.num_failures += failures
+            self._state, self._action = state, action
+            self._episode = (episode_steps, total, discounted, weight, episode_failures)
+
+    def _timed_calls(self) -> tuple[Callable[..., Any], ...]:
+        """``domain.step``, ``agent.act`` and ``agent.learn`` adding their time to `timings`."""
+        clock, timings = time.perf_counter, self.timings
+
+        def timed(name: str, call: Callable[..., Any]) -> Callable[..., Any]:
+            timings.setdefault(f"{name}_s", 0.0)
+            timings.setdefault(f"{name}_calls", 0)
+
+            def timed_call(*args: Any) -> Any:
+                started = clock()
+                out = call(*args)
+                timings[f"{name}_s"] += clock() - started
+                timings[f"{name}_calls"] += 1
+                return out
+
+            return timed_call
+
+        domain, agent = self.domain, self.agent
+        return timed("step", domain.step), timed("act", agent.act), timed("learn", agent.learn)
+
+
+#: The learning stepper under its earlier name (`run` and the benchmarks learn with it).
+LearningLoop = Stepper
+
+
+def learning_stepper(domain: Domain, agent: Agent, *, seed: int | None = None) -> Any:
+    """Return the stepper a run learns with: compiled when every part has a kernel, else Python.
+
+    The compiled stepper (``conjure.compiled.for_combination(domain, agent, seed=seed)``) has
+    the counters and ``advance(n)`` of `Stepper` and takes the same steps with the same draws;
+    when it answers ``None`` (some part has no kernel), or ``conjure.compiled`` is not
+    installed, a learning `Stepper` runs.
+    """
+    try:
+        from conjure.compiled import for_combination
+    except ModuleNotFoundError as exc:
+        if exc.name != "conjure.compiled":
+            raise
+        compiled = None
+    else:
+        compiled = for_combination(domain, agent, seed=seed)
+    return compiled if compiled is not None else Stepper(domain, agent, seed=seed)
 
 
 def run_episode(
@@ -93,152 +330,8 @@ def run_episode(
         The return, the discounted return (γ from the domain spec), the number of steps and
         the number of failures.
     """
-    cap = _check_cap(max_steps, domain)
-    spec = domain.domain_spec
-    discount = float(spec.discount)
-    is_constrained = spec.has_action_constraints
-    greedy = not learn
-    step, act, legal_actions = domain.step, agent.act, domain.legal_actions
-
-    state = domain.reset(seed=seed)[0].copy()
-    if learn:
-        agent.begin_episode()
-    legal = legal_actions(state) if is_constrained else None
-    action = act(state, greedy, legal)
-    total, discounted, weight, num_steps, num_failures = 0.0, 0.0, 1.0, 0, 0
-    while num_steps < cap:
-        next_state, reward, terminated, truncated, info = step(action)
-        next_state = next_state.copy()
-        num_steps += 1
-        if info.get("cost", 0.0) > 0.0:
-            num_failures += 1
-        total += reward
-        discounted += weight * reward
-        weight *= discount
-        if terminated:
-            next_action, next_legal = 0, None
-        else:
-            next_legal = legal_actions(next_state) if is_constrained else None
-            next_action = act(next_state, greedy, next_legal)
-        if learn:
-            agent.learn(
-                Transition(state, action, reward, next_state, next_action, terminated, next_legal)
-            )
-        if terminated or truncated:
-            break
-        state, action = next_state, next_action
-    return EpisodeStats(float(total), float(discounted), num_steps, num_failures)
-
-
-class LearningLoop:
-    """A resumable learning stepper: exact step budgets, pausable in the middle of an episode.
-
-    Parameters
-    ----------
-    domain : Domain
-        The learning domain (used only by this loop, so policy checks never perturb it).
-    agent : Agent
-        A set-up agent.
-    seed : int or None, default None
-        Passed to the first ``domain.reset(seed=...)``; later resets continue its RNG.
-
-    Attributes
-    ----------
-    total_steps : int
-        Learning steps taken so far.
-    num_episodes : int
-        Learning episodes started so far (the current one included).
-    num_completed_episodes : int
-        Learning episodes finished so far.
-    num_failures : int
-        Learning steps so far whose ``info["cost"]`` was positive (entering a failure state).
-    is_mid_episode : bool
-        Whether the next ``advance`` continues an unfinished episode.
-
-    Examples
-    --------
-    ``loop = LearningLoop(domain, agent, seed=0); loop.advance(1000)`` takes exactly 1000
-    learning steps; a second ``loop.advance(500)`` continues where the first stopped.
-    """
-
-    def __init__(self, domain: Domain, agent: Agent, *, seed: int | None = None):
-        self.domain = domain
-        self.agent = agent
-        self.total_steps = 0
-        self.num_episodes = 0
-        self.num_failures = 0
-        self._seed = seed
-        self._state: np.ndarray | None = None
-        self._action = 0
-        self._episode_steps = 0
-        self._cap = _check_cap(None, domain)
-
-    @property
-    def is_mid_episode(self) -> bool:
-        """Whether an episode is in progress."""
-        return self._state is not None
-
-    @property
-    def num_completed_episodes(self) -> int:
-        """Learning episodes finished so far (the current unfinished one excluded)."""
-        return self.num_episodes - int(self.is_mid_episode)
-
-    def advance(self, num_steps: int) -> int:
-        """Take exactly ``num_steps`` learning steps and return ``total_steps``.
-
-        An exception from the agent or domain (e.g. `DivergenceError`) leaves ``total_steps``
-        counting the steps completed before the failing one.
-        """
-        if isinstance(num_steps, bool) or not isinstance(num_steps, (int, np.integer)):
-            raise InvalidParameterError(f"`num_steps` must be an int; got {num_steps!r}.")
-        if num_steps < 0:
-            raise InvalidParameterError(f"`num_steps` must be >= 0; got {num_steps!r}.")
-        domain, agent = self.domain, self.agent
-        reset, step, legal_actions = domain.reset, domain.step, domain.legal_actions
-        begin_episode, act, learn = agent.begin_episode, agent.act, agent.learn
-        is_constrained = domain.domain_spec.has_action_constraints
-        cap = self._cap
-        state, action, episode_steps = self._state, self._action, self._episode_steps
-        done = failures = 0
-        try:
-            while done < num_steps:
-                if state is None:
-                    state = reset(seed=self._seed)[0].copy()
-                    self._seed = None
-                    self.num_episodes += 1
-                    begin_episode()
-                    legal = legal_actions(state) if is_constrained else None
-                    action = act(state, False, legal)
-                    episode_steps = 0
-                next_state, reward, terminated, truncated, info = step(action)
-                next_state = next_state.copy()
-                episode_steps += 1
-                if terminated:
-                    next_action, next_legal = 0, None
-                else:
-                    next_legal = legal_actions(next_state) if is_constrained else None
-                    next_action = act(next_state, False, next_legal)
-                learn(
-                    Transition(
-                        state, action, reward, next_state, next_action, terminated, next_legal
-                    )
-                )
-                done += 1
-                if info.get("cost", 0.0) > 0.0:
-                    failures += 1
-                if terminated or truncated or episode_steps >= cap:
-                    state = None
-                else:
-                    state, action = next_state, next_action
-        except BaseException:
-            # The failing step is not counted; the episode cannot be continued.
-            state = None
-            raise
-        finally:
-            self.total_steps += done
-            self.num_failures += failures
-            self._state, self._action, self._episode_steps = state, action, episode_steps
-        return self.total_steps
+    stepper = Stepper(domain, agent, learn=learn, seed=seed, max_episode_steps=max_steps)
+    return stepper.play_episode()
 
 
 def profile_steps(
@@ -246,9 +339,9 @@ def profile_steps(
 ) -> dict[str, float]:
     """Learn for ``num_steps`` steps, timing each call; return microseconds per call.
 
-    The same step order as `LearningLoop`, with a timer around every ``domain.step``,
-    ``agent.act`` and ``agent.learn`` call (so about 0.2 µs slower per call than the real loop).
-    ``agent`` must be set up; it learns during profiling.
+    A timed learning `Stepper` (same steps as `run` takes), with a timer around every
+    ``domain.step``, ``agent.act`` and ``agent.learn`` call (so slower per call than the real
+    loop). ``agent`` must be set up; it learns during profiling.
 
     Returns
     -------
@@ -258,53 +351,15 @@ def profile_steps(
     """
     if isinstance(num_steps, bool) or not isinstance(num_steps, (int, np.integer)) or num_steps < 1:
         raise InvalidParameterError(f"`num_steps` must be an int in [1, inf); got {num_steps!r}.")
-    clock = time.perf_counter
-    spec = domain.domain_spec
-    is_constrained = spec.has_action_constraints
-    cap = spec.max_episode_steps
-    step_time = act_time = learn_time = 0.0
-    num_acts = 0
-    state = None
-    action, episode_steps = 0, 0
-    started = clock()
-    for _ in range(num_steps):
-        if state is None:
-            state = domain.reset(seed=seed)[0].copy()
-            seed = None
-            agent.begin_episode()
-            legal = domain.legal_actions(state) if is_constrained else None
-            t0 = clock()
-            action = agent.act(state, False, legal)
-            act_time += clock() - t0
-            num_acts += 1
-            episode_steps = 0
-        t0 = clock()
-        next_state, reward, terminated, truncated, _ = domain.step(action)
-        step_time += clock() - t0
-        next_state = next_state.copy()
-        episode_steps += 1
-        if terminated:
-            next_action, next_legal = 0, None
-        else:
-            next_legal = domain.legal_actions(next_state) if is_constrained else None
-            t0 = clock()
-            next_action = agent.act(next_state, False, next_legal)
-            act_time += clock() - t0
-            num_acts += 1
-        t0 = clock()
-        agent.learn(
-            Transition(state, action, reward, next_state, next_action, terminated, next_legal)
-        )
-        learn_time += clock() - t0
-        if terminated or truncated or episode_steps >= cap:
-            state = None
-        else:
-            state, action = next_state, next_action
-    total = clock() - started
+    stepper = Stepper(domain, agent, seed=seed, timed=True)
+    started = time.perf_counter()
+    stepper.advance(num_steps)
+    total = time.perf_counter() - started
+    t = stepper.timings
     return {
-        "step_us": step_time / num_steps * 1e6,
-        "act_us": act_time / max(num_acts, 1) * 1e6,
-        "learn_us": learn_time / num_steps * 1e6,
-        "loop_us": (total - step_time - act_time - learn_time) / num_steps * 1e6,
+        "step_us": t["step_s"] / num_steps * 1e6,
+        "act_us": t["act_s"] / max(t["act_calls"], 1) * 1e6,
+        "learn_us": t["learn_s"] / num_steps * 1e6,
+        "loop_us": (total - t["step_s"] - t["act_s"] - t["learn_s"]) / num_steps * 1e6,
         "steps_per_second": num_steps / total,
     }

@@ -5,8 +5,8 @@
 resolved config), warms numba's on-disk cache once in this process, maps the rest over an
 `~conjure.experiments.executors.Executor`, and writes each run's file (or its error file) the
 moment the run comes back, with a live count of runs done, failed and remaining and an ETA.
-`run_sweep` expands a sweep (and, with ``selection``, reruns each method's best setting on
-fresh seeds); `run_experiment` runs an experiment, the sweep with one domain and no grid.
+`run_batch` executes a list of runs and summarizes them; `run_experiment` runs every (agent,
+seed) pair of an experiment. Sweeps (`conjure.sweeps.sweep.run_sweep`) build on the same two.
 
 Notes
 -----
@@ -32,7 +32,8 @@ import os
 import socket
 import time
 import traceback
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -49,14 +50,16 @@ from rich.progress import (
 from rich.table import Table
 
 from conjure.core.errors import DivergenceError
-from conjure.experiments.config import ExperimentConfig, dump_yaml
+from conjure.experiments.config import ExperimentConfig, dump_yaml, parse_config, resolve_run
 from conjure.experiments.executors import Executor, LocalExecutor, TaskFailure
 from conjure.experiments.memory import explain_memory_error
 from conjure.experiments.results import (
     RESOLVED_FILE,
     error_path,
+    format_interval,
     is_run_done,
     load_results,
+    make_out_dir,
     remove_stale_temporaries,
     run_id,
     save_run,
@@ -72,10 +75,11 @@ __all__ = [
     "ExperimentResult",
     "RunsReport",
     "execute_runs",
+    "open_executor",
     "prepare_executor",
     "print_summary",
+    "run_batch",
     "run_experiment",
-    "run_sweep",
     "warm_up",
 ]
 
@@ -104,7 +108,7 @@ class RunsReport:
 
 @dataclass
 class ExperimentResult:
-    """What `run_experiment` or `run_sweep` produced.
+    """What `run_experiment` or `conjure.sweeps.sweep.run_sweep` produced.
 
     Attributes
     ----------
@@ -156,11 +160,11 @@ def _run_task(run_spec: dict[str, Any], run_fn: RunFunction = run_resolved) -> d
             "curve": None,
             "error": error,
             "message": message,
-            "partial": None if partial is None else partial.curve.to_dict(orient="list"),
+            "partial": None if partial is None else partial.columns(),
             "meta": meta,
         }
     meta["run_seconds"] = time.perf_counter() - started
-    return {"curve": result.curve.to_dict(orient="list"), "error": None, "meta": meta}
+    return {"curve": result.columns(), "error": None, "meta": meta}
 
 
 def _structure(spec: Any) -> Any:
@@ -221,7 +225,7 @@ def execute_runs(
     Parameters
     ----------
     runs : sequence of dict
-        Resolved run configs (`conjure.experiments.sweep.expand_sweep`, `resolve_run`).
+        Resolved run configs (`conjure.sweeps.sweep.expand_sweep`, `resolve_run`).
     out_dir : str or Path
         The results folder (created if needed).
     executor : Executor or None
@@ -313,14 +317,32 @@ def _record(out_dir: Path, spec: dict[str, Any], outcome: Any) -> str | None:
     return None
 
 
-def _finish(
-    out_dir: Path,
+def run_batch(
     runs: list[dict[str, Any]],
-    report: RunsReport,
+    out_dir: Path,
+    *,
+    executor: Executor,
     metric: str,
-    progress: bool,
-    console: Console,
+    run_fn: RunFunction = run_resolved,
+    progress: bool = True,
+    console: Console | None = None,
+    description: str = "runs",
 ) -> ExperimentResult:
+    """Execute ``runs`` (`execute_runs`), then collect, summarize and write their results.
+
+    Writes ``run_ids.txt``, ``results.parquet`` and ``summary.csv``; prints the summary when
+    ``progress``.
+    """
+    console = console or Console()
+    report = execute_runs(
+        runs,
+        out_dir,
+        executor=executor,
+        run_fn=run_fn,
+        progress=progress,
+        console=console,
+        description=description,
+    )
     write_run_ids(out_dir, report.run_ids)
     results = load_results(out_dir, report.run_ids)
     summary = summarize(results, metric=metric)
@@ -333,99 +355,26 @@ def _finish(
     return outcome
 
 
-def run_sweep(
-    sweep: Any,
-    out_dir: str | Path,
+@contextmanager
+def open_executor(
+    executor: Executor | None,
+    pending: Sequence[dict[str, Any]],
     *,
-    executor: Executor | None = None,
     max_workers: int | None = None,
     max_memory: int | str | None = None,
     run_fn: RunFunction = run_resolved,
-    progress: bool = True,
-    console: Console | None = None,
-) -> ExperimentResult:
-    """Run every run of a sweep under ``out_dir``; with ``selection``, rerun the best settings.
+) -> Iterator[Executor]:
+    """Yield ``executor`` (default a `LocalExecutor`), started here and shut down after if not yet.
 
-    Parameters
-    ----------
-    sweep : SweepConfig, ExperimentConfig or dict
-        The sweep (`conjure.experiments.sweep`).
-    out_dir : str or Path
-        The results folder; finished runs in it are reused. The fresh-seed rerun of the
-        selected settings goes to ``out_dir/selected``, the choice to ``selection.csv``.
-    executor : Executor or None
-        Default a `LocalExecutor` with ``max_workers`` (else the sweep's, else the CPU count)
-        and ``max_memory`` (else the sweep's). A given executor keeps its own limits.
-    max_workers : int or None
-        See ``executor``.
-    max_memory : int, str or None
-        Each run's memory limit (``"4GiB"``; `conjure.experiments.memory`); see ``executor``.
-    run_fn : callable, default `run_resolved`
-        See `execute_runs`.
-    progress : bool, default True
-        Show progress and print the summary tables.
-    console : rich.console.Console or None
-        Where to print.
-
-    Returns
-    -------
-    ExperimentResult
+    An executor started here first warms numba's cache with the ``pending`` runs' structures
+    (`prepare_executor`); a started one keeps its own workers and limits.
     """
-    from conjure.experiments.selection import fresh_seeds, select_best, selected_runs
-    from conjure.experiments.sweep import expand_sweep, parse_sweep, resolve_sweep
-
-    sweep = parse_sweep(sweep)
-    out_dir = Path(out_dir)
-    console = console or Console()
-    executor = executor or LocalExecutor(
-        max_workers=max_workers or sweep.max_workers,
-        max_memory=max_memory or sweep.max_memory,
-    )
+    executor = executor or LocalExecutor(max_workers=max_workers, max_memory=max_memory)
     owns = not executor.is_started
-    runs = expand_sweep(sweep)
-    out_dir.mkdir(parents=True, exist_ok=True)
-    write_atomic(out_dir / RESOLVED_FILE, dump_yaml(resolve_sweep(sweep)))
     try:
         if owns:
-            prepare_executor(executor, [s for s in runs if not is_run_done(out_dir, s)], run_fn)
-        report = execute_runs(
-            runs,
-            out_dir,
-            executor=executor,
-            run_fn=run_fn,
-            progress=progress,
-            console=console,
-            description=sweep.name,
-        )
-        outcome = _finish(out_dir, runs, report, sweep.metric, progress, console)
-        if sweep.selection is None or outcome.results.empty:
-            return outcome
-        choice = sweep.selection
-        best = select_best(
-            outcome.results, metric=sweep.metric, criterion=choice.criterion, mode=choice.mode
-        )
-        write_atomic(out_dir / "selection.csv", best.to_csv(index=False))
-        if progress:
-            console.print(
-                f"Best setting per method by {choice.criterion} of {sweep.metric} "
-                f"({choice.mode}): see {out_dir / 'selection.csv'}"
-            )
-        seeds = fresh_seeds(sweep.seed_list(), choice.fresh_seeds)
-        final_runs = selected_runs(runs, best, seeds)
-        selected_dir = out_dir / "selected"
-        final = execute_runs(
-            final_runs,
-            selected_dir,
-            executor=executor,
-            run_fn=run_fn,
-            progress=progress,
-            console=console,
-            description=f"{sweep.name}: best settings, fresh seeds",
-        )
-        outcome.selection = best
-        outcome.selected = _finish(selected_dir, final_runs, final, sweep.metric, progress, console)
-        outcome.errors.update(outcome.selected.errors)
-        return outcome
+            prepare_executor(executor, pending, run_fn)
+        yield executor
     finally:
         if owns:
             executor.shutdown()
@@ -439,8 +388,9 @@ def run_experiment(
     console: Console | None = None,
     executor: Executor | None = None,
     max_memory: int | str | None = None,
+    run_fn: RunFunction = run_resolved,
 ) -> ExperimentResult:
-    """Run every (agent label, seed) pair of an experiment under ``out_dir``: a one-domain sweep.
+    """Run every (agent label, seed) pair of an experiment under ``out_dir``.
 
     Parameters
     ----------
@@ -456,27 +406,46 @@ def run_experiment(
     console : rich.console.Console or None
         Where to print (default: standard output).
     executor : Executor or None
-        Where to run (default a `LocalExecutor`).
+        Where to run (default a `LocalExecutor`); a started one keeps its own limits.
     max_memory : int, str or None
         Each run's memory limit, e.g. ``"4GiB"``; default ``config.max_memory``, else none. A
         run that exceeds it fails alone (`conjure.experiments.memory`).
+    run_fn : callable, default `run_resolved`
+        See `execute_runs`.
 
     Returns
     -------
     ExperimentResult
     """
-    from conjure.experiments.config import parse_config
-
     experiment = parse_config(config)
-    return run_sweep(
-        experiment,
-        out_dir,
-        executor=executor,
-        max_workers=max_workers,
-        max_memory=max_memory,
-        progress=progress,
-        console=console,
-    )
+    out_dir = make_out_dir(out_dir)
+    runs = [
+        resolve_run(experiment, label, seed)
+        for label in experiment.agents
+        for seed in experiment.seed_list()
+    ]
+    resolved = experiment.model_dump(exclude_none=True)
+    resolved["seeds"] = experiment.seed_list()
+    out_dir.mkdir(parents=True, exist_ok=True)
+    write_atomic(out_dir / RESOLVED_FILE, dump_yaml(resolved))
+    pending = [spec for spec in runs if not is_run_done(out_dir, spec)]
+    with open_executor(
+        executor,
+        pending,
+        max_workers=max_workers or experiment.max_workers,
+        max_memory=max_memory or experiment.max_memory,
+        run_fn=run_fn,
+    ) as engine:
+        return run_batch(
+            runs,
+            out_dir,
+            executor=engine,
+            metric=experiment.metric,
+            run_fn=run_fn,
+            progress=progress,
+            console=console,
+            description=experiment.name,
+        )
 
 
 def print_summary(outcome: ExperimentResult, console: Console | None = None) -> None:
@@ -486,18 +455,16 @@ def print_summary(outcome: ExperimentResult, console: Console | None = None) -> 
     summary = outcome.summary
     keys = [c for c in ("domain_label", "label", "setting") if c in summary.columns]
     table = Table(title=f"{outcome.out_dir}: final policy check, mean over seeds")
-    for name in keys:
-        table.add_column(name.replace("_", " "), justify="left")
-    for name in ("seeds", f"final {metric.replace('_', ' ')} ± 95% CI", "features", "steps/s"):
-        table.add_column(name, justify="right")
+    for name in keys:  # labels wrap (fold) but are never cut: sweeps differ at their ends
+        table.add_column(name.replace("_", " "), justify="left", overflow="fold")
+    for name in ("seeds", f"final {metric.replace('_', ' ')}\n± 95% CI", "features", "steps/s"):
+        table.add_column(name, justify="right", no_wrap=True)
     for row in summary.to_dict("records"):
-        half = row[f"final_{metric}_ci95"]
-        ci = "" if pd.isna(half) else f" ± {half:.4g}"
         rate = row["mean_steps_per_second"]
         table.add_row(
-            *(str(row[k]) for k in keys),
+            *(str(row[k]).replace(", ", ",\n") for k in keys),  # a setting: one value a line
             str(row["num_seeds"]),
-            f"{row[f'final_{metric}_mean']:.4g}{ci}",
+            format_interval(row[f"final_{metric}_mean"], row[f"final_{metric}_ci95"]),
             f"{row['final_num_features']:,.0f}",
             "n/a" if pd.isna(rate) or math.isinf(rate) else f"{rate:,.0f}",
         )

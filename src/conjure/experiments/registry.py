@@ -183,7 +183,15 @@ def _all_kinds() -> list[str]:
 
 
 def find_kind(kind: str, layer: str | None = None, *, path: str = "") -> type[Configurable]:
-    """Return the class registered as ``kind`` (in ``layer``, or in any layer if ``None``)."""
+    """Return the class registered as ``kind`` (in ``layer``, or in any layer if ``None``).
+
+    ``kind`` matches case-insensitively when exactly one class has that name in any case.
+
+    Examples
+    --------
+    >>> find_kind("Sarsa", "agent").__name__
+    'SARSA'
+    """
     where = f"{path}: " if path else ""
     if layer is not None and layer not in LAYERS:
         raise InvalidParameterError(
@@ -196,6 +204,11 @@ def find_kind(kind: str, layer: str | None = None, *, path: str = "") -> type[Co
         if kind in registry:
             return registry[kind]
     known = sorted(k for registry in registries for k in registry)
+    # Choice: kinds match case-insensitively when that names one class ("Sarsa" is SARSA);
+    # the resolved config records the registered spelling.
+    same = {registry[k] for registry in registries for k in registry if k.lower() == kind.lower()}
+    if len(same) == 1:
+        return same.pop()
     noun = f"{layer} kind" if layer is not None else "kind"
     raise InvalidParameterError(
         f"{where}unknown {noun} {kind!r}.{did_you_mean(kind, known)} Known: {', '.join(known)}."

@@ -47,10 +47,12 @@ __all__ = [
     "error_path",
     "final_rows",
     "flatten_params",
+    "format_interval",
     "group_columns",
     "has_finite_values",
     "is_run_done",
     "load_results",
+    "make_out_dir",
     "read_run",
     "read_run_ids",
     "remove_stale_temporaries",
@@ -74,6 +76,43 @@ SUMMARY_FILE = "summary.csv"
 #: The run-config keys that identify a method's setting, in grouping order (when present).
 GROUP_COLUMNS = ("domain_label", "label", "setting")
 _TEMP_MARK = ".tmp-"
+
+
+def make_out_dir(out_dir: str | Path) -> Path:
+    """Create the results folder ``out_dir`` (and its parents) and check that files can go there.
+
+    Raises
+    ------
+    InvalidParameterError
+        Naming the folder and the reason (a file of that name, a read-only or virtual file
+        system such as /proc, no permission), before any run starts.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> make_out_dir(Path(tempfile.mkdtemp()) / "a" / "b").is_dir()
+    True
+    >>> make_out_dir("/proc/results")
+    Traceback (most recent call last):
+    ...
+    conjure.core.errors.InvalidParameterError: Cannot write results to '/proc/results': No such file or directory.
+    """  # noqa: E501
+    out_dir = Path(out_dir)
+    if out_dir.exists() and not out_dir.is_dir():
+        raise InvalidParameterError(
+            f"Cannot write results to {str(out_dir)!r}: it is a file, not a folder."
+        )
+    try:
+        out_dir.mkdir(parents=True, exist_ok=True)
+        probe = out_dir / f"{_TEMP_MARK}{uuid.uuid4().hex[:8]}"
+        probe.touch()
+        probe.unlink()
+    except OSError as exc:
+        reason = exc.strerror or type(exc).__name__
+        raise InvalidParameterError(
+            f"Cannot write results to {str(out_dir)!r}: {reason}."
+        ) from None
+    return out_dir
 
 
 def write_atomic(path: str | Path, data: str | bytes) -> Path:
@@ -351,6 +390,26 @@ def has_finite_values(results: pd.DataFrame, column: str) -> bool:
         return False
     values = pd.to_numeric(results[column], errors="coerce").to_numpy(dtype=np.float64)
     return bool(np.isfinite(values).any())
+
+
+def format_interval(mean: float, half: float) -> str:
+    """Return ``mean ± half`` with 4 significant digits of the larger, both to the same decimals.
+
+    A half-width that is NaN (one seed) is left out; a non-finite mean reads ``n/a``.
+
+    Examples
+    --------
+    >>> format_interval(-1.0, 1.674e-16)
+    '-1.000 ± 0.000'
+    >>> format_interval(1234.56, 12.3), format_interval(0.01234, 0.0021), format_interval(2.5, float("nan"))
+    ('1235 ± 12', '0.01234 ± 0.00210', '2.500')
+    """  # noqa: E501
+    if not math.isfinite(mean):
+        return "n/a"
+    scale = max(abs(mean), abs(half) if math.isfinite(half) else 0.0)
+    decimals = 3 if scale == 0 else min(max(3 - math.floor(math.log10(scale)), 0), 8)
+    text = f"{mean:.{decimals}f}"
+    return text if not math.isfinite(half) else f"{text} ± {half:.{decimals}f}"
 
 
 def t_confidence(values: Iterable[float], level: float = 0.95) -> tuple[float, float]:

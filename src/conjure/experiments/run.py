@@ -27,35 +27,25 @@ Notes
 
 from __future__ import annotations
 
+import functools
 import math
 import time
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import pandas as pd
 
 from conjure.core.errors import DivergenceError, InvalidParameterError
 from conjure.core.interfaces import Agent, Domain
 from conjure.core.seeding import seed_to_int, split_seed
-from conjure.experiments.loop import LearningLoop, run_episode
+from conjure.experiments.config import CURVE_COLUMNS
+from conjure.experiments.loop import learning_stepper, run_episode
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 __all__ = ["CURVE_COLUMNS", "TIMING_COLUMNS", "Result", "run", "run_config", "run_resolved"]
 
-#: The columns of a learning curve, one row per policy check.
-CURVE_COLUMNS = (
-    "learning_steps",
-    "learning_episodes",
-    "learning_failures",
-    "return",
-    "discounted_return",
-    "episode_length",
-    "failure_rate",
-    "optimality",
-    "num_features",
-    "wall_time_s",
-    "steps_per_second",
-)
 #: The curve columns that depend on the machine, not on the seed.
 TIMING_COLUMNS = ("wall_time_s", "steps_per_second")
 
@@ -66,8 +56,8 @@ class Result:
 
     Attributes
     ----------
-    curve : pandas.DataFrame
-        One row per policy check, columns `CURVE_COLUMNS`.
+    rows : list of dict
+        One row per policy check, keys `CURVE_COLUMNS` (`curve` as a table, `columns` as lists).
     seed : int
         The run's seed.
     config : dict or None
@@ -80,13 +70,28 @@ class Result:
         False for the partial result a `DivergenceError` carries.
     """
 
-    curve: pd.DataFrame
+    rows: list[dict[str, Any]] = field(repr=False)
     seed: int
     config: dict[str, Any] | None = None
     agent: Agent | None = field(default=None, repr=False)
     agent_name: str = ""
     domain_name: str = ""
     is_complete: bool = True
+
+    @functools.cached_property
+    def curve(self) -> pd.DataFrame:
+        """The learning curve: one row per policy check, columns `CURVE_COLUMNS`."""
+        import pandas as pd
+
+        frame = pd.DataFrame(self.columns(), columns=list(CURVE_COLUMNS))
+        return frame.astype({c: "int64" if c in _INT_COLUMNS else "float64" for c in CURVE_COLUMNS})
+
+    def columns(self) -> dict[str, list[float] | list[int]]:
+        """The curve as plain lists by column (integers for the counts), without pandas."""
+        return {
+            c: [(int if c in _INT_COLUMNS else float)(row[c]) for row in self.rows]
+            for c in CURVE_COLUMNS
+        }
 
     def to_frame(self) -> pd.DataFrame:
         """Return the curve with a leading ``seed`` column (and ``label`` if the config has one)."""
@@ -210,7 +215,7 @@ def run(
     agent.setup(domain.domain_spec, seeds["agent"])
     eval_domain = domain.clone()
     eval_seed = seed_to_int(seeds["evaluation"])
-    loop = LearningLoop(domain, agent, seed=seed_to_int(seeds["domain"]))
+    loop = learning_stepper(domain, agent, seed=seed_to_int(seeds["domain"]))
     names = {"agent_name": type(agent).__name__, "domain_name": domain.domain_spec.name}
     int_seed = int(seed) if isinstance(seed, (int, np.integer)) else -1
 
@@ -225,7 +230,7 @@ def run(
             wall_time += time.perf_counter() - started
             checked = _evaluate(eval_domain, agent, eval_episodes, eval_seed, bounds)
         except DivergenceError as exc:
-            partial = Result(_to_curve(rows), int_seed, config, agent, **names, is_complete=False)
+            partial = Result(rows, int_seed, config, agent, **names, is_complete=False)
             last = int(rows[-1]["learning_steps"]) if rows else 0
             error = DivergenceError(
                 f"Learning diverged at learning step {loop.total_steps + 1:,} of "
@@ -249,16 +254,11 @@ def run(
                 else math.nan,
             }
         )
-    return Result(_to_curve(rows), int_seed, config, agent, **names)
+    return Result(rows, int_seed, config, agent, **names)
 
 
 #: The integer curve columns (the others are float64).
 _INT_COLUMNS = ("learning_steps", "learning_episodes", "learning_failures", "num_features")
-
-
-def _to_curve(rows: list[dict[str, Any]]) -> pd.DataFrame:
-    frame = pd.DataFrame(rows, columns=list(CURVE_COLUMNS))
-    return frame.astype({c: "int64" if c in _INT_COLUMNS else "float64" for c in CURVE_COLUMNS})
 
 
 def run_resolved(run_spec: dict[str, Any]) -> Result:

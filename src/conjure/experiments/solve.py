@@ -84,6 +84,19 @@ def solve(
     return plan, summary
 
 
+def check_renderable(domain: Domain) -> None:
+    """Raise `IncompatibleComponentsError` unless `render_gridworld` can draw ``domain``'s plans.
+
+    ``conjure solve --render`` calls it before planning, so a long solve never ends in it.
+    """
+    from conjure.domains.gridworld import GridWorld
+
+    if not isinstance(domain, GridWorld):
+        raise IncompatibleComponentsError(
+            f"--render draws GridWorld plans over a tabular model; got {type(domain).__name__}."
+        )
+
+
 def render_gridworld(domain: Domain, plan: Plan, path: str | Path) -> Path:
     """Draw V (cell colours) and π (arrows) of a GridWorld plan, as Figure 5-1; return path.
 
@@ -95,11 +108,12 @@ def render_gridworld(domain: Domain, plan: Plan, path: str | Path) -> Path:
 
     from conjure.domains.gridworld import BLOCKED, GOAL, PIT, START
 
-    grid = getattr(domain, "grid_", None)
-    if grid is None or plan.model is None:
+    check_renderable(domain)
+    grid = domain.grid_
+    if plan.model is None:
         raise IncompatibleComponentsError(
-            f"--render draws GridWorld plans over a tabular model; got "
-            f"{type(domain).__name__} (plan model: {plan.model is not None})."
+            f"--render draws GridWorld plans over a tabular model; {type(domain).__name__}'s "
+            f"plan has none."
         )
     rows, cols = grid.shape
     image = np.full((rows, cols), np.nan)
@@ -172,6 +186,8 @@ def solve_command(
         raise ConjureError(f"{config}: `domain` must build a Domain and `planner` a Planner.")
     episodes = int(episodes if episodes is not None else data.get("episodes", 10))
     seed = int(seed if seed is not None else data.get("seed", 0))
+    if render is not None:
+        check_renderable(domain)
     plan, summary = solve(domain, planner, episodes=episodes, seed=seed)
     table = Table(title=f"{type(planner).__name__} on {domain.domain_spec.name}")
     table.add_column("quantity", style="bold")

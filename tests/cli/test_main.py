@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
+import os
 import textwrap
+from pathlib import Path
 
 import pytest
 from click.testing import CliRunner
 
-from conjure.experiments.cli import main
+from conjure.cli.main import main
 from conjure.experiments.results import read_run
 
 TINY = textwrap.dedent(
@@ -74,7 +76,7 @@ def test_run_then_plot(config_file, tmp_path):
     )
     assert result.exit_code == 0, result.output
     assert (out / "results.parquet").is_file() and (out / "summary.csv").is_file()
-    assert (out / "learning_curve.png").is_file()
+    assert (out / "learning_curve_return.png").is_file()
     runs = [read_run(p)["config"] for p in (out / "runs").glob("*.json")]
     assert sorted((r["label"], r["seed"]) for r in runs if r["label"] == "q") == [
         ("q", 0),
@@ -172,7 +174,7 @@ def test_failed_runs_give_exit_code_1(tmp_path, monkeypatch):
     assert result.exit_code == 1, result.output
     assert "broken/seed_0" in result.output and "fake setup failure" in result.output
     assert len(list((tmp_path / "o" / "errors").glob("*.txt"))) == 1
-    assert (tmp_path / "o" / "learning_curve.png").is_file()
+    assert (tmp_path / "o" / "learning_curve_return.png").is_file()
 
 
 def test_invalid_component_value_exits_2(config_file, tmp_path):
@@ -192,3 +194,79 @@ def test_invalid_component_value_exits_2(config_file, tmp_path):
     )
     assert result.exit_code == 2
     assert "domain.params.num_actions" in result.output
+
+
+def test_lazy_commands_show_their_own_help_and_run():
+    import importlib
+
+    from conjure.cli.main import LAZY_COMMANDS
+
+    listing = CliRunner().invoke(main, ["--help"], terminal_width=200)
+    assert listing.exit_code == 0, listing.output
+    for name, (module, attribute, text) in LAZY_COMMANDS.items():
+        command = getattr(importlib.import_module(module), attribute)
+        assert command.help.splitlines()[0] == text  # the table's help is the command's own
+        assert f" {name} " in listing.output
+        assert command.get_short_help_str() in listing.output
+        assert CliRunner().invoke(main, [name, "--help"]).exit_code == 0
+    again = CliRunner().invoke(main, ["--help"], terminal_width=200).output
+    assert again == listing.output  # loaded commands are listed once, the same way
+
+
+def test_starting_the_command_line_imports_no_heavy_library():
+    import subprocess
+    import sys
+
+    code = (
+        "import sys; from conjure.cli import main\n"
+        "try: main(['--help'])\n"
+        "except SystemExit: pass\n"
+        "print(sorted(m for m in ('pandas', 'matplotlib', 'scipy.stats', 'numba', "
+        "'conjure.experiments.registry') if m in sys.modules))"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip().splitlines()[-1] == "[]"
+
+
+def _unwritable_out(kind, tmp_path):
+    if kind == "a file":
+        path = tmp_path / "taken"
+        path.write_text("not a folder")
+        return path
+    if kind == "under /proc":
+        return Path("/proc/conjure-results")
+    locked = tmp_path / "locked"
+    locked.mkdir()
+    locked.chmod(0o500)
+    # root ignores permission bits; /sys refuses it folders all the same
+    return Path("/sys/conjure-results") if os.geteuid() == 0 else locked / "out"
+
+
+@pytest.mark.parametrize("kind", ["a file", "under /proc", "no permission"])
+@pytest.mark.parametrize("command", ["run", "sweep"])
+def test_an_unwritable_out_is_one_line_naming_the_path_with_status_2(
+    config_file, tmp_path, kind, command
+):
+    out = _unwritable_out(kind, tmp_path)
+    result = CliRunner().invoke(main, [command, str(config_file), "--out", str(out)])
+    assert result.exit_code == 2, result.output
+    lines = result.output.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("Error: Cannot write results to ")
+    assert repr(str(out)) in lines[0]
+    assert "Traceback" not in result.output
+
+
+def test_plot_draws_the_configured_metric_and_never_replaces_another_metrics_plot(
+    config_file, tmp_path
+):
+    config_file.write_text(config_file.read_text() + "metric: episode_length\n")
+    out = tmp_path / "out"
+    ran = CliRunner().invoke(main, ["run", str(config_file), "--out", str(out), "--quiet"])
+    assert ran.exit_code == 0, ran.output
+    drawn = out / "learning_curve_episode_length.png"
+    plotted = CliRunner().invoke(main, ["plot", str(out)])
+    assert plotted.exit_code == 0 and str(drawn) in plotted.output  # the config's metric
+    before = drawn.read_bytes()
+    other = CliRunner().invoke(main, ["plot", str(out), "--metric", "return"])
+    assert str(out / "learning_curve_return.png") in other.output
+    assert drawn.read_bytes() == before  # the episode-length plot is still there, unchanged

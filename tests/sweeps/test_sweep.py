@@ -17,13 +17,13 @@ from click.testing import CliRunner
 from sweep_fakes import fake_sweep, isolated_fakes, run_with_fakes
 
 from conjure.core.errors import InvalidParameterError
-from conjure.experiments.parallel import run_sweep
 from conjure.experiments.results import RUNS_DIR, read_run, run_id
-from conjure.experiments.sweep import (
+from conjure.sweeps.sweep import (
     expand_sweep,
     load_sweep,
     parse_sweep,
     resolve_sweep,
+    run_sweep,
     sweep_command,
 )
 
@@ -125,6 +125,34 @@ def test_sweep_command_with_overrides(tmp_path, monkeypatch):
         load_sweep(config, ["sedes=2"])
 
 
+def test_sweep_set_takes_the_paths_run_set_takes_and_blames_the_flag(tmp_path):
+    config = tmp_path / "s.yaml"
+    config.write_text(json.dumps(fake_sweep()))
+    sweep = load_sweep(
+        config,
+        [
+            "agents.b.params.step_size=0.3",  # a nested path, as `conjure run --set` takes
+            "domains.long.params.length=7",
+            "grid.agents.a.params.step_size=[0.2]",
+            "selection.criterion=final",
+            "budget_steps=40",
+        ],
+    )
+    assert sweep.agents["b"].params["step_size"] == 0.3
+    assert sweep.domains["long"].params["length"] == 7
+    assert sweep.grid == {"agents.a.params.step_size": [0.2]}
+    assert sweep.selection.criterion == "final" and sweep.budget_steps == 40
+    # A bad value is the flag's fault, not the (valid) file's.
+    with pytest.raises(InvalidParameterError) as bad:
+        load_sweep(config, ["seeds=1", "agents.b.params.step_size=7"])
+    assert str(bad.value).startswith("--set 'agents.b.params.step_size=7': ")
+    assert str(config) not in str(bad.value)
+    with pytest.raises(
+        InvalidParameterError, match=r"^--set 'domains.lng.params.length=7'.*'long'"
+    ):
+        load_sweep(config, ["domains.lng.params.length=7"])
+
+
 def test_the_sweeps_memory_limit_fails_the_greedy_run_alone(tmp_path):
     log = tmp_path / "hog_starts"
     hog = {"kind": "HogAgent", "params": {"start_log": str(log), "num_bytes": 2 * 2**30}}
@@ -173,7 +201,7 @@ DRIVER = textwrap.dedent(
     import sys
     from sweep_fakes import fake_sweep, run_with_fakes, register_fakes
     from conjure.experiments.executors import LocalExecutor
-    from conjure.experiments.parallel import run_sweep
+    from conjure.sweeps.sweep import run_sweep
     register_fakes()
     sweep = fake_sweep(
         domains={"slow": {"kind": "SlowWalk", "params": {"sleep_s": 0.002}}},
@@ -189,7 +217,8 @@ DRIVER = textwrap.dedent(
 @pytest.mark.slow
 def test_driver_killed_with_sigkill_then_resumed(tmp_path):
     out = tmp_path / "out"
-    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(HERE), str(ROOT / "src")])}
+    fakes = ROOT / "tests" / "experiments"  # sweep_fakes and test_loop
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(fakes), str(ROOT / "src")])}
     driver = subprocess.Popen(
         [sys.executable, "-c", DRIVER, str(out)], env=env, start_new_session=True
     )

@@ -7,7 +7,12 @@ import pandas as pd
 import pytest
 
 from conjure.core.errors import InvalidParameterError
-from conjure.experiments.plots import plot_learning_curves, plot_results_dir
+from conjure.reporting.plots import (
+    curve_bands,
+    learning_curve_figure,
+    plot_learning_curves,
+    plot_results_dir,
+)
 
 
 def results_frame() -> pd.DataFrame:
@@ -47,8 +52,38 @@ def test_plot_results_dir(tmp_path):
     with pytest.raises(InvalidParameterError, match="conjure run"):
         plot_results_dir(tmp_path)
     results_frame().to_parquet(tmp_path / "results.parquet")
-    assert plot_results_dir(tmp_path).name == "learning_curve.png"
+    assert plot_results_dir(tmp_path).name == "learning_curve_return.png"
     assert plot_results_dir(tmp_path, metric="num_features").name == (
         "learning_curve_num_features.png"
     )
     assert np.isfinite(results_frame()["return"]).all()
+
+
+def test_bands_stay_within_the_metrics_possible_range():
+    # Three seeds failing 1, 1, 0 times in 1: the Student-t interval is mean ± 2.48, far past
+    # [0, 1]; the band is clipped there, and an unbounded metric keeps its full interval.
+    frame = pd.DataFrame(
+        {"label": "a", "seed": [0, 1, 2], "learning_steps": 5, "failure_rate": [1.0, 1.0, 0.0]}
+    )
+    band = curve_bands(frame, "failure_rate").iloc[0]
+    assert band["low"] == 0.0 and band["high"] == 1.0
+    assert band["mean"] == pytest.approx(2 / 3)
+    unbounded = curve_bands(frame.rename(columns={"failure_rate": "return"}), "return").iloc[0]
+    assert unbounded["high"] - unbounded["mean"] == pytest.approx(
+        4.303 * (1 / 3) ** 0.5 / 3**0.5, rel=1e-3
+    )
+
+
+def test_the_legend_names_the_band_and_stays_off_the_curves():
+    frame = results_frame()
+    frame = pd.concat(
+        [frame.assign(label=f"{c}-a-long-sweep-setting-{i}") for i, c in enumerate("abcdef")]
+    )
+    figure = learning_curve_figure(frame, "return")
+    axes = figure.axes[0]
+    legend = axes.get_legend()
+    texts = [t.get_text() for t in legend.get_texts()]
+    assert any("95% confidence interval" in t for t in texts)
+    renderer = figure.canvas.get_renderer()
+    box, plot_area = legend.get_window_extent(renderer), axes.get_window_extent(renderer)
+    assert box.x0 >= plot_area.x1  # right of the axes: no curve is hidden under it

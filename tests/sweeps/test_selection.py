@@ -9,8 +9,8 @@ import pytest
 from sweep_fakes import fake_sweep, isolated_fakes, run_with_fakes
 
 from conjure.core.errors import InvalidParameterError
-from conjure.experiments.parallel import run_sweep
-from conjure.experiments.selection import fresh_seeds, score_runs, select_best
+from conjure.sweeps.selection import fresh_seeds, score_runs, select_best
+from conjure.sweeps.sweep import run_sweep
 
 pytestmark = pytest.mark.usefixtures(isolated_fakes.__name__)
 

@@ -1,6 +1,6 @@
 """Hyperparameter search with Optuna (optional extra ``tune``): ``conjure tune CONFIG``.
 
-A tuning YAML is a sweep YAML (`conjure.experiments.sweep`) without ``grid`` or
+A tuning YAML is a sweep YAML (`conjure.sweeps.sweep`) without ``grid`` or
 ``selection``, plus a ``search`` section::
 
     search:
@@ -9,7 +9,7 @@ A tuning YAML is a sweep YAML (`conjure.experiments.sweep`) without ``grid`` or
         agents.sarsa.params.step_size.params.decay: {choices: [100, 1000, 1000000]}
         agents.sarsa.params.trace_decay: {low: 0.0, high: 0.9}
       num_trials: 20            # completed trials per method
-      criterion: auc            # or final (see conjure.experiments.selection)
+      criterion: auc            # or final (see conjure.sweeps.selection)
       mode: max                 # or min
       sampler_seed: 0
       heartbeat_interval: 10    # seconds
@@ -54,10 +54,10 @@ from conjure.experiments.config import dump_yaml, load_yaml
 from conjure.experiments.executors import Executor, LocalExecutor
 from conjure.experiments.memory import max_memory_option
 from conjure.experiments.parallel import RunFunction, execute_runs, prepare_executor
-from conjure.experiments.results import load_results, write_atomic
+from conjure.experiments.results import load_results, make_out_dir, write_atomic
 from conjure.experiments.run import run_resolved
-from conjure.experiments.selection import score_runs
-from conjure.experiments.sweep import SweepConfig, grid_keys_for, parse_sweep, setting_runs
+from conjure.sweeps.selection import score_runs
+from conjure.sweeps.sweep import SweepConfig, grid_keys_for, parse_sweep, setting_runs
 
 __all__ = ["SearchConfig", "SearchRange", "TuneConfig", "load_tune", "tune", "tune_command"]
 
@@ -245,8 +245,7 @@ def tune(
     config = parse_tune(config)
     sweep, search = config.sweep, config.search
     wanted = num_trials or search.num_trials
-    out_dir = Path(out_dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
+    out_dir = make_out_dir(out_dir)
     console = console or Console()
     executor = executor or LocalExecutor(
         max_workers=max_workers or sweep.max_workers, max_memory=sweep.max_memory
@@ -360,7 +359,7 @@ def _isnan(value: Any) -> bool:
 @click.option(
     "--out",
     "out_dir",
-    type=click.Path(file_okay=False, path_type=Path),
+    type=click.Path(path_type=Path),  # make_out_dir checks it (one clear line)
     default=None,
     help="Folder of optuna.db and the runs (default results/<name>-tune); reruns continue.",
 )

@@ -19,9 +19,9 @@ from conjure.core.errors import InvalidParameterError
 
 optuna = pytest.importorskip("optuna")
 
-from conjure.experiments.tune import parse_tune, tune  # noqa: E402
+from conjure.sweeps.tune import parse_tune, tune  # noqa: E402
 
-HERE = Path(__file__).resolve().parent
+HERE = Path(__file__).resolve().parents[1] / "experiments"  # sweep_fakes and test_loop
 ROOT = HERE.parents[1]
 
 pytestmark = pytest.mark.usefixtures(isolated_fakes.__name__)
@@ -65,7 +65,7 @@ DRIVER = textwrap.dedent(
     """
     import sys
     from sweep_fakes import register_fakes, run_with_fakes
-    from conjure.experiments.tune import tune
+    from conjure.sweeps.tune import tune
     register_fakes()
     config = eval(sys.argv[2])
     tune(config, sys.argv[1], max_workers=1, run_fn=run_with_fakes, progress=False)

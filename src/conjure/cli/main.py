@@ -1,4 +1,7 @@
-"""The ``conjure`` command line: ``run``, ``list`` and ``plot``.
+"""The ``conjure`` command line: ``run``, ``list``, ``plot``, and the lazily loaded rest.
+
+``sweep``, ``tune``, ``report`` and ``solve`` live beside their machinery and are imported
+only when they run.
 
 Examples
 --------
@@ -11,26 +14,76 @@ Examples
 
 Any `ConjureError` (a bad config, an unknown kind, ...) prints one clean line and exits with
 status 2; failed runs inside an experiment are reported and give status 1.
+
+Notes
+-----
+- Choice: start-up imports only click (``conjure --help`` must be quick): each command imports
+  what it needs when it runs, and the commands that live in other modules are listed in
+  `LAZY_COMMANDS` with their one-line help, loaded by name on use.
 """
 
 from __future__ import annotations
 
+import importlib
 import inspect
 from pathlib import Path
 from typing import Any
 
 import click
-from rich.console import Console
-from rich.table import Table
 
 from conjure.core.errors import ConjureError
 from conjure.experiments.memory import max_memory_option
 
-__all__ = ["main"]
+__all__ = ["LAZY_COMMANDS", "main"]
+
+#: Commands defined beside their machinery: name -> (module, attribute, one-line help).
+LAZY_COMMANDS = {
+    "sweep": (
+        "conjure.sweeps.sweep",
+        "sweep_command",
+        "Run the sweep CONFIG (YAML); rerunning the same command resumes it.",
+    ),
+    "tune": (
+        "conjure.sweeps.tune",
+        "tune_command",
+        "Tune the methods of CONFIG (a sweep YAML with a `search` section) with Optuna.",
+    ),
+    "report": (
+        "conjure.reporting.report",
+        "report_command",
+        "Collect the runs in RESULTS_DIR into results.parquet and write report.md with figures.",
+    ),
+    "solve": (
+        "conjure.experiments.solve",
+        "solve_command",
+        "Plan on the domain of CONFIG with its planner; report V(s0), return, iterations, time.",
+    ),
+}
 
 
 class _Group(click.Group):
-    """A click group that turns a `ConjureError` into one line on stderr and exit status 2."""
+    """A click group with lazily imported commands that turns a `ConjureError` into one line.
+
+    The line goes to stderr and the exit status is 2.
+    """
+
+    def list_commands(self, ctx: click.Context) -> list[str]:
+        return sorted([*super().list_commands(ctx), *LAZY_COMMANDS])
+
+    def get_command(self, ctx: click.Context, cmd_name: str) -> click.Command | None:
+        if cmd_name in LAZY_COMMANDS and cmd_name not in self.commands:
+            module, attribute, _ = LAZY_COMMANDS[cmd_name]
+            self.add_command(getattr(importlib.import_module(module), attribute), cmd_name)
+        return super().get_command(ctx, cmd_name)
+
+    def format_commands(self, ctx: click.Context, formatter: click.HelpFormatter) -> None:
+        rows = [(name, command.get_short_help_str()) for name, command in self.commands.items()]
+        for name, (*_, text) in LAZY_COMMANDS.items():  # a stub formats help as click does
+            if name not in self.commands:
+                rows.append((name, click.Command(name, help=text).get_short_help_str()))
+        if rows:
+            with formatter.section("Commands"):
+                formatter.write_dl(sorted(rows))
 
     def invoke(self, ctx: click.Context) -> Any:
         try:
@@ -53,7 +106,7 @@ def main() -> None:
 @click.option(
     "--out",
     "out_dir",
-    type=click.Path(file_okay=False, path_type=Path),
+    type=click.Path(path_type=Path),  # make_out_dir checks it (one clear line)
     default=None,
     help="Experiment folder (default results/<config name>).",
 )
@@ -77,9 +130,11 @@ def run_command(
     quiet: bool,
 ) -> None:
     """Run the experiment CONFIG (a YAML file); finished runs in the folder are reused."""
+    from rich.console import Console
+
     from conjure.experiments.config import load_config
     from conjure.experiments.parallel import run_experiment
-    from conjure.experiments.plots import plot_learning_curves
+    from conjure.reporting.plots import curve_file_name, plot_learning_curves
 
     overrides = (*overrides, *((f"seeds={seeds}",) if seeds is not None else ()))
     experiment = load_config(config, overrides)
@@ -96,7 +151,7 @@ def run_command(
     if not outcome.results.empty:
         figure = plot_learning_curves(
             outcome.results,
-            out_dir / "learning_curve.png",
+            out_dir / curve_file_name(experiment.metric),
             metric=experiment.metric,
             title=experiment.name,
         )
@@ -108,6 +163,9 @@ def run_command(
 @main.command("list")
 def list_command() -> None:
     """List every registered component (domains to cooperative planners) with its parameters."""
+    from rich.console import Console
+    from rich.table import Table
+
     from conjure.experiments import registry
 
     table = Table(title="conjure components (kind: use in configs as {kind, params})")
@@ -129,23 +187,13 @@ def list_command() -> None:
 
 @main.command("plot")
 @click.argument("results_dir", type=click.Path(file_okay=False, path_type=Path))
-@click.option("--metric", default="return", show_default=True, help="Curve column to plot.")
-def plot_command(results_dir: Path, metric: str) -> None:
+@click.option(
+    "--metric",
+    default=None,
+    help="Curve column to plot (default: the metric the experiment's config chose).",
+)
+def plot_command(results_dir: Path, metric: str | None) -> None:
     """Plot learning curves of the experiment in RESULTS_DIR (mean ± 95% CI over seeds)."""
-    from conjure.experiments.plots import plot_results_dir
+    from conjure.reporting.plots import plot_results_dir
 
     click.echo(f"Wrote {plot_results_dir(results_dir, metric=metric)}")
-
-
-def _register_commands() -> None:
-    """Add the sweep, tune, report and solve commands, which live beside their machinery."""
-    from conjure.experiments.report import report_command
-    from conjure.experiments.solve import solve_command
-    from conjure.experiments.sweep import sweep_command
-    from conjure.experiments.tune import tune_command
-
-    for command in (sweep_command, tune_command, report_command, solve_command):
-        main.add_command(command)
-
-
-_register_commands()

@@ -37,11 +37,13 @@ runs. A run config is `resolve_run`'s, plus ``domain_label`` (with ``domains``) 
 
 from __future__ import annotations
 
+import copy
+import functools
 import itertools
 import json
 from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import Annotated, Any, Literal
+from typing import TYPE_CHECKING, Annotated, Any, Literal
 
 import click
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
@@ -53,20 +55,34 @@ from conjure.experiments.config import (
     ExperimentConfig,
     MemorySize,
     apply_overrides,
+    dump_yaml,
     load_yaml,
     parse_config,
+    parse_overridden,
     resolve_run,
+    set_component_value,
 )
 from conjure.experiments.memory import max_memory_option
+from conjure.experiments.parallel import ExperimentResult, RunFunction, open_executor, run_batch
+from conjure.experiments.results import RESOLVED_FILE, is_run_done, make_out_dir, write_atomic
+from conjure.experiments.run import run_resolved
+from conjure.sweeps.selection import fresh_seeds, select_best, selected_runs
+
+if TYPE_CHECKING:
+    from rich.console import Console
+
+    from conjure.experiments.executors import Executor
 
 __all__ = [
     "SelectionConfig",
     "SweepConfig",
+    "apply_sweep_overrides",
     "expand_sweep",
     "grid_keys_for",
     "load_sweep",
     "parse_sweep",
     "resolve_sweep",
+    "run_sweep",
     "setting_runs",
     "sweep_command",
 ]
@@ -256,10 +272,10 @@ def _experiment(
         overrides.append(f"{path}={json.dumps(value)}")
     where = f"{source}: grid setting {dict(setting)!r}" if setting else source
     try:
-        return parse_config(apply_overrides(data, overrides), source=where)
+        data = apply_overrides(data, overrides)
     except InvalidParameterError as exc:
-        message = str(exc).replace("--set ", "grid key ")
-        raise InvalidParameterError(message) from None
+        raise InvalidParameterError(str(exc).replace("--set ", "grid key ", 1)) from None
+    return parse_config(data, source=where)
 
 
 def expand_sweep(
@@ -317,7 +333,11 @@ def resolve_sweep(sweep: SweepConfig | Mapping[str, Any]) -> dict[str, Any]:
 
 
 def load_sweep(path: str | Path, overrides: Sequence[str] = ()) -> SweepConfig:
-    """Read a sweep YAML, apply ``field=value`` overrides of top-level fields, and validate it."""
+    """Read a sweep YAML, apply ``dotted.path=value`` overrides and validate it.
+
+    Overrides take the paths of `apply_sweep_overrides`; a value that makes the file invalid is
+    reported against its ``--set`` flag (`conjure.experiments.config.parse_overridden`).
+    """
     path = Path(path)
     try:
         text = path.read_text()
@@ -326,17 +346,55 @@ def load_sweep(path: str | Path, overrides: Sequence[str] = ()) -> SweepConfig:
     data = load_yaml(text, source=str(path))
     if not isinstance(data, Mapping):
         raise InvalidParameterError(f"{path}: a sweep config must be a mapping.")
-    data = dict(data)
+    return parse_overridden(data, overrides, apply_sweep_overrides, parse_sweep, source=str(path))
+
+
+def apply_sweep_overrides(data: Mapping[str, Any], overrides: Sequence[str]) -> dict[str, Any]:
+    """Return a copy of raw sweep ``data`` with each ``dotted.path=value`` override applied.
+
+    The paths of ``conjure run --set`` (``agents.<label>.params...``, ``domain.params...``,
+    plain fields), plus ``domains.<label>.params...``, ``selection.<field>``,
+    ``grid.<grid key>`` and ``domain_grids.<label>.<grid key>``.
+    """
+    result = copy.deepcopy(dict(data))
     for override in overrides:
-        key, sep, value = override.partition("=")
-        if not sep or key.strip() not in _SWEEP_FIELDS:
-            name = key.strip()
+        key, sep, text = override.partition("=")
+        parts = key.strip().split(".")
+        head, rest = parts[0], parts[1:]
+        if not sep or head not in _SWEEP_FIELDS:
             raise InvalidParameterError(
-                f"--set {override!r}: expected FIELD=VALUE with a top-level sweep field."
-                f"{did_you_mean(name, _SWEEP_FIELDS)} Known: {', '.join(_SWEEP_FIELDS)}."
+                f"--set {override!r}: expected dotted.path=value starting with a sweep field."
+                f"{did_you_mean(head, _SWEEP_FIELDS)} Known: {', '.join(_SWEEP_FIELDS)}."
             )
-        data[key.strip()] = load_yaml(value, source=f"--set {key}")
-    return parse_sweep(data, source=str(path))
+        if head in ("domain", "agents", *_PLAIN_FIELDS, "seeds", "metric", "name"):
+            result = apply_overrides(result, [override])
+            continue
+        value = load_yaml(text, source=f"--set {key}")
+        if not rest:
+            result[head] = value
+        elif head == "domains":
+            domains = result.get("domains")
+            labels = list(domains) if isinstance(domains, Mapping) else []
+            if rest[0] not in labels:
+                raise InvalidParameterError(
+                    f"--set {override!r}: unknown domain label {rest[0]!r}."
+                    f"{did_you_mean(rest[0], labels)} Known: {', '.join(labels) or '(none)'}."
+                )
+            set_component_value(domains[rest[0]], rest[1:], value, override, f"domains.{rest[0]}")
+        elif head == "grid":
+            result.setdefault("grid", {})[".".join(rest)] = value
+        elif head == "domain_grids" and len(rest) > 1:
+            result.setdefault("domain_grids", {}).setdefault(rest[0], {})[".".join(rest[1:])] = (
+                value
+            )
+        elif head == "selection" and len(rest) == 1:
+            result.setdefault("selection", {})[rest[0]] = value
+        else:
+            raise InvalidParameterError(
+                f"--set {override!r}: `{head}` takes {head}=VALUE"
+                + (" or domain_grids.<label>.<grid key>=[...]." if head == "domain_grids" else ".")
+            )
+    return result
 
 
 @click.command("sweep")
@@ -344,7 +402,7 @@ def load_sweep(path: str | Path, overrides: Sequence[str] = ()) -> SweepConfig:
 @click.option(
     "--out",
     "out_dir",
-    type=click.Path(file_okay=False, path_type=Path),
+    type=click.Path(path_type=Path),  # make_out_dir checks it (one clear line)
     default=None,
     help="Results folder (default results/<sweep name>); finished runs in it are reused.",
 )
@@ -364,8 +422,9 @@ def load_sweep(path: str | Path, overrides: Sequence[str] = ()) -> SweepConfig:
     "--set",
     "overrides",
     multiple=True,
-    metavar="FIELD=VALUE",
-    help="Override a top-level sweep field, e.g. seeds=3 or budget_steps=1000 (repeatable).",
+    metavar="PATH=VALUE",
+    help="Override a config value, e.g. seeds=3 or agents.sarsa.params.step_size=0.05 "
+    "(repeatable).",
 )
 @click.option("--quiet", is_flag=True, help="No progress bar or summary table.")
 def sweep_command(
@@ -382,7 +441,6 @@ def sweep_command(
     from rich.console import Console
 
     from conjure.experiments.executors import make_executor
-    from conjure.experiments.parallel import run_sweep
 
     sweep = load_sweep(config, overrides)
     out_dir = out_dir or Path("results") / sweep.name
@@ -398,3 +456,86 @@ def sweep_command(
     console.print(f"Results in {out_dir}; `conjure report {out_dir}` writes the report.")
     if outcome.errors:
         raise click.exceptions.Exit(1)
+
+
+def run_sweep(
+    sweep: SweepConfig | ExperimentConfig | Mapping[str, Any],
+    out_dir: str | Path,
+    *,
+    executor: Executor | None = None,
+    max_workers: int | None = None,
+    max_memory: int | str | None = None,
+    run_fn: RunFunction = run_resolved,
+    progress: bool = True,
+    console: Console | None = None,
+) -> ExperimentResult:
+    """Run every run of a sweep under ``out_dir``; with ``selection``, rerun the best settings.
+
+    Parameters
+    ----------
+    sweep : SweepConfig, ExperimentConfig or dict
+        The sweep.
+    out_dir : str or Path
+        The results folder; finished runs in it are reused. The fresh-seed rerun of the
+        selected settings goes to ``out_dir/selected``, the choice to ``selection.csv``.
+    executor : Executor or None
+        Default a `LocalExecutor` with ``max_workers`` (else the sweep's, else the CPU count)
+        and ``max_memory`` (else the sweep's). A given executor keeps its own limits.
+    max_workers : int or None
+        See ``executor``.
+    max_memory : int, str or None
+        Each run's memory limit (``"4GiB"``; `conjure.experiments.memory`); see ``executor``.
+    run_fn : callable, default `run_resolved`
+        See `conjure.experiments.parallel.execute_runs`.
+    progress : bool, default True
+        Show progress and print the summary tables.
+    console : rich.console.Console or None
+        Where to print.
+
+    Returns
+    -------
+    ExperimentResult
+    """
+    from rich.console import Console
+
+    sweep = parse_sweep(sweep)
+    out_dir = make_out_dir(out_dir)
+    console = console or Console()
+    runs = expand_sweep(sweep)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    write_atomic(out_dir / RESOLVED_FILE, dump_yaml(resolve_sweep(sweep)))
+    pending = [spec for spec in runs if not is_run_done(out_dir, spec)]
+    with open_executor(
+        executor,
+        pending,
+        max_workers=max_workers or sweep.max_workers,
+        max_memory=max_memory or sweep.max_memory,
+        run_fn=run_fn,
+    ) as engine:
+        batch = functools.partial(
+            run_batch, executor=engine, metric=sweep.metric, run_fn=run_fn, progress=progress
+        )
+        outcome = batch(runs, out_dir, console=console, description=sweep.name)
+        if sweep.selection is None or outcome.results.empty:
+            return outcome
+        choice = sweep.selection
+        best = select_best(
+            outcome.results, metric=sweep.metric, criterion=choice.criterion, mode=choice.mode
+        )
+        write_atomic(out_dir / "selection.csv", best.to_csv(index=False))
+        if progress:
+            console.print(
+                f"Best setting per method by {choice.criterion} of {sweep.metric} "
+                f"({choice.mode}): see {out_dir / 'selection.csv'}"
+            )
+        seeds = fresh_seeds(sweep.seed_list(), choice.fresh_seeds)
+        final_runs = selected_runs(runs, best, seeds)
+        outcome.selected = batch(
+            final_runs,
+            out_dir / "selected",
+            console=console,
+            description=f"{sweep.name}: best settings, fresh seeds",
+        )
+        outcome.selection = best
+        outcome.errors.update(outcome.selected.errors)
+        return outcome

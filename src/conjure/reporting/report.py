@@ -31,18 +31,20 @@ import yaml
 from scipy import stats
 
 from conjure.core.errors import InvalidParameterError
-from conjure.experiments.plots import plot_learning_curves
 from conjure.experiments.results import (
     ERRORS_DIR,
     RESOLVED_FILE,
     RESULTS_FILE,
     RUNS_DIR,
     final_rows,
+    format_interval,
     has_finite_values,
     load_results,
+    make_out_dir,
     t_confidence,
     write_atomic,
 )
+from conjure.reporting.plots import plot_learning_curves
 
 __all__ = [
     "collect",
@@ -167,8 +169,7 @@ SAFETY_COLUMNS = {"failure_rate": "failure rate", "optimality": "optimality"}
 
 
 def _mean_interval(values: pd.Series) -> str:
-    mean, half = t_confidence(values.to_numpy(dtype=float))
-    return f"{_number(mean)} ± {_number(half)}"
+    return format_interval(*t_confidence(values.to_numpy(dtype=float)))
 
 
 def _finite_mean(values: pd.Series) -> float:
@@ -225,7 +226,7 @@ def write_report(
     Parameters
     ----------
     results_dir : str or Path
-        A folder written by `conjure.experiments.parallel.run_sweep` (or ``run_experiment``).
+        A folder written by `conjure.sweeps.sweep.run_sweep` (or ``run_experiment``).
     metric : str or None
         The curve column reported; default the sweep's ``metric``, else ``return``.
     out_dir : str or Path or None
@@ -237,7 +238,7 @@ def write_report(
         The markdown report.
     """
     results_dir = Path(results_dir)
-    out_dir = Path(out_dir) if out_dir is not None else results_dir
+    out_dir = make_out_dir(out_dir if out_dir is not None else results_dir)
     figures = out_dir / "figures"
     resolved: dict[str, Any] = {}
     if (results_dir / RESOLVED_FILE).is_file():
@@ -262,9 +263,10 @@ def write_report(
     lines = [
         f"# Report: {name}",
         "",
-        f"{results['run_id'].nunique()} finished runs, {len(errors)} failed "
-        f"(tracebacks in `{ERRORS_DIR}/`); seeds per method shown as `n`. Curves are means "
-        "over seeds with 95% Student-t bands; the final performance is the last policy check.",
+        f"{results['run_id'].nunique()} finished runs, "
+        + (f"{len(errors)} failed (tracebacks in `{ERRORS_DIR}/`)" if errors else "none failed")
+        + "; seeds per method shown as `n`. Curves are means over seeds with 95% confidence "
+        "bands (Student t); the final performance is the last policy check.",
         "",
     ]
     domains = (
@@ -281,7 +283,7 @@ def write_report(
             continue
         curve = plot_learning_curves(
             frame.assign(label=frame["method"]),
-            figures / f"learning_curve{tag}.png",
+            figures / f"learning_curve_{metric}{tag}.png",
             metric=metric,
             title=f"{name}{'' if domain is None else f' / {domain}'}",
         )
@@ -335,7 +337,7 @@ def write_report(
 @click.option(
     "--out",
     "out_dir",
-    type=click.Path(file_okay=False, path_type=Path),
+    type=click.Path(path_type=Path),  # make_out_dir checks it (one clear line)
     default=None,
     help="Where to write report.md and figures/ (default RESULTS_DIR).",
 )

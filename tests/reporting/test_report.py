@@ -9,8 +9,8 @@ from click.testing import CliRunner
 from sweep_fakes import fake_sweep, isolated_fakes, run_with_fakes
 
 from conjure.core.errors import InvalidParameterError
-from conjure.experiments.parallel import run_sweep
-from conjure.experiments.report import iqm, iqm_interval, report_command, stratified_bootstrap
+from conjure.reporting.report import iqm, iqm_interval, report_command, stratified_bootstrap
+from conjure.sweeps.sweep import run_sweep
 
 pytestmark = pytest.mark.usefixtures(isolated_fakes.__name__)
 
@@ -46,14 +46,15 @@ def test_report_of_a_sweep_with_selection(tmp_path):
         "selected/report.md",
     ):
         assert expected in text
-    for name in ("learning_curve_short", "features_long"):
+    assert "errors/" not in text and "none failed" in text  # no errors/ folder to point at
+    for name in ("learning_curve_return_short", "features_long"):
         assert (tmp_path / "figures" / f"{name}.png").stat().st_size > 1000
     assert (tmp_path / "selected" / "report.md").is_file()
 
 
 def test_report_errors_are_clear(tmp_path):
     with pytest.raises(InvalidParameterError, match="No runs"):
-        from conjure.experiments.report import write_report
+        from conjure.reporting.report import write_report
 
         write_report(tmp_path)
 
@@ -78,20 +79,20 @@ def _safety_results(tmp_path, with_bounds: bool):
 
 
 def test_report_tables_show_failure_rate_learning_failures_and_optimality(tmp_path):
-    from conjure.experiments.report import write_report
+    from conjure.reporting.report import write_report
 
     text = write_report(_safety_results(tmp_path, with_bounds=True)).read_text()
     assert "final failure rate ± 95% t" in text and "final optimality ± 95% t" in text
     assert "learning failures" in text
-    assert "| reckless | 2 |" in text and "| 0.5 ± 0 |" in text  # failure rate 0.5, no spread
+    assert "| reckless | 2 |" in text and "| 0.5000 ± 0.0000 |" in text  # rate 0.5, no spread
     assert "| 4.5 |" in text  # learning failures, mean of 4 and 5
     curve = write_report(tmp_path, metric="optimality", out_dir=tmp_path / "by_optimality")
     assert "mean optimality ± 95% t" in curve.read_text()
 
 
 def test_report_and_plot_skip_all_nan_columns(tmp_path):
-    from conjure.experiments.plots import plot_results_dir
-    from conjure.experiments.report import write_report
+    from conjure.reporting.plots import plot_results_dir
+    from conjure.reporting.report import write_report
 
     results = _safety_results(tmp_path, with_bounds=False)
     text = write_report(results).read_text()
@@ -101,3 +102,12 @@ def test_report_and_plot_skip_all_nan_columns(tmp_path):
     with pytest.raises(InvalidParameterError, match=r"optimality.*no finite value"):
         plot_results_dir(results, metric="optimality")
     assert plot_results_dir(results, metric="failure_rate").is_file()
+
+
+def test_report_points_at_errors_only_when_a_run_failed(tmp_path):
+    sweep = fake_sweep(grid={}, seeds=1)
+    sweep["agents"]["b"] = {"kind": "FakeAgent", "params": {"diverge_at": 3}}
+    run_sweep(sweep, tmp_path, max_workers=1, run_fn=run_with_fakes, progress=False)
+    assert CliRunner().invoke(report_command, [str(tmp_path)]).exit_code == 0
+    text = (tmp_path / "report.md").read_text()
+    assert "2 failed (tracebacks in `errors/`)" in text

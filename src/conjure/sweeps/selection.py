@@ -161,7 +161,7 @@ def selected_runs(
     Parameters
     ----------
     runs : sequence of dict
-        The sweep's run configs (`conjure.experiments.sweep.expand_sweep`).
+        The sweep's run configs (`conjure.sweeps.sweep.expand_sweep`).
     best : pandas.DataFrame
         `select_best`'s table.
     seeds : sequence of int

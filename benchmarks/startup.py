@@ -1,0 +1,79 @@
+"""Start-up time and peak memory: ``conjure --help``, ``import conjure`` and one iFDD+ run.
+
+Usage: ``python benchmarks/startup.py [--repeats R] [--skip-run]``
+
+Each measurement runs in a fresh interpreter (``subprocess``), reporting the median wall
+seconds and CPU seconds (user + system: less sensitive to other processes on the machine) of
+``repeats`` runs and the peak resident memory (``ru_maxrss`` of the child):
+
+- ``conjure --help`` (``python -m conjure.cli --help``; target under 0.5 s, issue 11);
+- ``import conjure`` (which must load no pandas, matplotlib or scipy.stats);
+- one BlocksWorld run of the ``ifdd_plus`` agent of ``examples/blocksworld.yaml`` (seed 100,
+  its 100,000 steps and policy checks; target at most RLPy's peak, about 175 MiB). Run it once
+  before measuring so numba's on-disk cache is warm (a compiling run peaks higher).
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import resource
+import statistics
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+from rich.console import Console
+from rich.table import Table
+
+ROOT = Path(__file__).resolve().parents[1]
+
+ONE_RUN = (
+    "from conjure.experiments.config import load_config, resolve_run\n"
+    "from conjure.experiments.run import run_resolved\n"
+    "config = load_config('examples/blocksworld.yaml')\n"
+    "run_resolved(resolve_run(config, 'ifdd_plus', 100))\n"
+)
+
+COMMANDS = {
+    "conjure --help": [sys.executable, "-m", "conjure.cli", "--help"],
+    "import conjure": [sys.executable, "-c", "import conjure"],
+    "BlocksWorld iFDD+ run (1e5 steps)": [sys.executable, "-c", ONE_RUN],
+}
+
+
+def measure(command: list[str]) -> tuple[float, float, float]:
+    """Run ``command`` once; return (wall seconds, CPU seconds, peak RSS in MiB) of the child."""
+    env = {**os.environ, "PYTHONPATH": str(ROOT / "src")}
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    started = time.perf_counter()
+    subprocess.run(command, cwd=ROOT, env=env, check=True, stdout=subprocess.DEVNULL)
+    wall = time.perf_counter() - started
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+    return wall, cpu, after.ru_maxrss / 1024  # ru_maxrss: the largest child so far (KiB)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--repeats", type=int, default=5)
+    parser.add_argument("--skip-run", action="store_true", help="Skip the BlocksWorld run.")
+    args = parser.parse_args()
+    table = Table(title="conjure start-up and memory (fresh interpreter each time)")
+    for name in ("command", "wall s (median)", "CPU s (median)", "peak RSS MiB"):
+        table.add_column(name, justify="left" if name == "command" else "right")
+    # Light commands first: ru_maxrss of the children is a running maximum.
+    for name, command in COMMANDS.items():
+        if args.skip_run and "run" in name:
+            continue
+        repeats = 1 if "run" in name else args.repeats
+        samples = [measure(command) for _ in range(repeats)]
+        wall = statistics.median(s[0] for s in samples)
+        cpu = statistics.median(s[1] for s in samples)
+        table.add_row(name, f"{wall:.2f}", f"{cpu:.2f}", f"{max(s[2] for s in samples):.0f}")
+    Console().print(table)
+
+
+if __name__ == "__main__":
+    main()
