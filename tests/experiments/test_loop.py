@@ -17,6 +17,7 @@ from conjure.core.interfaces import Agent, Domain, DomainSpec, Transition
 from conjure.core.params import InstanceOf, Interval
 from conjure.core.seeding import make_rng
 from conjure.experiments.loop import (
+    COMPILE_WORTH_STEPS,
     LearningLoop,
     Stepper,
     learning_stepper,
@@ -333,7 +334,13 @@ def test_learning_loop_counts_failures_of_the_steps_it_took():
     assert loop.num_failures == sum(t.next_state[0] == 0 for t in agent.transitions_)
 
 
-def test_learning_stepper_uses_the_compiled_path_only_when_it_answers(monkeypatch):
+@pytest.mark.parametrize(
+    ("warm", "budget_steps", "expected_asks"),
+    [(True, 0, 2), (False, COMPILE_WORTH_STEPS, 2), (False, COMPILE_WORTH_STEPS - 1, 0)],
+)
+def test_learning_stepper_uses_the_compiled_path_only_when_worth_it_and_answered(
+    monkeypatch, warm, budget_steps, expected_asks
+):
     import sys
     import types
 
@@ -347,11 +354,13 @@ def test_learning_stepper_uses_the_compiled_path_only_when_it_answers(monkeypatc
         return "compiled stepper" if len(asked) == 1 else None
 
     compiled.for_combination = for_combination
+    compiled.is_warm = lambda: warm
     monkeypatch.setitem(sys.modules, "conjure.compiled", compiled)
-    assert learning_stepper(domain, agent, seed=4) == "compiled stepper"
-    fallback = learning_stepper(domain, agent, seed=4)
+    first = learning_stepper(domain, agent, seed=4, budget_steps=budget_steps)
+    fallback = learning_stepper(domain, agent, seed=4, budget_steps=budget_steps)
     assert type(fallback) is Stepper and fallback.learn
-    assert asked == [(domain, agent, 4)] * 2
+    assert asked == [(domain, agent, 4)] * expected_asks
+    assert (first == "compiled stepper") is (expected_asks > 0)
 
 
 def test_greedy_and_timed_steppers_take_the_learning_steppers_steps():

@@ -9,7 +9,15 @@ from conjure.compiled.stepper import (
     CompiledStepper,
     compile_seconds,
     for_combination,
+    is_warm,
     warm_up,
 )
 
-__all__ = ["AdvanceStats", "CompiledStepper", "compile_seconds", "for_combination", "warm_up"]
+__all__ = [
+    "AdvanceStats",
+    "CompiledStepper",
+    "compile_seconds",
+    "for_combination",
+    "is_warm",
+    "warm_up",
+]

@@ -212,9 +212,11 @@ def pack_combination(domain: Domain, agent: Agent) -> Combination | None:
     NotSetUpError
         If ``agent.setup`` has not run.
     """
-    check_is_set_up(agent, "pack_combination")
     domain_packer = _DOMAINS.get(type(domain))
-    if domain_packer is None or domain.domain_spec.has_action_constraints:
+    if type(agent) not in (SARSA, QLearning, ActorCritic) or domain_packer is None:
+        return None  # decided on exact types alone: other agents' attributes are not read
+    check_is_set_up(agent, "pack_combination")
+    if domain.domain_spec.has_action_constraints:
         return None
     agent_codes = _agent(agent)
     if agent_codes is None:

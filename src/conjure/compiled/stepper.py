@@ -223,6 +223,20 @@ def compile_seconds() -> float | None:
     return _COMPILE_SECONDS[0] if _COMPILE_SECONDS else None
 
 
+def is_warm() -> bool:
+    """Whether the kernel runs without compiling: called in this process or in numba's cache.
+
+    Reads numba's on-disk cache index (a private numba API); if that API changes the kernel
+    is treated as cold, which only costs speed.
+    """
+    if _COMPILE_SECONDS:
+        return True
+    try:
+        return bool(k.advance_kernel._cache._cache_file._load_index())
+    except (AttributeError, OSError, EOFError, ValueError):
+        return False
+
+
 def warm_up() -> float:
     """Compile the kernel (or load it from the disk cache) and return `compile_seconds`.
 

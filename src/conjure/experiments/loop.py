@@ -55,6 +55,7 @@ from conjure.core.errors import InvalidParameterError
 from conjure.core.interfaces import Agent, Domain, Transition
 
 __all__ = [
+    "COMPILE_WORTH_STEPS",
     "EpisodeStats",
     "LearningLoop",
     "Stepper",
@@ -281,22 +282,33 @@ class Stepper:
 LearningLoop = Stepper
 
 
-def learning_stepper(domain: Domain, agent: Agent, *, seed: int | None = None) -> Any:
+#: A run at least this long takes the compiled path even when the kernel is not yet compiled:
+#: the one-time compile (about 20 s on 2 cores) costs less than the Python steps it saves.
+COMPILE_WORTH_STEPS = 2_000_000
+
+
+def learning_stepper(
+    domain: Domain, agent: Agent, *, seed: int | None = None, budget_steps: int = 0
+) -> Any:
     """Return the stepper a run learns with: compiled when every part has a kernel, else Python.
 
     The compiled stepper (``conjure.compiled.for_combination(domain, agent, seed=seed)``) has
-    the counters and ``advance(n)`` of `Stepper` and takes the same steps with the same draws;
-    when it answers ``None`` (some part has no kernel), or ``conjure.compiled`` is not
-    installed, a learning `Stepper` runs.
+    the counters and ``advance(n)`` of `Stepper` and takes the same steps with the same draws.
+    Choice: it is used when the kernel is warm (compiled in this process or in numba's disk
+    cache, `conjure.compiled.is_warm`) or when ``budget_steps`` reaches `COMPILE_WORTH_STEPS`,
+    so a short cold run never waits for a compile it would not earn back; otherwise, when
+    ``for_combination`` answers ``None`` (some part has no kernel), or ``conjure.compiled`` is
+    not installed, a learning `Stepper` runs.
     """
     try:
-        from conjure.compiled import for_combination
+        from conjure.compiled import for_combination, is_warm
     except ModuleNotFoundError as exc:
         if exc.name != "conjure.compiled":
             raise
         compiled = None
     else:
-        compiled = for_combination(domain, agent, seed=seed)
+        worth = budget_steps >= COMPILE_WORTH_STEPS or is_warm()
+        compiled = for_combination(domain, agent, seed=seed) if worth else None
     return compiled if compiled is not None else Stepper(domain, agent, seed=seed)
 
 

@@ -215,7 +215,9 @@ def run(
     agent.setup(domain.domain_spec, seeds["agent"])
     eval_domain = domain.clone()
     eval_seed = seed_to_int(seeds["evaluation"])
-    loop = learning_stepper(domain, agent, seed=seed_to_int(seeds["domain"]))
+    loop = learning_stepper(
+        domain, agent, seed=seed_to_int(seeds["domain"]), budget_steps=budget_steps
+    )
     names = {"agent_name": type(agent).__name__, "domain_name": domain.domain_spec.name}
     int_seed = int(seed) if isinstance(seed, (int, np.integer)) else -1
 
