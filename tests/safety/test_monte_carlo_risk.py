@@ -2,7 +2,8 @@ import numpy as np
 import pytest
 
 from conjure.core.cooperative import CooperativePlanner
-from conjure.core.errors import InvalidParameterError
+from conjure.core.errors import IncompatibleComponentsError, InvalidParameterError
+from conjure.core.interfaces import Domain
 from conjure.domains import GridWorld
 from conjure.models.approximate_model import ApproximateModel
 from conjure.planners import ShortestPathPlanner
@@ -142,3 +143,15 @@ def test_uav_rollouts_follow_cbba_and_match_the_exact_crash_probability():
     onward = graph.encode_action([3, 0])
     assert analyser.risk(state, onward) == pytest.approx(0.76, abs=0.02)
     assert len(planner.cache_) > 0  # π^p at every rollout step, cached by state
+
+
+class NeverFails(GridWorld):
+    """A grid world that marks no state constrained (the `Domain` default)."""
+
+    is_constrained = Domain.is_constrained
+
+
+def test_a_domain_without_failure_states_is_refused_by_name():
+    domain = NeverFails(map_name=CORRIDOR, noise=0.1)
+    with pytest.raises(IncompatibleComponentsError, match=r"NeverFails.*is_constrained"):
+        analyser_on(domain)

@@ -6,7 +6,8 @@ import numpy as np
 import scipy.sparse as sp
 
 from conjure.core.cooperative import RiskAnalyzer
-from conjure.core.interfaces import check_is_set_up
+from conjure.core.errors import IncompatibleComponentsError
+from conjure.core.interfaces import Domain, check_is_set_up
 from conjure.core.params import InstanceOf, Interval
 from conjure.safety import _kernels
 
@@ -100,6 +101,14 @@ class MonteCarloRiskAnalyzer(RiskAnalyzer):
     def _bind(self) -> None:
         """Fix 𝓗; tabulate T̂'s decomposition when the model's domain has one."""
         domain = self.model_.domain_
+        if type(domain).is_constrained is Domain.is_constrained:
+            raise IncompatibleComponentsError(
+                f"MonteCarloRiskAnalyzer judges an action by how often rollouts reach a "
+                f"constrained state (Algorithm 25), but {type(domain).__name__} never marks "
+                f"one: it does not override Domain.is_constrained. Use a domain with failure "
+                f"states (GridWorld, UAVMission, InvertedPendulum, ...) or define "
+                f"is_constrained on yours."
+            )
         self.horizon_ = (
             domain.domain_spec.max_episode_steps if self.horizon is None else self.horizon
         )
