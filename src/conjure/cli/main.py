@@ -33,6 +33,7 @@ import click
 
 from conjure.core.errors import ConjureError
 from conjure.experiments.memory import max_memory_option
+from conjure.experiments.options import out_dir_option
 
 __all__ = ["LAZY_COMMANDS", "main"]
 
@@ -103,13 +104,7 @@ def main() -> None:
 @main.command("run")
 @click.argument("config", type=click.Path(dir_okay=False, path_type=Path))
 @click.option("--seeds", type=click.IntRange(min=1), default=None, help="Run seeds 0..N-1.")
-@click.option(
-    "--out",
-    "out_dir",
-    type=click.Path(path_type=Path),  # make_out_dir checks it (one clear line)
-    default=None,
-    help="Experiment folder (default results/<config name>).",
-)
+@out_dir_option("Experiment folder (default results/<config name>).")
 @click.option(
     "--set",
     "overrides",

@@ -76,6 +76,7 @@ __all__ = [
     "RunsReport",
     "execute_runs",
     "open_executor",
+    "pending_runs",
     "prepare_executor",
     "print_summary",
     "run_batch",
@@ -208,6 +209,18 @@ def _describe(spec: Mapping[str, Any]) -> str:
     if setting:
         parts.append(",".join(f"{k.rsplit('.', 1)[-1]}={v}" for k, v in setting.items()))
     return "/".join(parts) + f"/seed_{spec.get('seed')}"
+
+
+def pending_runs(
+    out_dir: Path, resolved: Mapping[str, Any], runs: Sequence[dict[str, Any]]
+) -> list[dict[str, Any]]:
+    """Write the resolved config into ``out_dir`` and return the runs not finished there yet.
+
+    A rerun of the same command therefore resumes: finished runs are never run again.
+    """
+    out_dir.mkdir(parents=True, exist_ok=True)
+    write_atomic(out_dir / RESOLVED_FILE, dump_yaml(dict(resolved)))
+    return [spec for spec in runs if not is_run_done(out_dir, spec)]
 
 
 def execute_runs(
@@ -426,9 +439,7 @@ def run_experiment(
     ]
     resolved = experiment.model_dump(exclude_none=True)
     resolved["seeds"] = experiment.seed_list()
-    out_dir.mkdir(parents=True, exist_ok=True)
-    write_atomic(out_dir / RESOLVED_FILE, dump_yaml(resolved))
-    pending = [spec for spec in runs if not is_run_done(out_dir, spec)]
+    pending = pending_runs(out_dir, resolved, runs)
     with open_executor(
         executor,
         pending,

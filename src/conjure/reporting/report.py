@@ -31,6 +31,7 @@ import yaml
 from scipy import stats
 
 from conjure.core.errors import InvalidParameterError
+from conjure.experiments.options import out_dir_option
 from conjure.experiments.results import (
     ERRORS_DIR,
     RESOLVED_FILE,
@@ -334,13 +335,7 @@ def write_report(
 @click.command("report")
 @click.argument("results_dir", type=click.Path(file_okay=False, path_type=Path))
 @click.option("--metric", default=None, help="Curve column to report (default the sweep's).")
-@click.option(
-    "--out",
-    "out_dir",
-    type=click.Path(path_type=Path),  # make_out_dir checks it (one clear line)
-    default=None,
-    help="Where to write report.md and figures/ (default RESULTS_DIR).",
-)
+@out_dir_option("Where to write report.md and figures/ (default RESULTS_DIR).")
 def report_command(results_dir: Path, metric: str | None, out_dir: Path | None) -> None:
     """Collect the runs in RESULTS_DIR into results.parquet and write report.md with figures."""
     path = write_report(results_dir, metric=metric, out_dir=out_dir)

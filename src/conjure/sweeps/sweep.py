@@ -55,7 +55,6 @@ from conjure.experiments.config import (
     ExperimentConfig,
     MemorySize,
     apply_overrides,
-    dump_yaml,
     load_yaml,
     parse_config,
     parse_overridden,
@@ -63,8 +62,15 @@ from conjure.experiments.config import (
     set_component_value,
 )
 from conjure.experiments.memory import max_memory_option
-from conjure.experiments.parallel import ExperimentResult, RunFunction, open_executor, run_batch
-from conjure.experiments.results import RESOLVED_FILE, is_run_done, make_out_dir, write_atomic
+from conjure.experiments.options import out_dir_option
+from conjure.experiments.parallel import (
+    ExperimentResult,
+    RunFunction,
+    open_executor,
+    pending_runs,
+    run_batch,
+)
+from conjure.experiments.results import make_out_dir, write_atomic
 from conjure.experiments.run import run_resolved
 from conjure.sweeps.selection import fresh_seeds, select_best, selected_runs
 
@@ -399,13 +405,7 @@ def apply_sweep_overrides(data: Mapping[str, Any], overrides: Sequence[str]) -> 
 
 @click.command("sweep")
 @click.argument("config", type=click.Path(dir_okay=False, path_type=Path))
-@click.option(
-    "--out",
-    "out_dir",
-    type=click.Path(path_type=Path),  # make_out_dir checks it (one clear line)
-    default=None,
-    help="Results folder (default results/<sweep name>); finished runs in it are reused.",
-)
+@out_dir_option("Results folder (default results/<sweep name>); finished runs in it are reused.")
 @click.option(
     "--executor",
     type=click.Choice(["local", "dask", "ray"]),
@@ -502,9 +502,7 @@ def run_sweep(
     out_dir = make_out_dir(out_dir)
     console = console or Console()
     runs = expand_sweep(sweep)
-    out_dir.mkdir(parents=True, exist_ok=True)
-    write_atomic(out_dir / RESOLVED_FILE, dump_yaml(resolve_sweep(sweep)))
-    pending = [spec for spec in runs if not is_run_done(out_dir, spec)]
+    pending = pending_runs(out_dir, resolve_sweep(sweep), runs)
     with open_executor(
         executor,
         pending,

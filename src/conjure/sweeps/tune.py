@@ -53,6 +53,7 @@ from conjure.core.params import did_you_mean
 from conjure.experiments.config import dump_yaml, load_yaml
 from conjure.experiments.executors import Executor, LocalExecutor
 from conjure.experiments.memory import max_memory_option
+from conjure.experiments.options import out_dir_option
 from conjure.experiments.parallel import RunFunction, execute_runs, prepare_executor
 from conjure.experiments.results import load_results, make_out_dir, write_atomic
 from conjure.experiments.run import run_resolved
@@ -356,13 +357,7 @@ def _isnan(value: Any) -> bool:
 
 @click.command("tune")
 @click.argument("config", type=click.Path(dir_okay=False, path_type=Path))
-@click.option(
-    "--out",
-    "out_dir",
-    type=click.Path(path_type=Path),  # make_out_dir checks it (one clear line)
-    default=None,
-    help="Folder of optuna.db and the runs (default results/<name>-tune); reruns continue.",
-)
+@out_dir_option("Folder of optuna.db and the runs (default results/<name>-tune); reruns continue.")
 @click.option("--trials", type=click.IntRange(min=1), default=None, help="Trials per method.")
 @click.option(
     "--executor",
