@@ -6,30 +6,12 @@ Each check runs in a fresh interpreter: the test process has imported everything
 from __future__ import annotations
 
 import json
-import os
-import subprocess
-import sys
-from pathlib import Path
 
 import gymnasium as gym
 
 import conjure.domains
 from conjure.environments import ENVIRONMENTS, register_environments
-
-SRC = str(Path(__file__).resolve().parents[1] / "src")
-
-
-def python(code: str) -> subprocess.CompletedProcess[str]:
-    """Run ``code`` in a fresh interpreter (warnings are errors) that imports this checkout."""
-    env = {**os.environ, "PYTHONPATH": os.pathsep.join([SRC, os.environ.get("PYTHONPATH", "")])}
-    return subprocess.run(
-        [sys.executable, "-W", "error", "-c", code],
-        env=env,
-        capture_output=True,
-        text=True,
-        check=False,
-        timeout=120,
-    )
+from fresh_python import python
 
 
 def test_import_conjure_alone_makes_gymnasium_environments():

@@ -1,21 +1,20 @@
 """Learners: Q-Learning, SARSA(λ), Actor-Critic (Algorithms 10-12); LSTD, LSPI, LSPI-BRM (14-15)."""
 
-from conjure.agents.actor_critic import ActorCritic
-from conjure.agents.fdlstd import FDLSTD
-from conjure.agents.linear_td import LinearTDAgent
-from conjure.agents.lspi import LSPI
-from conjure.agents.lspi_brm import LSPIBRM
-from conjure.agents.lstd import LSTD
-from conjure.agents.q_learning import QLearning
-from conjure.agents.sarsa import SARSA
+from __future__ import annotations
 
-__all__ = [
-    "FDLSTD",
-    "LSPI",
-    "LSPIBRM",
-    "LSTD",
-    "SARSA",
-    "ActorCritic",
-    "LinearTDAgent",
-    "QLearning",
-]
+from conjure.core.lazy import lazy_exports
+
+#: Each public name and the submodule defining it, imported on first use.
+_EXPORTS = {
+    "ActorCritic": "actor_critic",
+    "FDLSTD": "fdlstd",
+    "LinearTDAgent": "linear_td",
+    "LSPI": "lspi",
+    "LSPIBRM": "lspi_brm",
+    "LSTD": "lstd",
+    "QLearning": "q_learning",
+    "SARSA": "sarsa",
+}
+
+__all__ = sorted(_EXPORTS)
+__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS)

@@ -7,23 +7,20 @@ that ``gymnasium.make("conjure/InvertedPendulum-v0")`` works: the ids are listed
 
 from __future__ import annotations
 
-from conjure.domains.blocksworld import BlocksWorld
-from conjure.domains.chain import ChainMDP
-from conjure.domains.gridworld import GridWorld
-from conjure.domains.gymnasium_adapter import GymnasiumDomain, from_gymnasium
-from conjure.domains.pendulum import InvertedPendulum
-from conjure.domains.persistent_surveillance import PersistentSurveillance
-from conjure.domains.rescue_mission import RescueMission
-from conjure.domains.uav_mission import UAVMission
+from conjure.core.lazy import lazy_exports
 
-__all__ = [
-    "BlocksWorld",
-    "ChainMDP",
-    "GridWorld",
-    "GymnasiumDomain",
-    "InvertedPendulum",
-    "PersistentSurveillance",
-    "RescueMission",
-    "UAVMission",
-    "from_gymnasium",
-]
+#: Each public name and the submodule defining it, imported on first use.
+_EXPORTS = {
+    "BlocksWorld": "blocksworld",
+    "ChainMDP": "chain",
+    "GridWorld": "gridworld",
+    "GymnasiumDomain": "gymnasium_adapter",
+    "from_gymnasium": "gymnasium_adapter",
+    "InvertedPendulum": "pendulum",
+    "PersistentSurveillance": "persistent_surveillance",
+    "RescueMission": "rescue_mission",
+    "UAVMission": "uav_mission",
+}
+
+__all__ = sorted(_EXPORTS)
+__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS)

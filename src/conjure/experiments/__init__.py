@@ -11,10 +11,11 @@ The names below are imported on first use (importing the package loads none of t
 
 from __future__ import annotations
 
-import importlib
 import sys
 import types
 from typing import Any
+
+from conjure.core.lazy import lazy_exports
 
 #: Each exported name and the submodule that defines it.
 _EXPORTS = {
@@ -38,18 +39,7 @@ _EXPORTS = {
 }
 
 __all__ = sorted(_EXPORTS)
-
-
-def __getattr__(name: str) -> Any:
-    if name not in _EXPORTS:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    value = getattr(importlib.import_module(f"{__name__}.{_EXPORTS[name]}"), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted({*globals(), *_EXPORTS})
+__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS)
 
 
 class _Package(types.ModuleType):

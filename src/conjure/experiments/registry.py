@@ -1,4 +1,4 @@
-"""Component registries: one plain dict per layer, one line per component (STYLE §3).
+"""Component registries: one table per layer, one line per component (STYLE §3).
 
 A config names a component by its ``kind`` (the class name; ``Gymnasium`` for
 `GymnasiumDomain`) and gives its ``params``; a parameter whose value is itself a component is
@@ -8,71 +8,23 @@ looked up in every registry.
 Notes
 -----
 - Choice: no import-time registration decorators; to add a component, add one line here.
+- Choice: a line names the class by its import path (``"conjure.agents:SARSA"``) and the class
+  is imported when a config first names it, so a SARSA run never imports the batch learners,
+  the planners or SciPy (issue 11: start-up time and memory).
 """
 
 from __future__ import annotations
 
+import importlib
 import inspect
 import re
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping, MutableMapping
 from typing import Any
 
 import numpy as np
 
-from conjure.agents import FDLSTD, LSPI, LSPIBRM, LSTD, SARSA, ActorCritic, QLearning
 from conjure.core.errors import InvalidParameterError
 from conjure.core.params import Configurable, did_you_mean
-from conjure.core.schedules import ConstantStepSize, EpisodicDecay, FeatureNormalizedDecay
-from conjure.domains import (
-    BlocksWorld,
-    ChainMDP,
-    GridWorld,
-    GymnasiumDomain,
-    InvertedPendulum,
-    PersistentSurveillance,
-    RescueMission,
-    UAVMission,
-)
-from conjure.models.approximate_model import ApproximateModel
-from conjure.planners import (
-    QAPI,
-    QAVI,
-    VAPI,
-    CBBAPlanner,
-    FittedValueIteration,
-    ModelPlanner,
-    PolicyIteration,
-    SampledQAPI1,
-    SampledQAPI2,
-    SampledQAVI,
-    ShortestPathPlanner,
-    SwitchingPlanner,
-    TrajectoryQAPI,
-    ValueIteration,
-)
-from conjure.policies import EpsilonGreedy, Gibbs
-from conjure.representations import (
-    RBF,
-    AdaptiveTileCoding,
-    ARiFDD,
-    BinaryIndicators,
-    HashedTabular,
-    IndependentDiscretization,
-    OnlineIFDD,
-    RandomExpansion,
-    SparseDistributedMemory,
-    Tabular,
-    TileCoding,
-)
-from conjure.safety import (
-    AdaptiveCooperativeLearner,
-    CooperativeActorCritic,
-    CooperativeLearner,
-    FuelRiskAnalyzer,
-    MonteCarloRiskAnalyzer,
-    NominalRiskAnalyzer,
-    PlannerAgent,
-)
 
 __all__ = [
     "AGENTS",
@@ -91,81 +43,140 @@ __all__ = [
     "to_spec",
 ]
 
-DOMAINS: dict[str, type[Configurable]] = {
-    "BlocksWorld": BlocksWorld,
-    "ChainMDP": ChainMDP,
-    "GridWorld": GridWorld,
-    "Gymnasium": GymnasiumDomain,
-    "InvertedPendulum": InvertedPendulum,
-    "PersistentSurveillance": PersistentSurveillance,
-    "RescueMission": RescueMission,
-    "UAVMission": UAVMission,
-}
-REPRESENTATIONS: dict[str, type[Configurable]] = {
-    "ARiFDD": ARiFDD,
-    "AdaptiveTileCoding": AdaptiveTileCoding,
-    "BinaryIndicators": BinaryIndicators,
-    "HashedTabular": HashedTabular,
-    "IndependentDiscretization": IndependentDiscretization,
-    "OnlineIFDD": OnlineIFDD,
-    "RandomExpansion": RandomExpansion,
-    "RBF": RBF,
-    "SparseDistributedMemory": SparseDistributedMemory,
-    "Tabular": Tabular,
-    "TileCoding": TileCoding,
-}
-POLICIES: dict[str, type[Configurable]] = {
-    "EpsilonGreedy": EpsilonGreedy,
-    "Gibbs": Gibbs,
-}
-AGENTS: dict[str, type[Configurable]] = {
-    "ActorCritic": ActorCritic,
-    "AdaptiveCooperativeLearner": AdaptiveCooperativeLearner,
-    "CooperativeActorCritic": CooperativeActorCritic,
-    "CooperativeLearner": CooperativeLearner,
-    "FDLSTD": FDLSTD,
-    "LSPI": LSPI,
-    "LSPIBRM": LSPIBRM,
-    "LSTD": LSTD,
-    "PlannerAgent": PlannerAgent,
-    "QLearning": QLearning,
-    "SARSA": SARSA,
-}
-PLANNERS: dict[str, type[Configurable]] = {
-    "FittedValueIteration": FittedValueIteration,
-    "PolicyIteration": PolicyIteration,
-    "QAPI": QAPI,
-    "QAVI": QAVI,
-    "SampledQAPI1": SampledQAPI1,
-    "SampledQAPI2": SampledQAPI2,
-    "SampledQAVI": SampledQAVI,
-    "TrajectoryQAPI": TrajectoryQAPI,
-    "VAPI": VAPI,
-    "ValueIteration": ValueIteration,
-}
+
+class Registry(MutableMapping[str, type[Configurable]]):
+    """One layer's components by kind; each class is imported when it is first looked up.
+
+    Entries are ``"package:ClassName"`` paths or classes (tests and users may add classes).
+
+    Examples
+    --------
+    >>> table = Registry({"SARSA": "conjure.agents:SARSA"})
+    >>> table.class_name("SARSA"), table["SARSA"].__module__
+    ('SARSA', 'conjure.agents.sarsa')
+    """
+
+    def __init__(self, entries: Mapping[str, str | type[Configurable]]):
+        self._entries = dict(entries)
+
+    def __getitem__(self, kind: str) -> type[Configurable]:
+        entry = self._entries[kind]
+        if isinstance(entry, str):
+            package, name = entry.split(":")
+            entry = self._entries[kind] = getattr(importlib.import_module(package), name)
+        return entry
+
+    def __setitem__(self, kind: str, cls: type[Configurable]) -> None:
+        self._entries[kind] = cls
+
+    def __delitem__(self, kind: str) -> None:
+        del self._entries[kind]
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self._entries)
+
+    def __len__(self) -> int:
+        return len(self._entries)
+
+    def class_name(self, kind: str) -> str:
+        """The name of the class registered as ``kind``, without importing it."""
+        entry = self._entries[kind]
+        return entry.rsplit(":", 1)[1] if isinstance(entry, str) else entry.__name__
+
+
+DOMAINS = Registry(
+    {
+        "BlocksWorld": "conjure.domains:BlocksWorld",
+        "ChainMDP": "conjure.domains:ChainMDP",
+        "GridWorld": "conjure.domains:GridWorld",
+        "Gymnasium": "conjure.domains:GymnasiumDomain",
+        "InvertedPendulum": "conjure.domains:InvertedPendulum",
+        "PersistentSurveillance": "conjure.domains:PersistentSurveillance",
+        "RescueMission": "conjure.domains:RescueMission",
+        "UAVMission": "conjure.domains:UAVMission",
+    }
+)
+REPRESENTATIONS = Registry(
+    {
+        "ARiFDD": "conjure.representations:ARiFDD",
+        "AdaptiveTileCoding": "conjure.representations:AdaptiveTileCoding",
+        "BinaryIndicators": "conjure.representations:BinaryIndicators",
+        "HashedTabular": "conjure.representations:HashedTabular",
+        "IndependentDiscretization": "conjure.representations:IndependentDiscretization",
+        "OnlineIFDD": "conjure.representations:OnlineIFDD",
+        "RandomExpansion": "conjure.representations:RandomExpansion",
+        "RBF": "conjure.representations:RBF",
+        "SparseDistributedMemory": "conjure.representations:SparseDistributedMemory",
+        "Tabular": "conjure.representations:Tabular",
+        "TileCoding": "conjure.representations:TileCoding",
+    }
+)
+POLICIES = Registry(
+    {
+        "EpsilonGreedy": "conjure.policies:EpsilonGreedy",
+        "Gibbs": "conjure.policies:Gibbs",
+    }
+)
+AGENTS = Registry(
+    {
+        "ActorCritic": "conjure.agents:ActorCritic",
+        "AdaptiveCooperativeLearner": "conjure.safety:AdaptiveCooperativeLearner",
+        "CooperativeActorCritic": "conjure.safety:CooperativeActorCritic",
+        "CooperativeLearner": "conjure.safety:CooperativeLearner",
+        "FDLSTD": "conjure.agents:FDLSTD",
+        "LSPI": "conjure.agents:LSPI",
+        "LSPIBRM": "conjure.agents:LSPIBRM",
+        "LSTD": "conjure.agents:LSTD",
+        "PlannerAgent": "conjure.safety:PlannerAgent",
+        "QLearning": "conjure.agents:QLearning",
+        "SARSA": "conjure.agents:SARSA",
+    }
+)
+PLANNERS = Registry(
+    {
+        "FittedValueIteration": "conjure.planners:FittedValueIteration",
+        "PolicyIteration": "conjure.planners:PolicyIteration",
+        "QAPI": "conjure.planners:QAPI",
+        "QAVI": "conjure.planners:QAVI",
+        "SampledQAPI1": "conjure.planners:SampledQAPI1",
+        "SampledQAPI2": "conjure.planners:SampledQAPI2",
+        "SampledQAVI": "conjure.planners:SampledQAVI",
+        "TrajectoryQAPI": "conjure.planners:TrajectoryQAPI",
+        "VAPI": "conjure.planners:VAPI",
+        "ValueIteration": "conjure.planners:ValueIteration",
+    }
+)
 #: π^p of iCCA (Section 5.3.1): `conjure.core.cooperative.CooperativePlanner` subclasses.
-COOPERATIVE_PLANNERS: dict[str, type[Configurable]] = {
-    "CBBAPlanner": CBBAPlanner,
-    "ModelPlanner": ModelPlanner,
-    "ShortestPathPlanner": ShortestPathPlanner,
-    "SwitchingPlanner": SwitchingPlanner,
-}
-RISK_ANALYZERS: dict[str, type[Configurable]] = {
-    "FuelRiskAnalyzer": FuelRiskAnalyzer,
-    "MonteCarloRiskAnalyzer": MonteCarloRiskAnalyzer,
-    "NominalRiskAnalyzer": NominalRiskAnalyzer,
-}
-MODELS: dict[str, type[Configurable]] = {
-    "ApproximateModel": ApproximateModel,
-}
-SCHEDULES: dict[str, type[Configurable]] = {
-    "ConstantStepSize": ConstantStepSize,
-    "EpisodicDecay": EpisodicDecay,
-    "FeatureNormalizedDecay": FeatureNormalizedDecay,
-}
+COOPERATIVE_PLANNERS = Registry(
+    {
+        "CBBAPlanner": "conjure.planners:CBBAPlanner",
+        "ModelPlanner": "conjure.planners:ModelPlanner",
+        "ShortestPathPlanner": "conjure.planners:ShortestPathPlanner",
+        "SwitchingPlanner": "conjure.planners:SwitchingPlanner",
+    }
+)
+RISK_ANALYZERS = Registry(
+    {
+        "FuelRiskAnalyzer": "conjure.safety:FuelRiskAnalyzer",
+        "MonteCarloRiskAnalyzer": "conjure.safety:MonteCarloRiskAnalyzer",
+        "NominalRiskAnalyzer": "conjure.safety:NominalRiskAnalyzer",
+    }
+)
+MODELS = Registry(
+    {
+        "ApproximateModel": "conjure.models.approximate_model:ApproximateModel",
+    }
+)
+SCHEDULES = Registry(
+    {
+        "ConstantStepSize": "conjure.core.schedules:ConstantStepSize",
+        "EpisodicDecay": "conjure.core.schedules:EpisodicDecay",
+        "FeatureNormalizedDecay": "conjure.core.schedules:FeatureNormalizedDecay",
+    }
+)
 
 #: Every registry by layer name (the ``layer`` argument of `build`).
-LAYERS: dict[str, dict[str, type[Configurable]]] = {
+LAYERS: dict[str, MutableMapping[str, type[Configurable]]] = {
     "domain": DOMAINS,
     "representation": REPRESENTATIONS,
     "policy": POLICIES,
@@ -176,10 +187,6 @@ LAYERS: dict[str, dict[str, type[Configurable]]] = {
     "model": MODELS,
     "schedule": SCHEDULES,
 }
-
-
-def _all_kinds() -> list[str]:
-    return [kind for registry in LAYERS.values() for kind in registry]
 
 
 def find_kind(kind: str, layer: str | None = None, *, path: str = "") -> type[Configurable]:
@@ -305,11 +312,16 @@ def _build_value(value: Any, path: str) -> Any:
 
 def kind_of(component: Configurable) -> str:
     """Return the registry name of ``component``'s class (its class name if unregistered)."""
+    cls = type(component)
     for registry in LAYERS.values():
-        for kind, cls in registry.items():
-            if type(component) is cls:
+        for kind in registry:
+            if _class_name(registry, kind) == cls.__name__ and registry[kind] is cls:
                 return kind
-    return type(component).__name__
+    return cls.__name__
+
+
+def _class_name(registry: Mapping[str, type[Configurable]], kind: str) -> str:
+    return registry.class_name(kind) if isinstance(registry, Registry) else registry[kind].__name__
 
 
 def to_spec(component: Configurable) -> dict[str, Any]:

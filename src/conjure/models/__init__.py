@@ -1,16 +1,19 @@
 """Models: exact tabular (P, R) models and generative samplers shared by planners (ch. 2)."""
 
-from conjure.models.enumerate import enumerate_model
-from conjure.models.generative import DomainSampler, GenerativeModel, ModelSampler, generative_model
-from conjure.models.steady_state import steady_state_distribution
-from conjure.models.tabular_model import TabularModel
+from __future__ import annotations
 
-__all__ = [
-    "DomainSampler",
-    "GenerativeModel",
-    "ModelSampler",
-    "TabularModel",
-    "enumerate_model",
-    "generative_model",
-    "steady_state_distribution",
-]
+from conjure.core.lazy import lazy_exports
+
+#: Each public name and the submodule defining it, imported on first use.
+_EXPORTS = {
+    "enumerate_model": "enumerate",
+    "DomainSampler": "generative",
+    "GenerativeModel": "generative",
+    "ModelSampler": "generative",
+    "generative_model": "generative",
+    "steady_state_distribution": "steady_state",
+    "TabularModel": "tabular_model",
+}
+
+__all__ = sorted(_EXPORTS)
+__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS)

@@ -4,41 +4,33 @@ Cooperative planners π^p of iCCA (Section 5.3.1): `CBBAPlanner` (Algorithm 27),
 `ShortestPathPlanner`, `SwitchingPlanner`.
 """
 
-from conjure.planners.base import Plan, PlanAgent, Planner
-from conjure.planners.cbba import CBBA, Allocation
-from conjure.planners.cbba_planner import CBBAPlanner, MissionPlan
-from conjure.planners.fitted_vi import FittedValueIteration
-from conjure.planners.model_planner import ModelPlanner
-from conjure.planners.policy_iteration import PolicyIteration
-from conjure.planners.q_api import QAPI
-from conjure.planners.q_avi import QAVI
-from conjure.planners.sampled_q_api import SampledQAPI1, SampledQAPI2
-from conjure.planners.sampled_q_avi import SampledQAVI
-from conjure.planners.shortest_path import ShortestPathPlanner
-from conjure.planners.switching_planner import SwitchingPlanner
-from conjure.planners.trajectory_q_api import TrajectoryQAPI
-from conjure.planners.v_api import VAPI
-from conjure.planners.value_iteration import ValueIteration
+from __future__ import annotations
 
-__all__ = [
-    "CBBA",
-    "QAPI",
-    "QAVI",
-    "VAPI",
-    "Allocation",
-    "CBBAPlanner",
-    "FittedValueIteration",
-    "MissionPlan",
-    "ModelPlanner",
-    "Plan",
-    "PlanAgent",
-    "Planner",
-    "PolicyIteration",
-    "SampledQAPI1",
-    "SampledQAPI2",
-    "SampledQAVI",
-    "ShortestPathPlanner",
-    "SwitchingPlanner",
-    "TrajectoryQAPI",
-    "ValueIteration",
-]
+from conjure.core.lazy import lazy_exports
+
+#: Each public name and the submodule defining it, imported on first use.
+_EXPORTS = {
+    "Plan": "base",
+    "PlanAgent": "base",
+    "Planner": "base",
+    "CBBA": "cbba",
+    "Allocation": "cbba",
+    "CBBAPlanner": "cbba_planner",
+    "MissionPlan": "cbba_planner",
+    "FittedValueIteration": "fitted_vi",
+    "ModelPlanner": "model_planner",
+    "PolicyIteration": "policy_iteration",
+    "QAPI": "q_api",
+    "QAVI": "q_avi",
+    "SampledQAPI1": "sampled_q_api",
+    "SampledQAPI2": "sampled_q_api",
+    "SampledQAVI": "sampled_q_avi",
+    "ShortestPathPlanner": "shortest_path",
+    "SwitchingPlanner": "switching_planner",
+    "TrajectoryQAPI": "trajectory_q_api",
+    "VAPI": "v_api",
+    "ValueIteration": "value_iteration",
+}
+
+__all__ = sorted(_EXPORTS)
+__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS)

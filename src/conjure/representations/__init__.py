@@ -6,31 +6,26 @@ Adaptive representations add features in `discover`; `grow_weights` applies
 θ_f = θ_g + θ_h (Section 4.1.1) to the learner's weights.
 """
 
-from conjure.representations.adaptive_tile_coding import AdaptiveTileCoding
-from conjure.representations.arifdd import ARiFDD
-from conjure.representations.hashed_tabular import HashedTabular
-from conjure.representations.independent_discretization import IndependentDiscretization
-from conjure.representations.indicators import BinaryIndicators
-from conjure.representations.online_ifdd import OnlineIFDD
-from conjure.representations.random_expansion import RandomExpansion
-from conjure.representations.rbf import RBF
-from conjure.representations.sparse_distributed_memory import SparseDistributedMemory
-from conjure.representations.tabular import Tabular
-from conjure.representations.tile_coding import TileCoding
-from conjure.representations.weights import append_rows, grow_weights
+from __future__ import annotations
 
-__all__ = [
-    "RBF",
-    "ARiFDD",
-    "AdaptiveTileCoding",
-    "BinaryIndicators",
-    "HashedTabular",
-    "IndependentDiscretization",
-    "OnlineIFDD",
-    "RandomExpansion",
-    "SparseDistributedMemory",
-    "Tabular",
-    "TileCoding",
-    "append_rows",
-    "grow_weights",
-]
+from conjure.core.lazy import lazy_exports
+
+#: Each public name and the submodule defining it, imported on first use.
+_EXPORTS = {
+    "AdaptiveTileCoding": "adaptive_tile_coding",
+    "ARiFDD": "arifdd",
+    "HashedTabular": "hashed_tabular",
+    "IndependentDiscretization": "independent_discretization",
+    "BinaryIndicators": "indicators",
+    "OnlineIFDD": "online_ifdd",
+    "RandomExpansion": "random_expansion",
+    "RBF": "rbf",
+    "SparseDistributedMemory": "sparse_distributed_memory",
+    "Tabular": "tabular",
+    "TileCoding": "tile_coding",
+    "append_rows": "weights",
+    "grow_weights": "weights",
+}
+
+__all__ = sorted(_EXPORTS)
+__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS)

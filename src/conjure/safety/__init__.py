@@ -9,24 +9,22 @@
 - `SafetyShield`: the risk filter as a Gymnasium wrapper, for agents of any library.
 """
 
-from conjure.safety.adaptive_cooperative_learner import AdaptiveCooperativeLearner
-from conjure.safety.cooperative_actor_critic import CooperativeActorCritic
-from conjure.safety.cooperative_agent import CooperativeAgent
-from conjure.safety.cooperative_learner import CooperativeLearner
-from conjure.safety.fuel_risk import FuelRiskAnalyzer
-from conjure.safety.monte_carlo_risk import MonteCarloRiskAnalyzer
-from conjure.safety.nominal_risk import NominalRiskAnalyzer
-from conjure.safety.planner_agent import PlannerAgent
-from conjure.safety.shield import SafetyShield
+from __future__ import annotations
 
-__all__ = [
-    "AdaptiveCooperativeLearner",
-    "CooperativeActorCritic",
-    "CooperativeAgent",
-    "CooperativeLearner",
-    "FuelRiskAnalyzer",
-    "MonteCarloRiskAnalyzer",
-    "NominalRiskAnalyzer",
-    "PlannerAgent",
-    "SafetyShield",
-]
+from conjure.core.lazy import lazy_exports
+
+#: Each public name and the submodule defining it, imported on first use.
+_EXPORTS = {
+    "AdaptiveCooperativeLearner": "adaptive_cooperative_learner",
+    "CooperativeActorCritic": "cooperative_actor_critic",
+    "CooperativeAgent": "cooperative_agent",
+    "CooperativeLearner": "cooperative_learner",
+    "FuelRiskAnalyzer": "fuel_risk",
+    "MonteCarloRiskAnalyzer": "monte_carlo_risk",
+    "NominalRiskAnalyzer": "nominal_risk",
+    "PlannerAgent": "planner_agent",
+    "SafetyShield": "shield",
+}
+
+__all__ = sorted(_EXPORTS)
+__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS)
