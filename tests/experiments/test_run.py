@@ -287,3 +287,26 @@ def test_run_takes_the_same_steps_as_a_hand_written_loop(make):
     assert len(curve) == len(expected) == 8
     np.testing.assert_allclose(curve[columns].to_numpy(float), np.array(expected), rtol=1e-12)
     assert curve["learning_episodes"].iloc[-1] > 0  # episodes ended and restarted
+
+
+def test_a_worker_imports_neither_pandas_nor_scipy_stats_nor_rich():
+    from fresh_python import python
+
+    result = python(
+        "import sys\n"
+        "from conjure.experiments.run import run_task\n"
+        "out = run_task({'label': 'q', 'domain': {'kind': 'ChainMDP'}, 'agent': {'kind': "
+        "'QLearning', 'params': {'representation': {'kind': 'Tabular'}}}, 'budget_steps': 20, "
+        "'seed': 0, 'num_policy_checks': 1, 'eval_episodes': 1})\n"
+        "assert out['error'] is None, out['error']\n"
+        "print(sorted(m for m in ('pandas', 'scipy.stats', 'rich') if m in sys.modules))"
+    )
+    assert result.returncode == 0, result.stderr
+    assert result.stdout.strip() == "[]"
+
+
+def test_a_failing_run_task_returns_its_error_as_data():
+    from conjure.experiments.run import run_task
+
+    out = run_task({"label": "x", "domain": {"kind": "NoSuchDomain"}})
+    assert out["curve"] is None and "NoSuchDomain" in out["message"]

@@ -110,9 +110,10 @@ def test_sweep_command_with_overrides(tmp_path, monkeypatch):
     config = tmp_path / "s.yaml"
     config.write_text(json.dumps(fake_sweep(grid={})))
     import conjure.experiments.parallel as parallel
+    from conjure.experiments.run import run_task
 
     monkeypatch.setattr(parallel, "run_resolved", run_with_fakes)
-    monkeypatch.setattr(parallel._run_task, "__defaults__", (run_with_fakes,))
+    monkeypatch.setattr(run_task, "__defaults__", (run_with_fakes,))
     out = tmp_path / "out"
     result = CliRunner().invoke(
         sweep_command,

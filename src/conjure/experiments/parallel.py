@@ -28,11 +28,7 @@ from __future__ import annotations
 
 import functools
 import math
-import os
-import socket
-import time
-import traceback
-from collections.abc import Callable, Iterator, Mapping, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -49,10 +45,8 @@ from rich.progress import (
 )
 from rich.table import Table
 
-from conjure.core.errors import DivergenceError
 from conjure.experiments.config import ExperimentConfig, dump_yaml, parse_config, resolve_run
 from conjure.experiments.executors import Executor, LocalExecutor, TaskFailure
-from conjure.experiments.memory import explain_memory_error
 from conjure.experiments.results import (
     RESOLVED_FILE,
     error_path,
@@ -69,7 +63,7 @@ from conjure.experiments.results import (
     write_results,
     write_run_ids,
 )
-from conjure.experiments.run import run_resolved
+from conjure.experiments.run import RunFunction, run_resolved, run_task
 
 __all__ = [
     "ExperimentResult",
@@ -85,7 +79,6 @@ __all__ = [
 ]
 
 _WARMUP_STEPS = 50
-RunFunction = Callable[[dict[str, Any]], Any]
 
 
 @dataclass
@@ -142,30 +135,6 @@ class ExperimentResult:
     runs: list[dict[str, Any]] = field(default_factory=list, repr=False)
     selection: pd.DataFrame | None = None
     selected: ExperimentResult | None = None
-
-
-def _run_task(run_spec: dict[str, Any], run_fn: RunFunction = run_resolved) -> dict[str, Any]:
-    """Run one resolved run on a worker; return its curve or its error as plain data."""
-    started = time.perf_counter()
-    meta = {"host": socket.gethostname(), "pid": os.getpid()}
-    try:
-        result = run_fn(run_spec)
-    except Exception as exc:  # recorded and reported, never fatal to other runs
-        partial = getattr(exc, "partial_result", None) if isinstance(exc, DivergenceError) else None
-        message = f"{type(exc).__name__}: {exc}".splitlines()[0]
-        error = traceback.format_exc()
-        if isinstance(exc, MemoryError):
-            message = explain_memory_error(message)
-            error = f"{message}\n\n{error}"
-        return {
-            "curve": None,
-            "error": error,
-            "message": message,
-            "partial": None if partial is None else partial.columns(),
-            "meta": meta,
-        }
-    meta["run_seconds"] = time.perf_counter() - started
-    return {"curve": result.columns(), "error": None, "meta": meta}
 
 
 def _structure(spec: Any) -> Any:
@@ -291,7 +260,7 @@ def execute_runs(
     ) as bar:
         task = bar.add_task(description, total=len(todo), **counts)
         try:
-            task_fn = functools.partial(_run_task, run_fn=run_fn)
+            task_fn = functools.partial(run_task, run_fn=run_fn)
             for index, outcome in executor.map_unordered(task_fn, [s for _, s in todo]):
                 identifier, spec = todo[index]
                 message = _record(out_dir, spec, outcome)

@@ -29,7 +29,11 @@ from __future__ import annotations
 
 import functools
 import math
+import os
+import socket
 import time
+import traceback
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
@@ -40,6 +44,7 @@ from conjure.core.interfaces import Agent, Domain
 from conjure.core.seeding import seed_to_int, split_seed
 from conjure.experiments.config import CURVE_COLUMNS
 from conjure.experiments.loop import learning_stepper, run_episode
+from conjure.experiments.memory import explain_memory_error
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -292,3 +297,35 @@ def run_config(config: Any, *, agent_name: str, seed: int) -> Result:
 
     parsed = parse_config(config)
     return run_resolved(resolve_run(parsed, agent_name, seed))
+
+
+#: What a worker runs for one resolved run config (`run_resolved`, or a user's wrapper of it).
+RunFunction = Callable[[dict[str, Any]], Any]
+
+
+def run_task(run_spec: dict[str, Any], run_fn: RunFunction = run_resolved) -> dict[str, Any]:
+    """Run one resolved run on a worker; return its curve or its error as plain data.
+
+    It lives here, not beside the executors, so that a worker imports what a run needs and
+    not pandas, SciPy's statistics or rich: the parent process writes the results.
+    """
+    started = time.perf_counter()
+    meta = {"host": socket.gethostname(), "pid": os.getpid()}
+    try:
+        result = run_fn(run_spec)
+    except Exception as exc:  # recorded and reported, never fatal to other runs
+        partial = getattr(exc, "partial_result", None) if isinstance(exc, DivergenceError) else None
+        message = f"{type(exc).__name__}: {exc}".splitlines()[0]
+        error = traceback.format_exc()
+        if isinstance(exc, MemoryError):
+            message = explain_memory_error(message)
+            error = f"{message}\n\n{error}"
+        return {
+            "curve": None,
+            "error": error,
+            "message": message,
+            "partial": None if partial is None else partial.columns(),
+            "meta": meta,
+        }
+    meta["run_seconds"] = time.perf_counter() - started
+    return {"curve": result.columns(), "error": None, "meta": meta}

@@ -54,9 +54,9 @@ from conjure.experiments.config import dump_yaml, load_yaml
 from conjure.experiments.executors import Executor, LocalExecutor
 from conjure.experiments.memory import max_memory_option
 from conjure.experiments.options import out_dir_option
-from conjure.experiments.parallel import RunFunction, execute_runs, prepare_executor
+from conjure.experiments.parallel import execute_runs, prepare_executor
 from conjure.experiments.results import load_results, make_out_dir, write_atomic
-from conjure.experiments.run import run_resolved
+from conjure.experiments.run import RunFunction, run_resolved
 from conjure.sweeps.selection import score_runs
 from conjure.sweeps.sweep import SweepConfig, grid_keys_for, parse_sweep, setting_runs
 
