@@ -6,7 +6,10 @@ Workloads (issue 2): SARSA + tile coding on InvertedPendulum and on GridWorld-1,
 SARSA(λ) + tile coding on Gymnasium's MountainCar-v0 through ``from_gymnasium``. Each is
 measured after a warm-up (numba compilation excluded) as the median of ``repeats`` timed
 ``LearningLoop.advance`` calls, i.e. domain step + feature activation + action selection + TD
-update, exactly as ``conjure run`` executes them.
+update, exactly as ``conjure run`` executes them. A reference row times Gymnasium's own
+``MountainCar-v0`` (``gymnasium.make``, its wrappers included) stepping with a fixed action
+and no learner, the floor of the MountainCar row: the environment's Python step is shared by
+every library that learns on it.
 """
 
 from __future__ import annotations
@@ -15,6 +18,7 @@ import argparse
 import statistics
 import time
 
+import gymnasium as gym
 from rich.console import Console
 from rich.table import Table
 
@@ -64,6 +68,21 @@ def measure(domain, agent, num_steps: int, repeats: int) -> float:
     return statistics.median(rates)
 
 
+def environment_alone(num_steps: int, repeats: int) -> float:
+    """Median steps/s of ``gymnasium.make("MountainCar-v0")`` alone, action 1, resets included."""
+    env = gym.make("MountainCar-v0")
+    env.reset(seed=0)
+    rates = []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        for _ in range(num_steps):
+            _, _, terminated, truncated, _ = env.step(1)
+            if terminated or truncated:
+                env.reset()
+        rates.append(num_steps / (time.perf_counter() - start))
+    return statistics.median(rates)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--steps", type=int, default=100_000)
@@ -76,6 +95,8 @@ def main() -> None:
     for name, domain, agent in workloads():
         rate = measure(domain, agent, args.steps, args.repeats)
         table.add_row(name, f"{rate:,.0f}", f"{1e6 / rate:.2f}")
+    rate = environment_alone(args.steps, args.repeats)
+    table.add_row("reference: MountainCar-v0 env.step alone", f"{rate:,.0f}", f"{1e6 / rate:.2f}")
     Console().print(table)
 
 
