@@ -219,6 +219,27 @@ def select_action(
     return gibbs_action(values, legal, parameter, u)
 
 
+@njit(cache=True, inline="always")
+def record_episode(
+    ep_float: np.ndarray,
+    ep_int: np.ndarray,
+    index: int,
+    total: float,
+    discounted: float,
+    length: int,
+    failures: int,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Write an ended episode's statistics at row ``index`` (doubling the arrays when full)."""
+    if index == ep_float.shape[0]:
+        ep_float = np.concatenate((ep_float, np.empty_like(ep_float)))
+        ep_int = np.concatenate((ep_int, np.empty_like(ep_int)))
+    ep_float[index, 0] = total
+    ep_float[index, 1] = discounted
+    ep_int[index, 0] = length
+    ep_int[index, 1] = failures
+    return ep_float, ep_int
+
+
 # ---------------------------------------------------------------------------------------------
 # The loop
 
@@ -399,13 +420,9 @@ def advance_kernel(
         discounted += weight * reward
         weight *= discount
         if terminated or episode_steps >= cap:
-            if num_ended == ep_float.shape[0]:
-                ep_float = np.concatenate((ep_float, np.empty_like(ep_float)))
-                ep_int = np.concatenate((ep_int, np.empty_like(ep_int)))
-            ep_float[num_ended, 0] = total
-            ep_float[num_ended, 1] = discounted
-            ep_int[num_ended, 0] = episode_steps
-            ep_int[num_ended, 1] = episode_failures
+            ep_float, ep_int = record_episode(
+                ep_float, ep_int, num_ended, total, discounted, episode_steps, episode_failures
+            )
             num_ended += 1
             phase = NEEDS_RESET
         else:

@@ -14,6 +14,12 @@ Supported (Geramifard 2012, Algorithms 10-12):
 - policies: `EpsilonGreedy`, `Gibbs`; schedules: `ConstantStepSize`,
   `FeatureNormalizedDecay`, `EpisodicDecay`.
 
+and, in `conjure.compiled._adaptive_kernel` (Section 4.1.4, Algorithms 19-21):
+
+- `BlocksWorld` (its legal moves) with `BinaryIndicators` or `OnlineIFDD` over
+  `BinaryIndicators` (any relevance, threshold or fixed-rate discovery), `SARSA` without
+  traces or `QLearning`, the policies and schedules above.
+
 Notes
 -----
 - Choice: the packing reads the components' set-up tables (tile layout, strides, offsets, move
@@ -31,6 +37,7 @@ import numpy as np
 from conjure.agents.actor_critic import ActorCritic
 from conjure.agents.q_learning import QLearning
 from conjure.agents.sarsa import SARSA
+from conjure.compiled import _adaptive_kernel as ak
 from conjure.compiled import _kernels as k
 from conjure.core.interfaces import Agent, Domain, check_is_set_up
 from conjure.core.schedules import (
@@ -39,11 +46,18 @@ from conjure.core.schedules import (
     FeatureNormalizedDecay,
     StepSizeSchedule,
 )
+from conjure.domains.blocksworld import BlocksWorld
 from conjure.domains.chain import ChainMDP
 from conjure.domains.gridworld import GridWorld
 from conjure.domains.pendulum import InvertedPendulum
 from conjure.policies import EpsilonGreedy, Gibbs
-from conjure.representations import IndependentDiscretization, Tabular, TileCoding
+from conjure.representations import (
+    BinaryIndicators,
+    IndependentDiscretization,
+    OnlineIFDD,
+    Tabular,
+    TileCoding,
+)
 
 __all__ = ["Combination", "pack_combination"]
 
@@ -63,9 +77,12 @@ class Combination:
         ``(dparams, dtable, dcells)``, the domain's constants.
     representation_arrays : tuple of ndarray
         ``(rdims, rlayout, rgroups, rvec, htable, hcounts)``; the hash table is the
-        representation's own (updated in place by both paths).
+        representation's own (updated in place by both paths). Empty for the adaptive
+        kernel, which reads `OnlineIFDD`'s tables at every call (they grow).
     read_domain, write_domain : callable
         Copy the domain's internal state to / from a float64 vector.
+    is_adaptive : bool
+        Whether `conjure.compiled._adaptive_kernel` runs it (else ``advance_kernel``).
     """
 
     ints: np.ndarray
@@ -74,6 +91,7 @@ class Combination:
     representation_arrays: tuple[np.ndarray, ...]
     read_domain: Callable[[Domain], np.ndarray]
     write_domain: Callable[[Domain, np.ndarray], None]
+    is_adaptive: bool = False
 
 
 # ---------------------------------------------------------------------------------------------
@@ -130,10 +148,26 @@ def _chain(domain: ChainMDP) -> tuple:
     return k.CHAIN, (dparams, _INT_EMPTY, _FLOAT_EMPTY), read, write
 
 
+def _blocks(domain: BlocksWorld) -> tuple:
+    n = domain._n
+    dparams = np.array([float(n), domain._drop, domain._step_reward, domain._goal_reward])
+
+    def read(d: BlocksWorld) -> np.ndarray:
+        return np.concatenate([d._obs, np.array(d._on, float), np.array(d._above, float)])
+
+    def write(d: BlocksWorld, state: np.ndarray) -> None:
+        d._obs[:] = state[: n * n]
+        d._on = [int(x) for x in state[n * n : n * n + n]]
+        d._above = [int(x) for x in state[n * n + n :]]
+
+    return ak.BLOCKS, (dparams, _INT_EMPTY, _FLOAT_EMPTY), read, write
+
+
 _DOMAINS: dict[type, Callable[[Any], tuple]] = {
     InvertedPendulum: _pendulum,
     GridWorld: _gridworld,
     ChainMDP: _chain,
+    BlocksWorld: _blocks,
 }
 
 
@@ -162,6 +196,15 @@ def _representation(rep: Any) -> tuple[int, int, int, tuple[np.ndarray, ...]] | 
     if kind is IndependentDiscretization:
         arrays = (rep._dims, _INT_EMPTY, _INT_EMPTY, rep.offsets_, _INT_EMPTY, empty_vec)
         return k.INDEPENDENT, 0, rep.offsets_.shape[0], arrays
+    return None
+
+
+def _adaptive_representation(rep: Any) -> int | None:
+    """The adaptive kernel's code of a representation on BlocksWorld, or None."""
+    if type(rep) is BinaryIndicators:
+        return ak.INDICATORS
+    if type(rep) is OnlineIFDD and type(rep.base_) is BinaryIndicators:
+        return ak.IFDD
     return None
 
 
@@ -216,12 +259,20 @@ def pack_combination(domain: Domain, agent: Agent) -> Combination | None:
     if type(agent) not in (SARSA, QLearning, ActorCritic) or domain_packer is None:
         return None  # decided on exact types alone: other agents' attributes are not read
     check_is_set_up(agent, "pack_combination")
-    if domain.domain_spec.has_action_constraints:
-        return None
     agent_codes = _agent(agent)
     if agent_codes is None:
         return None
-    rep = _representation(agent.representation_)
+    domain_code, domain_arrays, read, write = domain_packer(domain)
+    is_adaptive = domain_code == ak.BLOCKS
+    if is_adaptive:
+        rep = _adaptive_representation(agent.representation_)
+        if agent_codes[0] == k.ACTOR_CRITIC or agent_codes[1] != k.NO_TRACES:
+            return None
+        rep = None if rep is None else (rep, 0, 0, ())
+    elif domain.domain_spec.has_action_constraints:
+        return None
+    else:
+        rep = _representation(agent.representation_)
     policy = _policy(agent.policy_)
     schedule = _schedule(agent.schedule_)
     if rep is None or policy is None or schedule is None:
@@ -229,7 +280,6 @@ def pack_combination(domain: Domain, agent: Agent) -> Combination | None:
     agent_code, traces, trace_factor, min_trace, actor = agent_codes
     actor = schedule if actor is None else actor
     rep_code, num_tilings, max_active, rep_arrays = rep
-    domain_code, domain_arrays, read, write = domain_packer(domain)
     spec = domain.domain_spec
     ints = np.zeros(k.NUM_INTS, dtype=np.int64)
     ints[[k.I_DOMAIN, k.I_REP, k.I_AGENT, k.I_POLICY]] = (
@@ -270,4 +320,5 @@ def pack_combination(domain: Domain, agent: Agent) -> Combination | None:
         representation_arrays=contiguous,
         read_domain=read,
         write_domain=write,
+        is_adaptive=is_adaptive,
     )

@@ -294,11 +294,11 @@ def learning_stepper(
 
     The compiled stepper (``conjure.compiled.for_combination(domain, agent, seed=seed)``) has
     the counters and ``advance(n)`` of `Stepper` and takes the same steps with the same draws.
-    Choice: it is used when the kernel is warm (compiled in this process or in numba's disk
-    cache, `conjure.compiled.is_warm`) or when ``budget_steps`` reaches `COMPILE_WORTH_STEPS`,
-    so a short cold run never waits for a compile it would not earn back; otherwise, when
-    ``for_combination`` answers ``None`` (some part has no kernel), or ``conjure.compiled`` is
-    not installed, a learning `Stepper` runs.
+    Choice: it is used when its kernel is warm (compiled in this process or in numba's disk
+    cache, ``conjure.compiled.is_warm(stepper)``; each kernel separately) or when
+    ``budget_steps`` reaches `COMPILE_WORTH_STEPS`, so a short cold run never waits for a
+    compile it would not earn back; otherwise, when ``for_combination`` answers ``None`` (some
+    part has no kernel), or ``conjure.compiled`` is not installed, a learning `Stepper` runs.
     """
     try:
         from conjure.compiled import for_combination, is_warm
@@ -307,8 +307,9 @@ def learning_stepper(
             raise
         compiled = None
     else:
-        worth = budget_steps >= COMPILE_WORTH_STEPS or is_warm()
-        compiled = for_combination(domain, agent, seed=seed) if worth else None
+        compiled = for_combination(domain, agent, seed=seed)  # packing only: no compile
+        if compiled is not None and budget_steps < COMPILE_WORTH_STEPS and not is_warm(compiled):
+            compiled = None
     return compiled if compiled is not None else Stepper(domain, agent, seed=seed)
 
 

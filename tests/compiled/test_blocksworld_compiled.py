@@ -1,0 +1,178 @@
+"""BlocksWorld with online iFDD on the compiled path: same seed, same learner as in Python."""
+
+import numpy as np
+import pytest
+
+from conjure.agents import SARSA, QLearning
+from conjure.compiled import CompiledStepper, for_combination, is_warm
+from conjure.compiled import _adaptive_kernel as ak
+from conjure.compiled.combination import pack_combination
+from conjure.core.schedules import EpisodicDecay, FeatureNormalizedDecay
+from conjure.domains import BlocksWorld, InvertedPendulum
+from conjure.experiments.loop import LearningLoop, run_episode
+from conjure.policies import EpsilonGreedy, Gibbs
+from conjure.representations import BinaryIndicators, IndependentDiscretization, OnlineIFDD
+
+DECAY = FeatureNormalizedDecay(alpha_0=0.1, n_0=100)
+
+#: The representations of Section 4.1.4's BlocksWorld runs (and a smaller ξ, to grow more).
+REPRESENTATIONS = {
+    "ifdd-plus": lambda: OnlineIFDD(
+        base=BinaryIndicators(), relevance="ifdd_plus", discovery_threshold=0.05
+    ),
+    "ifdd-threshold": lambda: OnlineIFDD(base=BinaryIndicators(), discovery_threshold=0.02),
+    "ifdd-plus-signed-unsparsified": lambda: OnlineIFDD(
+        base=BinaryIndicators(),
+        relevance="ifdd_plus_signed",
+        discovery_threshold=0.01,
+        sparsify=False,
+        max_features=100,
+    ),
+    "ifdd-fixed-rate": lambda: OnlineIFDD(base=BinaryIndicators(), discovery_rate=0.4),
+    "indicators": BinaryIndicators,
+}
+AGENTS = {
+    "sarsa": lambda rep: SARSA(representation=rep, step_size=DECAY),
+    "qlearning": lambda rep: QLearning(
+        representation=rep, step_size=EpisodicDecay(alpha_0=0.05, n_0=100)
+    ),
+}
+#: Uneven advances (20,000 steps), with a greedy policy check after each.
+CHUNKS = (0, 1, 337, 1500, 5000, 13162)
+
+
+def _build(rep: str, agent: str, seed: int):
+    domain = BlocksWorld()
+    learner = AGENTS[agent](REPRESENTATIONS[rep]()).setup(domain.domain_spec, seed)
+    return domain, learner
+
+
+def _learn(stepper, agent, seed: int) -> list:
+    """Advance by `CHUNKS`, checking the greedy policy after each (as a run's policy checks)."""
+    checks = []
+    for i, n in enumerate(CHUNKS):
+        stepper.advance(n)
+        checks.append(run_episode(BlocksWorld(), agent, max_steps=100, seed=seed + i))
+    return checks
+
+
+@pytest.mark.parametrize("rep", sorted(REPRESENTATIONS))
+@pytest.mark.parametrize("agent_name", sorted(AGENTS))
+@pytest.mark.parametrize("seed", [0, 5])
+def test_same_seed_gives_the_same_learner_on_both_paths(rep, agent_name, seed):
+    python_domain, python_agent = _build(rep, agent_name, seed)
+    loop = LearningLoop(python_domain, python_agent, seed=seed)
+    python_checks = _learn(loop, python_agent, seed)
+    domain, agent = _build(rep, agent_name, seed)
+    stepper = for_combination(domain, agent, seed=seed)
+    assert isinstance(stepper, CompiledStepper) and stepper.combination.is_adaptive
+    assert _learn(stepper, agent, seed) == python_checks
+    np.testing.assert_array_equal(agent.weights_, python_agent.weights_)
+    assert agent.num_features == python_agent.num_features
+    assert (stepper.total_steps, stepper.num_episodes, stepper.is_mid_episode) == (
+        loop.total_steps,
+        loop.num_episodes,
+        loop.is_mid_episode,
+    )
+    assert (agent.episode_, agent.num_learning_steps_) == (
+        python_agent.episode_,
+        python_agent.num_learning_steps_,
+    )
+    assert agent.rng_.bit_generator.state == python_agent.rng_.bit_generator.state
+    assert domain.np_random.bit_generator.state == python_domain.np_random.bit_generator.state
+    assert (domain._on, domain._above) == (python_domain._on, python_domain._above)
+    np.testing.assert_array_equal(domain._obs, python_domain._obs)
+    if rep != "indicators":
+        compiled_rep, python_rep = agent.representation_, python_agent.representation_
+        assert compiled_rep.num_discovered_ == python_rep.num_discovered_ > 0
+        np.testing.assert_array_equal(compiled_rep.parents_, python_rep.parents_)
+        sets, parents, relevances = compiled_rep.potential_features()
+        python_sets, python_parents, python_relevances = python_rep.potential_features()
+        assert [s.tolist() for s in sets] == [s.tolist() for s in python_sets]
+        np.testing.assert_array_equal(parents, python_parents)
+        np.testing.assert_array_equal(relevances, python_relevances)
+        assert compiled_rep.num_discover_calls_ == python_rep.num_discover_calls_ == 20_000
+
+
+def test_episode_returns_are_the_python_paths():
+    # The compiled stepper's episode statistics equal the Python loop's last episodes.
+    domain, agent = _build("ifdd-plus", "sarsa", 2)
+    stats = for_combination(domain, agent, seed=2).advance(6000)
+    python_domain, python_agent = _build("ifdd-plus", "sarsa", 2)
+    loop = LearningLoop(python_domain, python_agent, seed=2)
+    lengths = []
+    while len(lengths) < len(stats.episode_lengths):
+        before = loop.num_completed_episodes
+        loop.advance(1)
+        if loop.num_completed_episodes > before:
+            lengths.append(loop.last_episode.num_steps)
+            assert loop.last_episode.episode_return == stats.episode_returns[len(lengths) - 1]
+    assert lengths == stats.episode_lengths.tolist()
+    assert stats.num_failures == 0 and not stats.episode_failures.any()
+    # a finished tower earns +1 and every move before it -0.001 (Section 4.1.4)
+    finished = stats.episode_lengths < 1000
+    expected = 1.0 - 0.001 * (stats.episode_lengths[finished] - 1)
+    np.testing.assert_allclose(stats.episode_returns[finished], expected)
+
+
+def test_the_representation_and_weights_grow_between_kernel_calls():
+    domain, agent = _build("ifdd-threshold", "sarsa", 1)
+    nodes = agent.representation_._arrays["node_key"].shape[0]
+    for_combination(domain, agent, seed=1).advance(20_000)
+    assert agent.representation_._arrays["node_key"].shape[0] > nodes  # `_grow` ran
+    rep = agent.representation_
+    assert agent.weights_.shape == (rep.num_features_, 36)
+    # θ_f of a discovered feature started at θ_g + θ_h: its rows are θ's own buffer rows
+    assert agent.weights_.base is not None and agent.weights_.base.shape[0] >= rep.num_features_
+
+
+def test_one_compilation_serves_every_blocksworld_combination():
+    for rep in REPRESENTATIONS:
+        for agent_name in AGENTS:
+            domain, agent = _build(rep, agent_name, 3)
+            for_combination(domain, agent, seed=3).advance(30)
+    stepper = for_combination(*_build("indicators", "sarsa", 0), seed=0)
+    assert is_warm(stepper) and len(ak.adaptive_kernel.overloads) == 1
+
+
+@pytest.mark.parametrize(
+    ("domain", "agent"),
+    [
+        (BlocksWorld(), SARSA(representation=BinaryIndicators(), trace_decay=0.5)),
+        (BlocksWorld(), SARSA(representation=OnlineIFDD(base=IndependentDiscretization()))),
+        (InvertedPendulum(), SARSA(representation=OnlineIFDD(base=IndependentDiscretization()))),
+        (BlocksWorld(), QLearning(representation=BinaryIndicators(), policy=Gibbs())),
+    ],
+)
+def test_blocksworld_combinations_the_kernel_does_not_cover(domain, agent):
+    combo = pack_combination(domain, agent.setup(domain.domain_spec, 0))
+    is_gibbs = isinstance(agent.policy, Gibbs)  # Gibbs over the legal moves is covered
+    assert (combo is not None) is is_gibbs
+
+
+def test_gibbs_over_legal_moves_matches_python():
+    def build():
+        domain = BlocksWorld(num_blocks=4)
+        agent = QLearning(
+            representation=OnlineIFDD(base=BinaryIndicators(), discovery_threshold=0.05),
+            policy=Gibbs(temperature=0.01),
+        )
+        return domain, agent.setup(domain.domain_spec, 4)
+
+    python_domain, python_agent = build()
+    LearningLoop(python_domain, python_agent, seed=4).advance(3000)
+    domain, agent = build()
+    for_combination(domain, agent, seed=4).advance(3000)
+    np.testing.assert_array_equal(agent.weights_, python_agent.weights_)
+    assert agent.rng_.bit_generator.state == python_agent.rng_.bit_generator.state
+
+
+def test_epsilon_greedy_chooses_only_legal_moves():
+    # ε = 1: every action is exploratory; an illegal one would raise in Python and corrupt
+    # the compiled state, so the state must stay a valid On vector after many steps.
+    domain = BlocksWorld()
+    agent = SARSA(representation=BinaryIndicators(), policy=EpsilonGreedy(epsilon=1.0))
+    for_combination(domain, agent.setup(domain.domain_spec, 0), seed=0).advance(5000)
+    assert domain.legal_actions(domain._obs).size > 0  # raises on a malformed state
+    on = domain._obs.reshape(6, 6).argmax(axis=1).tolist()
+    assert domain._obs.sum() == 6 and on == domain._on
