@@ -63,7 +63,10 @@ def test_actor_critic_with_gibbs_is_packed():
     [
         (InvertedPendulum(), SARSA(representation=RBF())),  # dense features
         (InvertedPendulum(), MySARSA(representation=Tabular())),  # a subclass
-        (BlocksWorld(), SARSA(representation=IndependentDiscretization())),  # legal actions
+        (
+            BlocksWorld(),
+            SARSA(representation=IndependentDiscretization(), trace_decay=0.5),
+        ),  # legal actions and traces
         (ChainMDP(), LSPI(representation=Tabular())),  # a batch learner
         (
             ChainMDP(),

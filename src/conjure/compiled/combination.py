@@ -16,9 +16,10 @@ Supported (Geramifard 2012, Algorithms 10-12):
 
 and, in `conjure.compiled._adaptive_kernel` (Section 4.1.4, Algorithms 19-21):
 
-- `BlocksWorld` (its legal moves) with `BinaryIndicators` or `OnlineIFDD` over
-  `BinaryIndicators` (any relevance, threshold or fixed-rate discovery), `SARSA` without
-  traces or `QLearning`, the policies and schedules above.
+- domains with legal actions: `BlocksWorld`, `PersistentSurveillance`;
+- representations: `BinaryIndicators` or `IndependentDiscretization`, alone or as the base
+  of `OnlineIFDD` (any relevance, threshold or fixed-rate discovery);
+- agents: `SARSA` without traces, `QLearning`; the policies and schedules above.
 
 Notes
 -----
@@ -46,10 +47,12 @@ from conjure.core.schedules import (
     FeatureNormalizedDecay,
     StepSizeSchedule,
 )
+from conjure.domains._uav_kernels import pst_fill_legal_mask
 from conjure.domains.blocksworld import BlocksWorld
 from conjure.domains.chain import ChainMDP
 from conjure.domains.gridworld import GridWorld
 from conjure.domains.pendulum import InvertedPendulum
+from conjure.domains.persistent_surveillance import PersistentSurveillance
 from conjure.policies import EpsilonGreedy, Gibbs
 from conjure.representations import (
     BinaryIndicators,
@@ -77,10 +80,12 @@ class Combination:
         ``(dparams, dtable, dcells)``, the domain's constants.
     representation_arrays : tuple of ndarray
         ``(rdims, rlayout, rgroups, rvec, htable, hcounts)``; the hash table is the
-        representation's own (updated in place by both paths). Empty for the adaptive
-        kernel, which reads `OnlineIFDD`'s tables at every call (they grow).
+        representation's own (updated in place by both paths). The adaptive kernel's are
+        ``(rdims, rvec)`` of the base; it reads `OnlineIFDD`'s tables at every call (they
+        grow).
     read_domain, write_domain : callable
-        Copy the domain's internal state to / from a float64 vector.
+        Copy the domain's internal state to / from a float64 vector (int64 for the adaptive
+        kernel).
     is_adaptive : bool
         Whether `conjure.compiled._adaptive_kernel` runs it (else ``advance_kernel``).
     """
@@ -153,7 +158,7 @@ def _blocks(domain: BlocksWorld) -> tuple:
     dparams = np.array([float(n), domain._drop, domain._step_reward, domain._goal_reward])
 
     def read(d: BlocksWorld) -> np.ndarray:
-        return np.concatenate([d._obs, np.array(d._on, float), np.array(d._above, float)])
+        return np.concatenate([d._obs.astype(np.int64), d._on, d._above]).astype(np.int64)
 
     def write(d: BlocksWorld, state: np.ndarray) -> None:
         d._obs[:] = state[: n * n]
@@ -163,11 +168,25 @@ def _blocks(domain: BlocksWorld) -> tuple:
     return ak.BLOCKS, (dparams, _INT_EMPTY, _FLOAT_EMPTY), read, write
 
 
+def _persistent_surveillance(domain: PersistentSurveillance) -> tuple:
+    dparams = np.array([float(x) for x in domain._args])
+
+    def read(d: PersistentSurveillance) -> np.ndarray:
+        return d._state.copy()
+
+    def write(d: PersistentSurveillance, state: np.ndarray) -> None:
+        d._state[:] = state
+        pst_fill_legal_mask(d._state, d._n, d._mask)
+
+    return ak.PERSISTENT_SURVEILLANCE, (dparams, _INT_EMPTY, _FLOAT_EMPTY), read, write
+
+
 _DOMAINS: dict[type, Callable[[Any], tuple]] = {
     InvertedPendulum: _pendulum,
     GridWorld: _gridworld,
     ChainMDP: _chain,
     BlocksWorld: _blocks,
+    PersistentSurveillance: _persistent_surveillance,
 }
 
 
@@ -199,12 +218,14 @@ def _representation(rep: Any) -> tuple[int, int, int, tuple[np.ndarray, ...]] | 
     return None
 
 
-def _adaptive_representation(rep: Any) -> int | None:
-    """The adaptive kernel's code of a representation on BlocksWorld, or None."""
-    if type(rep) is BinaryIndicators:
-        return ak.INDICATORS
-    if type(rep) is OnlineIFDD and type(rep.base_) is BinaryIndicators:
-        return ak.IFDD
+def _adaptive_representation(rep: Any) -> tuple[int, bool, tuple[np.ndarray, ...]] | None:
+    """(base code, whether iFDD is on top, (rdims, rvec)) for the adaptive kernel, or None."""
+    is_ifdd = type(rep) is OnlineIFDD
+    base = rep.base_ if is_ifdd else rep
+    if type(base) is BinaryIndicators:
+        return ak.INDICATORS, is_ifdd, (_FLOAT_EMPTY, np.zeros(0, dtype=np.int64))
+    if type(base) is IndependentDiscretization:
+        return k.INDEPENDENT, is_ifdd, (base._dims, base.offsets_)
     return None
 
 
@@ -263,12 +284,16 @@ def pack_combination(domain: Domain, agent: Agent) -> Combination | None:
     if agent_codes is None:
         return None
     domain_code, domain_arrays, read, write = domain_packer(domain)
-    is_adaptive = domain_code == ak.BLOCKS
+    is_adaptive = domain_code in (ak.BLOCKS, ak.PERSISTENT_SURVEILLANCE)
+    is_ifdd = False
     if is_adaptive:
-        rep = _adaptive_representation(agent.representation_)
         if agent_codes[0] == k.ACTOR_CRITIC or agent_codes[1] != k.NO_TRACES:
             return None
-        rep = None if rep is None else (rep, 0, 0, ())
+        adaptive = _adaptive_representation(agent.representation_)
+        if adaptive is None:
+            return None
+        rep_code, is_ifdd, arrays = adaptive
+        rep = (rep_code, 0, 0, arrays)
     elif domain.domain_spec.has_action_constraints:
         return None
     else:
@@ -294,10 +319,11 @@ def pack_combination(domain: Domain, agent: Agent) -> Combination | None:
         spec.max_episode_steps,
         traces,
     )
-    ints[[k.I_NUM_TILINGS, k.I_MAX_ACTIVE, k.I_NUM_ACTIONS]] = (
+    ints[[k.I_NUM_TILINGS, k.I_MAX_ACTIVE, k.I_NUM_ACTIONS, k.I_IFDD]] = (
         num_tilings,
         max_active,
         spec.num_actions,
+        is_ifdd,
     )
     floats = np.zeros(k.NUM_FLOATS)
     floats[[k.F_DISCOUNT, k.F_POLICY, k.F_ALPHA, k.F_N0]] = (
@@ -313,6 +339,8 @@ def pack_combination(domain: Domain, agent: Agent) -> Combination | None:
         min_trace,
     )
     contiguous = tuple(np.ascontiguousarray(a) for a in rep_arrays[:4]) + rep_arrays[4:]
+    if is_adaptive:
+        contiguous = tuple(np.ascontiguousarray(a) for a in rep_arrays)
     return Combination(
         ints=ints,
         floats=floats,

@@ -237,12 +237,13 @@ def _adaptive_arguments(combo: Combination, agent: Agent) -> tuple:
 
     θ gets room for every feature the iFDD tables can hold, so no discovery outgrows it.
     """
-    if combo.ints[k.I_REP] != ak.IFDD:
-        return None, (_NO_ACTIVATE, _NO_DISCOVER, agent.weights_)
+    base = combo.representation_arrays
+    if not combo.ints[k.I_IFDD]:
+        return None, (*base, _NO_ACTIVATE, _NO_DISCOVER, agent.weights_)
     rep = agent.representation_
     capacity = rep._discover_args[2].shape[0]  # feat_start: the most features it holds
     weights = _weight_buffer(agent.weights_, capacity)
-    return weights, (rep._activate_args, rep._discover_args, weights)
+    return weights, (*base, rep._activate_args, rep._discover_args, weights)
 
 
 def _weight_buffer(weights: np.ndarray, rows: int) -> np.ndarray:

@@ -76,8 +76,8 @@ def legal_moves_into(on: np.ndarray, above: np.ndarray, num_blocks: int, out: np
     return count
 
 
-# The compiled domain (conjure.compiled): ``dstate`` = [On vector (n²), on (n), above (n)],
-# ``dparams`` = [n, drop probability, step reward, goal reward].
+# The compiled domain (conjure.compiled): ``dstate`` (int64) = [On vector (n²), on (n),
+# above (n)], ``dparams`` = [n, drop probability, step reward, goal reward].
 
 
 @njit(cache=True)
@@ -85,12 +85,13 @@ def blocks_reset(num_blocks: int, dstate: np.ndarray, obs: np.ndarray) -> None:
     """Every block on the table, as `BlocksWorld.reset` (no random draw)."""
     n = num_blocks
     nn = n * n
-    dstate[:nn] = 0.0
+    dstate[:nn] = 0
     for b in range(n):
-        dstate[b * n + b] = 1.0
+        dstate[b * n + b] = 1
         dstate[nn + b] = b
-        dstate[nn + n + b] = -1.0
-    obs[:] = dstate[:nn]
+        dstate[nn + n + b] = -1
+    for i in range(nn):
+        obs[i] = dstate[i]
 
 
 @njit(cache=True)
@@ -102,18 +103,19 @@ def blocks_step(
     nn = n * n
     block = action // n
     target = action % n
-    source = int(dstate[nn + block])
+    source = dstate[nn + block]
     if rng.random() < dparams[1]:
         target = block  # dropped: lands on the table
     if source != block:
-        dstate[nn + n + source] = -1.0
+        dstate[nn + n + source] = -1
     if target != block:
         dstate[nn + n + target] = block
     dstate[nn + block] = target
-    dstate[block * n + source] = 0.0
-    dstate[block * n + target] = 1.0
-    obs[:] = dstate[:nn]
-    terminated = block == n - 1 and target == n - 2 and dstate[nn] == 0.0
+    dstate[block * n + source] = 0
+    dstate[block * n + target] = 1
+    for i in range(nn):
+        obs[i] = dstate[i]
+    terminated = block == n - 1 and target == n - 2 and dstate[nn] == 0
     for i in range(1, n):
         if not terminated:
             break

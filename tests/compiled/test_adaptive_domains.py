@@ -1,21 +1,30 @@
-"""BlocksWorld with online iFDD on the compiled path: same seed, same learner as in Python."""
+"""Constrained domains with online iFDD on the compiled path: same seed, same learner as Python.
+
+BlocksWorld and Persistent Surveillance (Geramifard 2012, Section 4.1.4) with their initial
+features alone or under online iFDD / iFDD+ (`conjure.compiled._adaptive_kernel`).
+"""
 
 import numpy as np
 import pytest
 
-from conjure.agents import SARSA, QLearning
+from conjure.agents import SARSA, ActorCritic, QLearning
 from conjure.compiled import CompiledStepper, for_combination, is_warm
 from conjure.compiled import _adaptive_kernel as ak
 from conjure.compiled.combination import pack_combination
 from conjure.core.schedules import EpisodicDecay, FeatureNormalizedDecay
-from conjure.domains import BlocksWorld, InvertedPendulum
+from conjure.domains import BlocksWorld, InvertedPendulum, PersistentSurveillance
 from conjure.experiments.loop import LearningLoop, run_episode
 from conjure.policies import EpsilonGreedy, Gibbs
-from conjure.representations import BinaryIndicators, IndependentDiscretization, OnlineIFDD
+from conjure.representations import (
+    BinaryIndicators,
+    IndependentDiscretization,
+    OnlineIFDD,
+    TileCoding,
+)
 
 DECAY = FeatureNormalizedDecay(alpha_0=0.1, n_0=100)
 
-#: The representations of Section 4.1.4's BlocksWorld runs (and a smaller ξ, to grow more).
+#: (domain, representation) of Section 4.1.4's runs (smaller ξ than the thesis's, to grow more).
 REPRESENTATIONS = {
     "ifdd-plus": lambda: OnlineIFDD(
         base=BinaryIndicators(), relevance="ifdd_plus", discovery_threshold=0.05
@@ -30,6 +39,18 @@ REPRESENTATIONS = {
     ),
     "ifdd-fixed-rate": lambda: OnlineIFDD(base=BinaryIndicators(), discovery_rate=0.4),
     "indicators": BinaryIndicators,
+    "ifdd-plus-over-buckets": lambda: OnlineIFDD(
+        base=IndependentDiscretization(num_buckets=2),
+        relevance="ifdd_plus",
+        discovery_threshold=0.05,
+    ),
+}
+PST_REPRESENTATIONS = {
+    "pst-ifdd-plus": lambda: OnlineIFDD(
+        base=IndependentDiscretization(), relevance="ifdd_plus", discovery_threshold=20.0
+    ),
+    "pst-ifdd-fixed-rate": lambda: OnlineIFDD(base=IndependentDiscretization(), discovery_rate=2),
+    "pst-independent": IndependentDiscretization,
 }
 AGENTS = {
     "sarsa": lambda rep: SARSA(representation=rep, step_size=DECAY),
@@ -41,32 +62,43 @@ AGENTS = {
 CHUNKS = (0, 1, 337, 1500, 5000, 13162)
 
 
+def _domain(rep: str):
+    return PersistentSurveillance() if rep.startswith("pst") else BlocksWorld()
+
+
 def _build(rep: str, agent: str, seed: int):
-    domain = BlocksWorld()
-    learner = AGENTS[agent](REPRESENTATIONS[rep]()).setup(domain.domain_spec, seed)
+    domain = _domain(rep)
+    make_rep = {**REPRESENTATIONS, **PST_REPRESENTATIONS}[rep]
+    learner = AGENTS[agent](make_rep()).setup(domain.domain_spec, seed)
     return domain, learner
 
 
-def _learn(stepper, agent, seed: int) -> list:
+def _learn(stepper, agent, seed: int, rep: str) -> list:
     """Advance by `CHUNKS`, checking the greedy policy after each (as a run's policy checks)."""
     checks = []
     for i, n in enumerate(CHUNKS):
         stepper.advance(n)
-        checks.append(run_episode(BlocksWorld(), agent, max_steps=100, seed=seed + i))
+        checks.append(run_episode(_domain(rep), agent, max_steps=100, seed=seed + i))
     return checks
 
 
-@pytest.mark.parametrize("rep", sorted(REPRESENTATIONS))
+def _domain_states(domain) -> tuple:
+    if isinstance(domain, BlocksWorld):
+        return domain._on, domain._above, domain._obs.tolist()
+    return domain._state.tolist(), domain._mask.tolist()
+
+
+@pytest.mark.parametrize("rep", sorted(REPRESENTATIONS) + sorted(PST_REPRESENTATIONS))
 @pytest.mark.parametrize("agent_name", sorted(AGENTS))
 @pytest.mark.parametrize("seed", [0, 5])
 def test_same_seed_gives_the_same_learner_on_both_paths(rep, agent_name, seed):
     python_domain, python_agent = _build(rep, agent_name, seed)
     loop = LearningLoop(python_domain, python_agent, seed=seed)
-    python_checks = _learn(loop, python_agent, seed)
+    python_checks = _learn(loop, python_agent, seed, rep)
     domain, agent = _build(rep, agent_name, seed)
     stepper = for_combination(domain, agent, seed=seed)
     assert isinstance(stepper, CompiledStepper) and stepper.combination.is_adaptive
-    assert _learn(stepper, agent, seed) == python_checks
+    assert _learn(stepper, agent, seed, rep) == python_checks
     np.testing.assert_array_equal(agent.weights_, python_agent.weights_)
     assert agent.num_features == python_agent.num_features
     assert (stepper.total_steps, stepper.num_episodes, stepper.is_mid_episode) == (
@@ -74,15 +106,15 @@ def test_same_seed_gives_the_same_learner_on_both_paths(rep, agent_name, seed):
         loop.num_episodes,
         loop.is_mid_episode,
     )
+    assert stepper.num_failures == loop.num_failures
     assert (agent.episode_, agent.num_learning_steps_) == (
         python_agent.episode_,
         python_agent.num_learning_steps_,
     )
     assert agent.rng_.bit_generator.state == python_agent.rng_.bit_generator.state
     assert domain.np_random.bit_generator.state == python_domain.np_random.bit_generator.state
-    assert (domain._on, domain._above) == (python_domain._on, python_domain._above)
-    np.testing.assert_array_equal(domain._obs, python_domain._obs)
-    if rep != "indicators":
+    assert _domain_states(domain) == _domain_states(python_domain)
+    if "ifdd" in rep:
         compiled_rep, python_rep = agent.representation_, python_agent.representation_
         assert compiled_rep.num_discovered_ == python_rep.num_discovered_ > 0
         np.testing.assert_array_equal(compiled_rep.parents_, python_rep.parents_)
@@ -126,8 +158,8 @@ def test_the_representation_and_weights_grow_between_kernel_calls():
     assert agent.weights_.base is not None and agent.weights_.base.shape[0] >= rep.num_features_
 
 
-def test_one_compilation_serves_every_blocksworld_combination():
-    for rep in REPRESENTATIONS:
+def test_one_compilation_serves_every_constrained_combination():
+    for rep in [*REPRESENTATIONS, *PST_REPRESENTATIONS]:
         for agent_name in AGENTS:
             domain, agent = _build(rep, agent_name, 3)
             for_combination(domain, agent, seed=3).advance(30)
@@ -139,15 +171,22 @@ def test_one_compilation_serves_every_blocksworld_combination():
     ("domain", "agent"),
     [
         (BlocksWorld(), SARSA(representation=BinaryIndicators(), trace_decay=0.5)),
-        (BlocksWorld(), SARSA(representation=OnlineIFDD(base=IndependentDiscretization()))),
+        (PersistentSurveillance(), SARSA(representation=TileCoding(memory_size=64))),
         (InvertedPendulum(), SARSA(representation=OnlineIFDD(base=IndependentDiscretization()))),
-        (BlocksWorld(), QLearning(representation=BinaryIndicators(), policy=Gibbs())),
+        (BlocksWorld(), ActorCritic(representation=BinaryIndicators())),
     ],
 )
-def test_blocksworld_combinations_the_kernel_does_not_cover(domain, agent):
-    combo = pack_combination(domain, agent.setup(domain.domain_spec, 0))
-    is_gibbs = isinstance(agent.policy, Gibbs)  # Gibbs over the legal moves is covered
-    assert (combo is not None) is is_gibbs
+def test_constrained_combinations_the_kernel_does_not_cover(domain, agent):
+    assert pack_combination(domain, agent.setup(domain.domain_spec, 0)) is None
+
+
+def test_persistent_surveillance_counts_crashes_as_python_does():
+    # Section 4.1.4: running out of fuel outside REFUEL ends the episode, the domain's failure.
+    domain, agent = _build("pst-independent", "sarsa", 8)
+    stats = for_combination(domain, agent, seed=8).advance(5000)
+    crashed = stats.episode_lengths < 1000
+    assert crashed.any() and stats.num_failures == int(stats.episode_failures.sum())
+    assert stats.episode_failures[crashed].tolist() == [1] * int(crashed.sum())
 
 
 def test_gibbs_over_legal_moves_matches_python():
