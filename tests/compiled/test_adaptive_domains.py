@@ -13,6 +13,7 @@ from conjure.compiled import _adaptive_kernel as ak
 from conjure.compiled.combination import pack_combination
 from conjure.core.schedules import EpisodicDecay, FeatureNormalizedDecay
 from conjure.domains import BlocksWorld, InvertedPendulum, PersistentSurveillance
+from conjure.experiments import run
 from conjure.experiments.loop import LearningLoop, run_episode
 from conjure.policies import EpsilonGreedy, Gibbs
 from conjure.representations import (
@@ -215,3 +216,44 @@ def test_epsilon_greedy_chooses_only_legal_moves():
     assert domain.legal_actions(domain._obs).size > 0  # raises on a malformed state
     on = domain._obs.reshape(6, 6).argmax(axis=1).tolist()
     assert domain._obs.sum() == 6 and on == domain._on
+
+
+def _curve(rows: list) -> list:
+    return [{k: v for k, v in row.items() if k not in ("wall_time_s", "steps_per_second")}
+            for row in rows]  # fmt: skip
+
+
+@pytest.mark.parametrize("rep", ["ifdd-plus", "pst-ifdd-plus"])
+def test_a_run_records_the_same_curve_on_both_paths(monkeypatch, rep):
+    import conjure.compiled
+
+    offered = []
+
+    def result(compiled: bool):
+        domain, _ = _build(rep, "sarsa", 0)
+        make_rep = {**REPRESENTATIONS, **PST_REPRESENTATIONS}[rep]
+        warmth = lambda stepper: offered.append(type(stepper)) or compiled  # noqa: E731
+        monkeypatch.setattr(conjure.compiled, "is_warm", warmth)
+        agent = AGENTS["sarsa"](make_rep())
+        return run(domain=domain, agent=agent, budget_steps=8000, seed=11, num_policy_checks=4)
+
+    python_result, compiled_result = result(False), result(True)
+    assert offered == [CompiledStepper, CompiledStepper]  # the compiled path ran the second
+    assert _curve(compiled_result.rows) == _curve(python_result.rows)
+    np.testing.assert_array_equal(compiled_result.agent.weights_, python_result.agent.weights_)
+
+
+def test_save_after_compiled_steps_and_continue_from_the_restored_agent(tmp_path):
+    domain, agent = _build("ifdd-plus", "qlearning", 6)
+    stepper = for_combination(domain, agent, seed=6)
+    stepper.advance(4000)
+    restored = type(agent).restore(agent.save(tmp_path / "agent"))
+    stepper.agent = restored  # the stepper reads its agent at every advance
+    stepper.advance(4000)
+    straight_domain, straight = _build("ifdd-plus", "qlearning", 6)
+    for_combination(straight_domain, straight, seed=6).advance(8000)
+    np.testing.assert_array_equal(restored.weights_, straight.weights_)
+    np.testing.assert_array_equal(
+        restored.representation_.parents_, straight.representation_.parents_
+    )
+    assert restored.rng_.bit_generator.state == straight.rng_.bit_generator.state
