@@ -20,6 +20,7 @@ from conjure.representations import (
     BinaryIndicators,
     IndependentDiscretization,
     OnlineIFDD,
+    RandomExpansion,
     TileCoding,
 )
 
@@ -59,6 +60,16 @@ AGENTS = {
         representation=rep, step_size=EpisodicDecay(alpha_0=0.05, n_0=100)
     ),
 }
+#: SARSA(λ) with sparse traces; λ = 1 with accumulating traces outgrows the trace arrays.
+TRACE_AGENTS = {
+    "sarsa-lambda": lambda rep: SARSA(representation=rep, step_size=DECAY, trace_decay=0.8),
+    "sarsa-accumulating": lambda rep: SARSA(
+        representation=rep,
+        step_size=FeatureNormalizedDecay(alpha_0=0.01, n_0=100),
+        trace_decay=1.0,
+        trace_kind="accumulating",
+    ),
+}
 #: Uneven advances (20,000 steps), with a greedy policy check after each.
 CHUNKS = (0, 1, 337, 1500, 5000, 13162)
 
@@ -70,7 +81,7 @@ def _domain(rep: str):
 def _build(rep: str, agent: str, seed: int):
     domain = _domain(rep)
     make_rep = {**REPRESENTATIONS, **PST_REPRESENTATIONS}[rep]
-    learner = AGENTS[agent](make_rep()).setup(domain.domain_spec, seed)
+    learner = {**AGENTS, **TRACE_AGENTS}[agent](make_rep()).setup(domain.domain_spec, seed)
     return domain, learner
 
 
@@ -93,6 +104,18 @@ def _domain_states(domain) -> tuple:
 @pytest.mark.parametrize("agent_name", sorted(AGENTS))
 @pytest.mark.parametrize("seed", [0, 5])
 def test_same_seed_gives_the_same_learner_on_both_paths(rep, agent_name, seed):
+    _check_both_paths(rep, agent_name, seed)
+
+
+@pytest.mark.parametrize(
+    "rep", ["ifdd-fixed-rate", "ifdd-threshold", "indicators", "pst-ifdd-plus"]
+)
+@pytest.mark.parametrize("agent_name", sorted(TRACE_AGENTS))
+def test_sarsa_lambda_gives_the_same_learner_on_both_paths(rep, agent_name):
+    _check_both_paths(rep, agent_name, 1)
+
+
+def _check_both_paths(rep: str, agent_name: str, seed: int) -> None:
     python_domain, python_agent = _build(rep, agent_name, seed)
     loop = LearningLoop(python_domain, python_agent, seed=seed)
     python_checks = _learn(loop, python_agent, seed, rep)
@@ -171,7 +194,7 @@ def test_one_compilation_serves_every_constrained_combination():
 @pytest.mark.parametrize(
     ("domain", "agent"),
     [
-        (BlocksWorld(), SARSA(representation=BinaryIndicators(), trace_decay=0.5)),
+        (BlocksWorld(), SARSA(representation=RandomExpansion(base=BinaryIndicators()))),
         (PersistentSurveillance(), SARSA(representation=TileCoding(memory_size=64))),
         (InvertedPendulum(), SARSA(representation=OnlineIFDD(base=IndependentDiscretization()))),
         (BlocksWorld(), ActorCritic(representation=BinaryIndicators())),
@@ -257,3 +280,15 @@ def test_save_after_compiled_steps_and_continue_from_the_restored_agent(tmp_path
         restored.representation_.parents_, straight.representation_.parents_
     )
     assert restored.rng_.bit_generator.state == straight.rng_.bit_generator.state
+
+
+def test_traces_and_their_slots_grow_between_kernel_calls():
+    domain, agent = _build("ifdd-fixed-rate", "sarsa-accumulating", 2)
+    for_combination(domain, agent, seed=2).advance(20_000)
+    assert agent.trace_values_.shape[0] > 1024  # GROW_TRACES: the agent's own growth ran
+    n = agent.representation_.num_features_
+    assert agent.trace_slots_.shape == (n, 36) and agent.weights_.shape == (n, 36)
+    live = agent.trace_count_[0]
+    slots = agent.trace_slots_[agent.trace_features_[:live], agent.trace_actions_[:live]]
+    assert slots.tolist() == list(range(live))  # every live trace is found from its slot
+    assert (agent.trace_slots_ >= 0).sum() == live

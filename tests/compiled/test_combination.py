@@ -63,10 +63,7 @@ def test_actor_critic_with_gibbs_is_packed():
     [
         (InvertedPendulum(), SARSA(representation=RBF())),  # dense features
         (InvertedPendulum(), MySARSA(representation=Tabular())),  # a subclass
-        (
-            BlocksWorld(),
-            SARSA(representation=IndependentDiscretization(), trace_decay=0.5),
-        ),  # legal actions and traces
+        (BlocksWorld(), ActorCritic(representation=IndependentDiscretization())),  # legal actions
         (ChainMDP(), LSPI(representation=Tabular())),  # a batch learner
         (
             ChainMDP(),

@@ -4,10 +4,10 @@
 constrained domains of Geramifard (2012), Section 4.1.4, BlocksWorld and Persistent
 Surveillance, with their initial features (`BinaryIndicators` or
 `IndependentDiscretization`) alone or with online iFDD on top (Algorithm 19 for φ̇, Algorithm
-20/21 or the fixed rate of Eq. 4.6 for discovery), and SARSA (Algorithm 11) or Q-Learning
-(Algorithm 10). It is a separate kernel from `conjure.compiled._kernels.advance_kernel`, so
-that kernel's compile time does not grow; it shares that module's constants, `step_size`,
-`select_action` and `record_episode`.
+20/21 or the fixed rate of Eq. 4.6 for discovery), and SARSA (Algorithm 11, with or without
+sparse eligibility traces) or Q-Learning (Algorithm 10). It is a separate kernel from
+`conjure.compiled._kernels.advance_kernel`, so that kernel's compile time does not grow; it
+shares that module's constants, `step_size`, `select_action` and `record_episode`.
 
 The kernel calls the library's own kernels (`blocks_step`, `pst_step`, `independent_features`,
 `activate`, `discover`, `td_step_binary`, ...) and draws from the same generators in the same
@@ -25,6 +25,11 @@ Arguments besides those of ``advance_kernel`` (``ints``, ``floats``, ``dparams``
   iFDD (``ints[I_IFDD] == 0``).
 - ``weights``: θ with at least as many rows as the representation can hold features
   (``feat_start``'s length), so a discovery never outgrows it; rows past n_t are scratch.
+- ``trace_slots`` (as many rows as ``weights``), ``trace_features``, ``trace_actions``,
+  ``trace_values``, ``trace_count``: SARSA's sparse traces (`td_step_traces_binary`), or
+  empty stand-ins without traces. A discovered feature's trace row starts empty (-1), as
+  SARSA's ``_grow`` appends it; `GROW_TRACES` stops before a step whose traces might not
+  fit (the caller grows them with the agent's own method).
 
 `GROW_REPRESENTATION` stops before a step whose `discover` would not fit in the iFDD arrays;
 the caller grows them with the representation's own method and calls again.
@@ -37,14 +42,17 @@ import math
 import numpy as np
 from numba import njit
 
-from conjure.agents._kernels import q_values_binary_into, td_step_binary
+from conjure.agents._kernels import clear_traces, q_values_binary_into
 from conjure.compiled._kernels import (
     DIVERGED,
     DONE,
     F_ALPHA,
     F_DISCOUNT,
+    F_MIN_TRACE,
     F_N0,
     F_POLICY,
+    F_TRACE_FACTOR,
+    GROW_TRACES,
     I_AGENT,
     I_CAP,
     I_DOMAIN,
@@ -53,6 +61,7 @@ from conjure.compiled._kernels import (
     I_POLICY,
     I_REP,
     I_SCHEDULE,
+    I_TRACES,
     IN_EPISODE,
     INDEPENDENT,
     L_ACTION,
@@ -66,10 +75,12 @@ from conjure.compiled._kernels import (
     LF_WEIGHT,
     NEEDS_BEGIN,
     NEEDS_RESET,
+    NO_TRACES,
     SARSA,
     record_episode,
     select_action,
     step_size,
+    td_update,
 )
 from conjure.domains._blocks_kernels import blocks_reset, blocks_step, legal_moves_into
 from conjure.domains._uav_kernels import BASE, pst_fill_legal_mask, pst_step
@@ -190,6 +201,11 @@ def adaptive_kernel(
     activate_args: tuple,
     discover_args: tuple,
     weights: np.ndarray,
+    trace_slots: np.ndarray,
+    trace_features: np.ndarray,
+    trace_actions: np.ndarray,
+    trace_values: np.ndarray,
+    trace_count: np.ndarray,
     agent_rng: np.random.Generator,
     obs: np.ndarray,
     loop: np.ndarray,
@@ -197,12 +213,16 @@ def adaptive_kernel(
 ) -> tuple[int, int, int, float, np.ndarray, np.ndarray]:
     """Take up to ``num_steps`` steps; return as ``advance_kernel`` does.
 
-    Stops early with `GROW_REPRESENTATION` (before the step) or `DIVERGED`.
+    Stops early with `GROW_REPRESENTATION` or `GROW_TRACES` (before the step) or `DIVERGED`.
     """
     d_kind, r_kind, agent, policy = ints[I_DOMAIN], ints[I_REP], ints[I_AGENT], ints[I_POLICY]
     cap, schedule, is_ifdd = ints[I_CAP], ints[I_SCHEDULE], ints[I_IFDD] != 0
     discount, parameter = floats[F_DISCOUNT], floats[F_POLICY]
     alpha_0, n_0 = floats[F_ALPHA], floats[F_N0]
+    traces = ints[I_TRACES]
+    trace_factor, min_trace = floats[F_TRACE_FACTOR], floats[F_MIN_TRACE]
+    sparse = (trace_factor, min_trace, trace_slots, trace_features, trace_actions, trace_values,
+              trace_count)  # fmt: skip
     num_units = int(dparams[0])  # blocks or UAVs
     feat_len, feat_parents = discover_args[3], discover_args[4]
     pool, node_key, table = discover_args[1], discover_args[5], discover_args[12]
@@ -232,6 +252,8 @@ def adaptive_kernel(
             phase = NEEDS_BEGIN
         if phase == NEEDS_BEGIN:
             episode += 1
+            if traces != NO_TRACES:
+                clear_traces(trace_slots, trace_features, trace_actions, trace_count)
             phi = _encode(r_kind, is_ifdd, obs, rdims, rvec, activate_args)
             q_values_binary_into(weights, phi, q)
             legal = _legal(d_kind, dstate, num_units, mask, legal_buffer)
@@ -241,6 +263,9 @@ def adaptive_kernel(
             phase = IN_EPISODE
         if is_ifdd and discover_room(phi, feat_len, pool, node_key, table, r_ints) < 0:
             status = GROW_REPRESENTATION
+            break
+        if traces != NO_TRACES and trace_count[0] + phi.shape[0] > trace_values.shape[0]:
+            status = GROW_TRACES
             break
         reward, terminated, cost = _step(
             d_kind, dparams, dstate, action, next_obs, mask, uniforms, domain_rng
@@ -263,7 +288,7 @@ def adaptive_kernel(
                     best = max(best, q[next_legal[i]])
                 target += discount * best
         alpha = step_size(schedule, alpha_0, n_0, max(episode, 1), float(phi.shape[0]))
-        delta = td_step_binary(weights, phi, action, target, alpha)  # lines 6-7
+        delta = td_update(weights, phi, action, target, alpha, traces, sparse)
         learning_steps += 1
         if not math.isfinite(delta):
             status = DIVERGED
@@ -279,7 +304,11 @@ def adaptive_kernel(
                     weights[f, a] = 0.0
                     weights[f, a] += weights[g, a]
                     weights[f, a] += weights[h, a]
+                if traces != NO_TRACES:
+                    trace_slots[f] = -1
             grew = added > 0
+        if traces != NO_TRACES and terminated:
+            clear_traces(trace_slots, trace_features, trace_actions, trace_count)
         done += 1
         if cost > 0.0:
             failures += 1

@@ -241,6 +241,31 @@ def record_episode(
     return ep_float, ep_int
 
 
+@njit(cache=True, inline="always")
+def td_update(
+    weights: np.ndarray,
+    phi: np.ndarray,
+    action: int,
+    target: float,
+    alpha: float,
+    traces: int,
+    sparse: tuple,
+) -> float:
+    """δ and θ's update (Algorithms 10-12, lines 6-7), through SARSA(λ)'s traces if any.
+
+    ``sparse`` = (γλ, min trace, slots, features, actions, values, count) of
+    `td_step_traces_binary`; unused when ``traces`` is `NO_TRACES`.
+    """
+    if traces == NO_TRACES:
+        return td_step_binary(weights, phi, action, target, alpha)
+    decay, min_trace, slots, features, actions, values, count = sparse
+    is_replacing = traces == REPLACING
+    return td_step_traces_binary(
+        weights, phi, action, target, alpha, decay, is_replacing, min_trace, slots, features,
+        actions, values, count,
+    )  # fmt: skip
+
+
 # ---------------------------------------------------------------------------------------------
 # The loop
 
@@ -295,7 +320,8 @@ def advance_kernel(
         floats[F_ACTOR_N0],
     )
     trace_factor, min_trace = floats[F_TRACE_FACTOR], floats[F_MIN_TRACE]
-    is_replacing = traces == REPLACING
+    sparse = (trace_factor, min_trace, trace_slots, trace_features, trace_actions, trace_values,
+              trace_count)  # fmt: skip
     legal = np.arange(ints[I_NUM_ACTIONS])
     # The actor's preferences choose actions for Actor-Critic (shared features), θ otherwise.
     chooser = actor_weights if agent == ACTOR_CRITIC else weights
@@ -385,24 +411,7 @@ def advance_kernel(
         counted = max(episode, 1)
         num_active = float(phi.shape[0])
         alpha = step_size(schedule, alpha_0, n_0, counted, num_active)
-        if traces == NO_TRACES:
-            delta = td_step_binary(weights, phi, action, target, alpha)
-        else:
-            delta = td_step_traces_binary(
-                weights,
-                phi,
-                action,
-                target,
-                alpha,
-                trace_factor,
-                is_replacing,
-                min_trace,
-                trace_slots,
-                trace_features,
-                trace_actions,
-                trace_values,
-                trace_count,
-            )
+        delta = td_update(weights, phi, action, target, alpha, traces, sparse)
         if agent == ACTOR_CRITIC and math.isfinite(delta):
             actor_alpha = step_size(actor_schedule, actor_alpha_0, actor_n_0, counted, num_active)
             add_binary(actor_weights, phi, action, actor_alpha * delta)

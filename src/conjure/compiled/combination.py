@@ -19,7 +19,7 @@ and, in `conjure.compiled._adaptive_kernel` (Section 4.1.4, Algorithms 19-21):
 - domains with legal actions: `BlocksWorld`, `PersistentSurveillance`;
 - representations: `BinaryIndicators` or `IndependentDiscretization`, alone or as the base
   of `OnlineIFDD` (any relevance, threshold or fixed-rate discovery);
-- agents: `SARSA` without traces, `QLearning`; the policies and schedules above.
+- agents: `SARSA` (with or without traces), `QLearning`; the policies and schedules above.
 
 Notes
 -----
@@ -287,7 +287,7 @@ def pack_combination(domain: Domain, agent: Agent) -> Combination | None:
     is_adaptive = domain_code in (ak.BLOCKS, ak.PERSISTENT_SURVEILLANCE)
     is_ifdd = False
     if is_adaptive:
-        if agent_codes[0] == k.ACTOR_CRITIC or agent_codes[1] != k.NO_TRACES:
+        if agent_codes[0] == k.ACTOR_CRITIC:
             return None
         adaptive = _adaptive_representation(agent.representation_)
         if adaptive is None:

@@ -19,12 +19,12 @@ Notes
   counter, the learning-step counter and the domain's state are written back after every
   ``advance``, so policy checks, `Agent.save` and the Python path see the same objects.
 - Choice: a learner's act/learn cache is dropped after every ``advance`` (θ changed under it).
-- Choice (BlocksWorld, `OnlineIFDD`): the representation's tables are its own arrays, updated
-  in place; when a discovery would not fit, the kernel returns, the representation grows them
-  with its own method and the kernel continues. θ is passed with as many rows as the
-  representation can hold features (a buffer that `append_rows` keeps using) and
-  ``weights_`` is set to its first n_t rows after every call, as the Python learner's
-  `grow_weights` would leave it.
+- Choice (constrained domains with `OnlineIFDD`): the representation's tables are its own
+  arrays, updated in place; when a discovery would not fit, the kernel returns, the
+  representation grows them with its own method and the kernel continues. θ (and SARSA(λ)'s
+  ``trace_slots_``) is passed with as many rows as the representation can hold features (a
+  buffer that `append_rows` keeps using) and set to its first n_t rows after every call, as
+  the Python learner's `grow_weights` / ``append_rows`` would leave it.
 - Compilation: two kernels, ``advance_kernel`` (fixed features, every action legal) and
   ``adaptive_kernel`` (legal actions, growing features); each serves all its combinations
   (the arguments have the same types), is compiled once per machine and cached on disk;
@@ -196,10 +196,10 @@ def _call_kernel(
 ) -> tuple:
     """One call of the combination's kernel with the agent's current arrays (they may grow)."""
     if combo.is_adaptive:
-        kernel, weights, middle = ak.adaptive_kernel, *_adaptive_arguments(combo, agent)
+        kernel, buffers, middle = ak.adaptive_kernel, *_adaptive_arguments(combo, agent)
         middle = (combo.domain_arrays[0], dstate, domain.np_random, *middle)
     else:
-        kernel, weights, middle = k.advance_kernel, None, _fixed_arguments(combo, agent)
+        kernel, buffers, middle = k.advance_kernel, None, _fixed_arguments(combo, agent)
         middle = (*combo.domain_arrays, dstate, domain.np_random, *middle)
     args = (combo.ints, combo.floats, *middle, agent.rng_, obs, loop, loop_f)
     name = kernel.__name__
@@ -210,50 +210,61 @@ def _call_kernel(
     try:
         return kernel(num_steps, *args)
     finally:
-        if weights is not None:  # θ: the first n_t rows of the buffer the kernel grew into
+        if buffers is not None:  # θ, slots: the first n_t rows of the buffers the kernel grew
+            weights, slots = buffers
             rep = agent.representation_
             rep.num_features_ = int(rep._ints[I_NUM_FEATURES])
             agent.weights_ = weights[: rep.num_features_]
+            if slots is not None:
+                agent.trace_slots_ = slots[: rep.num_features_]
 
 
 def _fixed_arguments(combo: Combination, agent: Agent) -> tuple:
     """``advance_kernel``'s representation, weight and trace arguments."""
-    if combo.ints[k.I_TRACES] == k.NO_TRACES:
-        traces = (_EMPTY_SLOTS, _EMPTY_INTS, _EMPTY_INTS, _EMPTY_FLOATS, _EMPTY_INTS)
-    else:
-        traces = (
-            agent.trace_slots_,
-            agent.trace_features_,
-            agent.trace_actions_,
-            agent.trace_values_,
-            agent.trace_count_,
-        )
     actor = agent.actor_weights_ if combo.ints[k.I_AGENT] == k.ACTOR_CRITIC else agent.weights_
-    return (*combo.representation_arrays, agent.weights_, actor, *traces)
+    return (*combo.representation_arrays, agent.weights_, actor, *_traces(combo, agent))
+
+
+def _traces(combo: Combination, agent: Agent, slots: np.ndarray | None = None) -> tuple:
+    """The sparse trace arguments (``slots`` replaces ``trace_slots_``), or stand-ins."""
+    if combo.ints[k.I_TRACES] == k.NO_TRACES:
+        return (_EMPTY_SLOTS, _EMPTY_INTS, _EMPTY_INTS, _EMPTY_FLOATS, _EMPTY_INTS)
+    return (
+        agent.trace_slots_ if slots is None else slots,
+        agent.trace_features_,
+        agent.trace_actions_,
+        agent.trace_values_,
+        agent.trace_count_,
+    )
 
 
 def _adaptive_arguments(combo: Combination, agent: Agent) -> tuple:
-    """(θ's buffer if iFDD may grow it else None, ``adaptive_kernel``'s tables and θ).
+    """((θ, trace slots) buffers if iFDD may grow them else None, ``adaptive_kernel``'s tables).
 
-    θ gets room for every feature the iFDD tables can hold, so no discovery outgrows it.
+    θ and the trace slots get room for every feature the iFDD tables can hold, so no
+    discovery outgrows them.
     """
     base = combo.representation_arrays
     if not combo.ints[k.I_IFDD]:
-        return None, (*base, _NO_ACTIVATE, _NO_DISCOVER, agent.weights_)
+        traces = _traces(combo, agent)
+        return None, (*base, _NO_ACTIVATE, _NO_DISCOVER, agent.weights_, *traces)
     rep = agent.representation_
     capacity = rep._discover_args[2].shape[0]  # feat_start: the most features it holds
-    weights = _weight_buffer(agent.weights_, capacity)
-    return weights, (*base, rep._activate_args, rep._discover_args, weights)
+    weights = _row_buffer(agent.weights_, capacity)
+    traces = _traces(combo, agent)
+    slots = None if traces[0] is _EMPTY_SLOTS else _row_buffer(traces[0], capacity)
+    traces = _traces(combo, agent, slots)
+    return (weights, slots), (*base, rep._activate_args, rep._discover_args, weights, *traces)
 
 
-def _weight_buffer(weights: np.ndarray, rows: int) -> np.ndarray:
-    """θ itself or the buffer it leads (`append_rows`) if it has ``rows`` rows, else a copy."""
-    if weights.shape[0] >= rows and weights.flags.c_contiguous:
-        return weights
-    if _is_leading_view(weights) and weights.base.shape[0] >= rows:
-        return weights.base
-    buffer = np.empty((max(rows, 2 * weights.shape[0]), *weights.shape[1:]))
-    buffer[: weights.shape[0]] = weights
+def _row_buffer(array: np.ndarray, rows: int) -> np.ndarray:
+    """``array`` or the buffer it leads (`append_rows`) if it has ``rows`` rows, else a copy."""
+    if array.shape[0] >= rows and array.flags.c_contiguous:
+        return array
+    if _is_leading_view(array) and array.base.shape[0] >= rows:
+        return array.base
+    buffer = np.empty((max(rows, 2 * array.shape[0]), *array.shape[1:]), dtype=array.dtype)
+    buffer[: array.shape[0]] = array
     return buffer
 
 
