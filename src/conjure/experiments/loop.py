@@ -283,7 +283,8 @@ LearningLoop = Stepper
 
 
 #: A run at least this long takes the compiled path even when the kernel is not yet compiled:
-#: the one-time compile (about 20 s on 2 cores) costs less than the Python steps it saves.
+#: the one-time compile (about 20 s on 2 cores; 40 s for the iFDD kernel with an empty numba
+#: cache) costs less than the Python steps it saves.
 COMPILE_WORTH_STEPS = 2_000_000
 
 
