@@ -1,6 +1,7 @@
 """Online iFDD's speed: per-step cost vs. the number of features, and the cost of a discovery.
 
-Usage: ``python benchmarks/ifdd_speed.py [--steps N] [--repeats R] [--growth-only]``
+Usage: ``python benchmarks/ifdd_speed.py [--steps N] [--repeats R] [--growth-only |
+--paths-only]``
 
 The thesis's claim (Geramifard 2012, Section 4.1.3) is that online iFDD's per-step cost does
 not depend on the total number of features n_t. Three measurements, after a warm-up (numba
@@ -17,6 +18,11 @@ compilation excluded), each the median of ``repeats`` runs:
    dimension, ξ = 0.5), BlocksWorld and Persistent Surveillance (the examples/ settings).
 3. Microseconds of one `discover` call that adds exactly one feature (a fresh pair), with and
    without the learner's `grow_weights`, against a call that adds nothing.
+4. SARSA + iFDD+ on BlocksWorld (``examples/blocksworld.yaml``'s ``ifdd_plus`` agent) and
+   Persistent Surveillance on the Python path (`LearningLoop`) and on the compiled path
+   (`conjure.compiled`, issue 11), the same 5 N steps from the same seeds; the compiled
+   kernel's first call in this process (compile, or load from numba's disk cache) is timed
+   separately and not in steps/s. ``--paths-only`` runs only this table.
 """
 
 from __future__ import annotations
@@ -30,6 +36,8 @@ from rich.console import Console
 from rich.table import Table
 
 from conjure.agents import SARSA
+from conjure.compiled import compile_seconds, for_combination
+from conjure.core.schedules import FeatureNormalizedDecay
 from conjure.domains import BlocksWorld, InvertedPendulum, PersistentSurveillance
 from conjure.experiments.loop import LearningLoop
 from conjure.policies import EpsilonGreedy
@@ -146,13 +154,84 @@ def discovery_cost(num: int, repeats: int) -> tuple[float, float, float]:
     return tuple(statistics.median(r[i] for r in results) for i in range(3))
 
 
+def blocks_ifdd_plus() -> tuple[BlocksWorld, SARSA]:
+    """A fresh BlocksWorld and examples/blocksworld.yaml's ``ifdd_plus`` learner (not set up)."""
+    representation = OnlineIFDD(
+        base=BinaryIndicators(), discovery_threshold=0.05, relevance="ifdd_plus"
+    )
+    step_size = FeatureNormalizedDecay(alpha_0=0.1, n_0=100)
+    policy = EpsilonGreedy(epsilon=0.1)
+    agent = SARSA(representation=representation, policy=policy, step_size=step_size)
+    return BlocksWorld(), agent
+
+
+def surveillance_ifdd_plus() -> tuple[PersistentSurveillance, SARSA]:
+    """A fresh Persistent Surveillance and the iFDD+ learner of `DOMAIN_WORKLOADS`."""
+    return PersistentSurveillance(), sarsa(DOMAIN_WORKLOADS[2][2].clone())
+
+
+#: (name, fresh (domain, learner)) of the Python vs compiled comparison (issue 11).
+PATH_WORKLOADS = (
+    ("BlocksWorld, iFDD+ xi = 0.05 (examples/)", blocks_ifdd_plus),
+    ("PersistentSurveillance, iFDD+ xi = 200", surveillance_ifdd_plus),
+)
+
+
+def both_paths(make, steps: int, repeats: int) -> dict[str, tuple[float, int]]:
+    """Median steps/s and final features of the Python and compiled paths (seeds 1..repeats)."""
+    results: dict[str, tuple[float, int]] = {}
+    for path in ("python", "compiled"):
+        rates, features = [], []
+        for seed in range(repeats + 1):  # seed 0 warms up (numba's cache, the kernel)
+            domain, agent = make()
+            agent.setup(domain.domain_spec, seed=seed)
+            if path == "python":
+                stepper = LearningLoop(domain, agent, seed=seed)
+            else:
+                stepper = for_combination(domain, agent, seed=seed)
+            start = time.perf_counter()
+            stepper.advance(steps if seed else 1_000)
+            if seed:
+                rates.append(steps / (time.perf_counter() - start))
+                features.append(agent.representation_.num_features_)
+        results[path] = (statistics.median(rates), int(statistics.median(features)))
+    return results
+
+
+def print_both_paths(console: Console, steps: int, repeats: int) -> None:
+    table = Table(title=f"SARSA + iFDD+, Python vs compiled path: {steps:,} steps per run")
+    table.add_column("workload")
+    table.add_column("path")
+    table.add_column("steps/s", justify="right")
+    table.add_column("us/step", justify="right")
+    table.add_column("final features", justify="right")
+    for name, make in PATH_WORKLOADS:
+        results = both_paths(make, steps, repeats)
+        for path, (rate, features) in results.items():
+            table.add_row(name, path, f"{rate:,.0f}", f"{1e6 / rate:.2f}", f"{features:,}")
+        ratio = results["compiled"][0] / results["python"][0]
+        table.add_row(name, "compiled / python", f"{ratio:.1f}x", "", "")
+    console.print(table)
+    console.print(
+        f"the compiled kernels' first calls in this process (compile or cache load; not in "
+        f"steps/s, the warm-up seed makes them): {compile_seconds():.2f} s",
+        highlight=False,
+    )
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--steps", type=int, default=20_000)
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--growth-only", action="store_true", help="only the per-step cost")
+    parser.add_argument(
+        "--paths-only", action="store_true", help="only the Python vs compiled paths"
+    )
     args = parser.parse_args()
     console = Console()
+    if args.paths_only:
+        print_both_paths(console, 5 * args.steps, args.repeats)
+        return
 
     table = Table(title="SARSA + OnlineIFDD per step vs. discovered features (iFDD, xi = 0)")
     table.add_column("workload")
@@ -190,6 +269,8 @@ def main() -> None:
     table.add_row("discover() + grow_weights()", f"{with_weights:.2f}")
     table.add_row("discover() adding nothing (same pair)", f"{idle:.2f}")
     console.print(table)
+
+    print_both_paths(console, 5 * args.steps, args.repeats)
 
 
 if __name__ == "__main__":

@@ -63,7 +63,7 @@ def test_actor_critic_with_gibbs_is_packed():
     [
         (InvertedPendulum(), SARSA(representation=RBF())),  # dense features
         (InvertedPendulum(), MySARSA(representation=Tabular())),  # a subclass
-        (BlocksWorld(), SARSA(representation=IndependentDiscretization())),  # legal actions
+        (BlocksWorld(), ActorCritic(representation=IndependentDiscretization())),  # legal actions
         (ChainMDP(), LSPI(representation=Tabular())),  # a batch learner
         (
             ChainMDP(),

@@ -335,11 +335,11 @@ def test_learning_loop_counts_failures_of_the_steps_it_took():
 
 
 @pytest.mark.parametrize(
-    ("warm", "budget_steps", "expected_asks"),
-    [(True, 0, 2), (False, COMPILE_WORTH_STEPS, 2), (False, COMPILE_WORTH_STEPS - 1, 0)],
+    ("warm", "budget_steps", "is_compiled"),
+    [(True, 0, True), (False, COMPILE_WORTH_STEPS, True), (False, COMPILE_WORTH_STEPS - 1, False)],
 )
 def test_learning_stepper_uses_the_compiled_path_only_when_worth_it_and_answered(
-    monkeypatch, warm, budget_steps, expected_asks
+    monkeypatch, warm, budget_steps, is_compiled
 ):
     import sys
     import types
@@ -354,13 +354,17 @@ def test_learning_stepper_uses_the_compiled_path_only_when_worth_it_and_answered
         return "compiled stepper" if len(asked) == 1 else None
 
     compiled.for_combination = for_combination
-    compiled.is_warm = lambda: warm
+    warmth_asked = []
+    compiled.is_warm = lambda stepper: warmth_asked.append(stepper) or warm
     monkeypatch.setitem(sys.modules, "conjure.compiled", compiled)
     first = learning_stepper(domain, agent, seed=4, budget_steps=budget_steps)
     fallback = learning_stepper(domain, agent, seed=4, budget_steps=budget_steps)
     assert type(fallback) is Stepper and fallback.learn
-    assert asked == [(domain, agent, 4)] * expected_asks
-    assert (first == "compiled stepper") is (expected_asks > 0)
+    assert asked == [(domain, agent, 4)] * 2
+    assert (first == "compiled stepper") is is_compiled
+    # the warmth asked about is that of the stepper's own kernel, and only for a short run
+    short = budget_steps < COMPILE_WORTH_STEPS
+    assert warmth_asked == (["compiled stepper"] if short else [])
 
 
 def test_greedy_and_timed_steppers_take_the_learning_steppers_steps():

@@ -66,7 +66,8 @@ NEEDS_RESET, NEEDS_BEGIN, IN_EPISODE = 0, 1, 2
 # ints
 I_DOMAIN, I_REP, I_AGENT, I_POLICY, I_SCHEDULE, I_ACTOR_SCHEDULE = 0, 1, 2, 3, 4, 5
 I_CAP, I_TRACES, I_NUM_TILINGS, I_MAX_ACTIVE, I_NUM_ACTIONS = 6, 7, 8, 9, 10
-NUM_INTS = 11
+I_IFDD = 11  # 1 when online iFDD sits on the representation (`_adaptive_kernel` only)
+NUM_INTS = 12
 # floats
 F_DISCOUNT, F_POLICY, F_ALPHA, F_N0, F_ACTOR_ALPHA, F_ACTOR_N0 = 0, 1, 2, 3, 4, 5
 F_TRACE_FACTOR, F_MIN_TRACE = 6, 7
@@ -219,6 +220,52 @@ def select_action(
     return gibbs_action(values, legal, parameter, u)
 
 
+@njit(cache=True, inline="always")
+def record_episode(
+    ep_float: np.ndarray,
+    ep_int: np.ndarray,
+    index: int,
+    total: float,
+    discounted: float,
+    length: int,
+    failures: int,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Write an ended episode's statistics at row ``index`` (doubling the arrays when full)."""
+    if index == ep_float.shape[0]:
+        ep_float = np.concatenate((ep_float, np.empty_like(ep_float)))
+        ep_int = np.concatenate((ep_int, np.empty_like(ep_int)))
+    ep_float[index, 0] = total
+    ep_float[index, 1] = discounted
+    ep_int[index, 0] = length
+    ep_int[index, 1] = failures
+    return ep_float, ep_int
+
+
+@njit(cache=True, inline="always")
+def td_update(
+    weights: np.ndarray,
+    phi: np.ndarray,
+    action: int,
+    target: float,
+    alpha: float,
+    traces: int,
+    sparse: tuple,
+) -> float:
+    """δ and θ's update (Algorithms 10-12, lines 6-7), through SARSA(λ)'s traces if any.
+
+    ``sparse`` = (γλ, min trace, slots, features, actions, values, count) of
+    `td_step_traces_binary`; unused when ``traces`` is `NO_TRACES`.
+    """
+    if traces == NO_TRACES:
+        return td_step_binary(weights, phi, action, target, alpha)
+    decay, min_trace, slots, features, actions, values, count = sparse
+    is_replacing = traces == REPLACING
+    return td_step_traces_binary(
+        weights, phi, action, target, alpha, decay, is_replacing, min_trace, slots, features,
+        actions, values, count,
+    )  # fmt: skip
+
+
 # ---------------------------------------------------------------------------------------------
 # The loop
 
@@ -273,7 +320,8 @@ def advance_kernel(
         floats[F_ACTOR_N0],
     )
     trace_factor, min_trace = floats[F_TRACE_FACTOR], floats[F_MIN_TRACE]
-    is_replacing = traces == REPLACING
+    sparse = (trace_factor, min_trace, trace_slots, trace_features, trace_actions, trace_values,
+              trace_count)  # fmt: skip
     legal = np.arange(ints[I_NUM_ACTIONS])
     # The actor's preferences choose actions for Actor-Critic (shared features), θ otherwise.
     chooser = actor_weights if agent == ACTOR_CRITIC else weights
@@ -363,24 +411,7 @@ def advance_kernel(
         counted = max(episode, 1)
         num_active = float(phi.shape[0])
         alpha = step_size(schedule, alpha_0, n_0, counted, num_active)
-        if traces == NO_TRACES:
-            delta = td_step_binary(weights, phi, action, target, alpha)
-        else:
-            delta = td_step_traces_binary(
-                weights,
-                phi,
-                action,
-                target,
-                alpha,
-                trace_factor,
-                is_replacing,
-                min_trace,
-                trace_slots,
-                trace_features,
-                trace_actions,
-                trace_values,
-                trace_count,
-            )
+        delta = td_update(weights, phi, action, target, alpha, traces, sparse)
         if agent == ACTOR_CRITIC and math.isfinite(delta):
             actor_alpha = step_size(actor_schedule, actor_alpha_0, actor_n_0, counted, num_active)
             add_binary(actor_weights, phi, action, actor_alpha * delta)
@@ -399,13 +430,9 @@ def advance_kernel(
         discounted += weight * reward
         weight *= discount
         if terminated or episode_steps >= cap:
-            if num_ended == ep_float.shape[0]:
-                ep_float = np.concatenate((ep_float, np.empty_like(ep_float)))
-                ep_int = np.concatenate((ep_int, np.empty_like(ep_int)))
-            ep_float[num_ended, 0] = total
-            ep_float[num_ended, 1] = discounted
-            ep_int[num_ended, 0] = episode_steps
-            ep_int[num_ended, 1] = episode_failures
+            ep_float, ep_int = record_episode(
+                ep_float, ep_int, num_ended, total, discounted, episode_steps, episode_failures
+            )
             num_ended += 1
             phase = NEEDS_RESET
         else:

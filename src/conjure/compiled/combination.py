@@ -14,6 +14,13 @@ Supported (Geramifard 2012, Algorithms 10-12):
 - policies: `EpsilonGreedy`, `Gibbs`; schedules: `ConstantStepSize`,
   `FeatureNormalizedDecay`, `EpisodicDecay`.
 
+and, in `conjure.compiled._adaptive_kernel` (Section 4.1.4, Algorithms 19-21):
+
+- domains with legal actions: `BlocksWorld`, `PersistentSurveillance`;
+- representations: `BinaryIndicators` or `IndependentDiscretization`, alone or as the base
+  of `OnlineIFDD` (any relevance, threshold or fixed-rate discovery);
+- agents: `SARSA` (with or without traces), `QLearning`; the policies and schedules above.
+
 Notes
 -----
 - Choice: the packing reads the components' set-up tables (tile layout, strides, offsets, move
@@ -31,6 +38,7 @@ import numpy as np
 from conjure.agents.actor_critic import ActorCritic
 from conjure.agents.q_learning import QLearning
 from conjure.agents.sarsa import SARSA
+from conjure.compiled import _adaptive_kernel as ak
 from conjure.compiled import _kernels as k
 from conjure.core.interfaces import Agent, Domain, check_is_set_up
 from conjure.core.schedules import (
@@ -39,11 +47,20 @@ from conjure.core.schedules import (
     FeatureNormalizedDecay,
     StepSizeSchedule,
 )
+from conjure.domains._uav_kernels import pst_fill_legal_mask
+from conjure.domains.blocksworld import BlocksWorld
 from conjure.domains.chain import ChainMDP
 from conjure.domains.gridworld import GridWorld
 from conjure.domains.pendulum import InvertedPendulum
+from conjure.domains.persistent_surveillance import PersistentSurveillance
 from conjure.policies import EpsilonGreedy, Gibbs
-from conjure.representations import IndependentDiscretization, Tabular, TileCoding
+from conjure.representations import (
+    BinaryIndicators,
+    IndependentDiscretization,
+    OnlineIFDD,
+    Tabular,
+    TileCoding,
+)
 
 __all__ = ["Combination", "pack_combination"]
 
@@ -63,9 +80,14 @@ class Combination:
         ``(dparams, dtable, dcells)``, the domain's constants.
     representation_arrays : tuple of ndarray
         ``(rdims, rlayout, rgroups, rvec, htable, hcounts)``; the hash table is the
-        representation's own (updated in place by both paths).
+        representation's own (updated in place by both paths). The adaptive kernel's are
+        ``(rdims, rvec)`` of the base; it reads `OnlineIFDD`'s tables at every call (they
+        grow).
     read_domain, write_domain : callable
-        Copy the domain's internal state to / from a float64 vector.
+        Copy the domain's internal state to / from a float64 vector (int64 for the adaptive
+        kernel).
+    is_adaptive : bool
+        Whether `conjure.compiled._adaptive_kernel` runs it (else ``advance_kernel``).
     """
 
     ints: np.ndarray
@@ -74,6 +96,7 @@ class Combination:
     representation_arrays: tuple[np.ndarray, ...]
     read_domain: Callable[[Domain], np.ndarray]
     write_domain: Callable[[Domain, np.ndarray], None]
+    is_adaptive: bool = False
 
 
 # ---------------------------------------------------------------------------------------------
@@ -130,10 +153,40 @@ def _chain(domain: ChainMDP) -> tuple:
     return k.CHAIN, (dparams, _INT_EMPTY, _FLOAT_EMPTY), read, write
 
 
+def _blocks(domain: BlocksWorld) -> tuple:
+    n = domain._n
+    dparams = np.array([float(n), domain._drop, domain._step_reward, domain._goal_reward])
+
+    def read(d: BlocksWorld) -> np.ndarray:
+        return np.concatenate([d._obs.astype(np.int64), d._on, d._above]).astype(np.int64)
+
+    def write(d: BlocksWorld, state: np.ndarray) -> None:
+        d._obs[:] = state[: n * n]
+        d._on = [int(x) for x in state[n * n : n * n + n]]
+        d._above = [int(x) for x in state[n * n + n :]]
+
+    return ak.BLOCKS, (dparams, _INT_EMPTY, _FLOAT_EMPTY), read, write
+
+
+def _persistent_surveillance(domain: PersistentSurveillance) -> tuple:
+    dparams = np.array([float(x) for x in domain._args])
+
+    def read(d: PersistentSurveillance) -> np.ndarray:
+        return d._state.copy()
+
+    def write(d: PersistentSurveillance, state: np.ndarray) -> None:
+        d._state[:] = state
+        pst_fill_legal_mask(d._state, d._n, d._mask)
+
+    return ak.PERSISTENT_SURVEILLANCE, (dparams, _INT_EMPTY, _FLOAT_EMPTY), read, write
+
+
 _DOMAINS: dict[type, Callable[[Any], tuple]] = {
     InvertedPendulum: _pendulum,
     GridWorld: _gridworld,
     ChainMDP: _chain,
+    BlocksWorld: _blocks,
+    PersistentSurveillance: _persistent_surveillance,
 }
 
 
@@ -162,6 +215,17 @@ def _representation(rep: Any) -> tuple[int, int, int, tuple[np.ndarray, ...]] | 
     if kind is IndependentDiscretization:
         arrays = (rep._dims, _INT_EMPTY, _INT_EMPTY, rep.offsets_, _INT_EMPTY, empty_vec)
         return k.INDEPENDENT, 0, rep.offsets_.shape[0], arrays
+    return None
+
+
+def _adaptive_representation(rep: Any) -> tuple[int, bool, tuple[np.ndarray, ...]] | None:
+    """(base code, whether iFDD is on top, (rdims, rvec)) for the adaptive kernel, or None."""
+    is_ifdd = type(rep) is OnlineIFDD
+    base = rep.base_ if is_ifdd else rep
+    if type(base) is BinaryIndicators:
+        return ak.INDICATORS, is_ifdd, (_FLOAT_EMPTY, np.zeros(0, dtype=np.int64))
+    if type(base) is IndependentDiscretization:
+        return k.INDEPENDENT, is_ifdd, (base._dims, base.offsets_)
     return None
 
 
@@ -216,12 +280,24 @@ def pack_combination(domain: Domain, agent: Agent) -> Combination | None:
     if type(agent) not in (SARSA, QLearning, ActorCritic) or domain_packer is None:
         return None  # decided on exact types alone: other agents' attributes are not read
     check_is_set_up(agent, "pack_combination")
-    if domain.domain_spec.has_action_constraints:
-        return None
     agent_codes = _agent(agent)
     if agent_codes is None:
         return None
-    rep = _representation(agent.representation_)
+    domain_code, domain_arrays, read, write = domain_packer(domain)
+    is_adaptive = domain_code in (ak.BLOCKS, ak.PERSISTENT_SURVEILLANCE)
+    is_ifdd = False
+    if is_adaptive:
+        if agent_codes[0] == k.ACTOR_CRITIC:
+            return None
+        adaptive = _adaptive_representation(agent.representation_)
+        if adaptive is None:
+            return None
+        rep_code, is_ifdd, arrays = adaptive
+        rep = (rep_code, 0, 0, arrays)
+    elif domain.domain_spec.has_action_constraints:
+        return None
+    else:
+        rep = _representation(agent.representation_)
     policy = _policy(agent.policy_)
     schedule = _schedule(agent.schedule_)
     if rep is None or policy is None or schedule is None:
@@ -229,7 +305,6 @@ def pack_combination(domain: Domain, agent: Agent) -> Combination | None:
     agent_code, traces, trace_factor, min_trace, actor = agent_codes
     actor = schedule if actor is None else actor
     rep_code, num_tilings, max_active, rep_arrays = rep
-    domain_code, domain_arrays, read, write = domain_packer(domain)
     spec = domain.domain_spec
     ints = np.zeros(k.NUM_INTS, dtype=np.int64)
     ints[[k.I_DOMAIN, k.I_REP, k.I_AGENT, k.I_POLICY]] = (
@@ -244,10 +319,11 @@ def pack_combination(domain: Domain, agent: Agent) -> Combination | None:
         spec.max_episode_steps,
         traces,
     )
-    ints[[k.I_NUM_TILINGS, k.I_MAX_ACTIVE, k.I_NUM_ACTIONS]] = (
+    ints[[k.I_NUM_TILINGS, k.I_MAX_ACTIVE, k.I_NUM_ACTIONS, k.I_IFDD]] = (
         num_tilings,
         max_active,
         spec.num_actions,
+        is_ifdd,
     )
     floats = np.zeros(k.NUM_FLOATS)
     floats[[k.F_DISCOUNT, k.F_POLICY, k.F_ALPHA, k.F_N0]] = (
@@ -263,6 +339,8 @@ def pack_combination(domain: Domain, agent: Agent) -> Combination | None:
         min_trace,
     )
     contiguous = tuple(np.ascontiguousarray(a) for a in rep_arrays[:4]) + rep_arrays[4:]
+    if is_adaptive:
+        contiguous = tuple(np.ascontiguousarray(a) for a in rep_arrays)
     return Combination(
         ints=ints,
         floats=floats,
@@ -270,4 +348,5 @@ def pack_combination(domain: Domain, agent: Agent) -> Combination | None:
         representation_arrays=contiguous,
         read_domain=read,
         write_domain=write,
+        is_adaptive=is_adaptive,
     )

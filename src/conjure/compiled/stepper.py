@@ -19,9 +19,16 @@ Notes
   counter, the learning-step counter and the domain's state are written back after every
   ``advance``, so policy checks, `Agent.save` and the Python path see the same objects.
 - Choice: a learner's act/learn cache is dropped after every ``advance`` (θ changed under it).
-- Compilation: one kernel serves every combination (the arguments have the same types), compiled
-  once per machine and cached on disk; `compile_seconds` reports the first call's cost
-  in this process.
+- Choice (constrained domains with `OnlineIFDD`): the representation's tables are its own
+  arrays, updated in place; when a discovery would not fit, the kernel returns, the
+  representation grows them with its own method and the kernel continues. θ (and SARSA(λ)'s
+  ``trace_slots_``) is passed with as many rows as the representation can hold features (a
+  buffer that `append_rows` keeps using) and set to its first n_t rows after every call, as
+  the Python learner's `grow_weights` / ``append_rows`` would leave it.
+- Compilation: two kernels, ``advance_kernel`` (fixed features, every action legal) and
+  ``adaptive_kernel`` (legal actions, growing features); each serves all its combinations
+  (the arguments have the same types), is compiled once per machine and cached on disk;
+  `compile_seconds` reports the first calls' cost in this process.
 """
 
 from __future__ import annotations
@@ -31,17 +38,26 @@ from typing import NamedTuple
 
 import numpy as np
 
+from conjure.compiled import _adaptive_kernel as ak
 from conjure.compiled import _kernels as k
 from conjure.compiled.combination import Combination, pack_combination
 from conjure.core.errors import DivergenceError, InvalidParameterError
 from conjure.core.interfaces import Agent, Domain
+from conjure.representations._ifdd_kernels import I_NUM_FEATURES
+from conjure.representations.weights import _is_leading_view
 
 __all__ = ["AdvanceStats", "CompiledStepper", "compile_seconds", "for_combination", "warm_up"]
 
 _EMPTY_SLOTS = np.zeros((0, 0), dtype=np.int64)
 _EMPTY_INTS = np.zeros(0, dtype=np.int64)
 _EMPTY_FLOATS = np.zeros(0)
-_COMPILE_SECONDS: list[float] = []
+#: Stand-ins of `OnlineIFDD`'s `activate` and `discover` argument tuples (same types) for
+#: the indicators alone, so both run in one compilation of the adaptive kernel.
+_I1, _I2, _F1, _F2 = (np.zeros((0,) * d, t) for t in (np.int64, np.float64) for d in (1, 2))
+_NO_ACTIVATE = (_I1, _I1, _I1, _I1, _I2, _I2, _I2, _I1, _I2, _I1)
+_NO_DISCOVER = (_I1, _I1, _I1, _I1, _I2, _I1, _I1, _I1, _I1, _I2, _F2, _I1, _I1, _I1, _I1, _F1)
+#: The first call's seconds (compile or cache load) of each kernel, by name.
+_COMPILE_SECONDS: dict[str, float] = {}
 
 
 class AdvanceStats(NamedTuple):
@@ -147,6 +163,8 @@ class CompiledStepper:
                 chunks.append((ep_float, ep_int))
                 if status == k.GROW_TRACES:
                     agent._grow_trace_capacity()
+                elif combo.is_adaptive and status == ak.GROW_REPRESENTATION:
+                    agent.representation_._grow()
                 elif status == k.DIVERGED:
                     diverged = delta
                     break
@@ -176,38 +194,78 @@ def _call_kernel(
     loop: np.ndarray,
     loop_f: np.ndarray,
 ) -> tuple:
-    """One call of `advance_kernel` with the agent's current arrays (they may have grown)."""
-    if combo.ints[k.I_TRACES] == k.NO_TRACES:
-        traces = (_EMPTY_SLOTS, _EMPTY_INTS, _EMPTY_INTS, _EMPTY_FLOATS, _EMPTY_INTS)
+    """One call of the combination's kernel with the agent's current arrays (they may grow)."""
+    if combo.is_adaptive:
+        kernel, buffers, middle = ak.adaptive_kernel, *_adaptive_arguments(combo, agent)
+        middle = (combo.domain_arrays[0], dstate, domain.np_random, *middle)
     else:
-        traces = (
-            agent.trace_slots_,
-            agent.trace_features_,
-            agent.trace_actions_,
-            agent.trace_values_,
-            agent.trace_count_,
-        )
-    actor = agent.actor_weights_ if combo.ints[k.I_AGENT] == k.ACTOR_CRITIC else agent.weights_
-    args = (
-        combo.ints,
-        combo.floats,
-        *combo.domain_arrays,
-        dstate,
-        domain.np_random,
-        *combo.representation_arrays,
-        agent.weights_,
-        actor,
-        *traces,
-        agent.rng_,
-        obs,
-        loop,
-        loop_f,
-    )
-    if not _COMPILE_SECONDS:  # a zero-step call: compile (or load the cache) alone
+        kernel, buffers, middle = k.advance_kernel, None, _fixed_arguments(combo, agent)
+        middle = (*combo.domain_arrays, dstate, domain.np_random, *middle)
+    args = (combo.ints, combo.floats, *middle, agent.rng_, obs, loop, loop_f)
+    name = kernel.__name__
+    if name not in _COMPILE_SECONDS:  # a zero-step call: compile (or load the cache) alone
         started = time.perf_counter()
-        k.advance_kernel(0, *args)
-        _COMPILE_SECONDS.append(time.perf_counter() - started)
-    return k.advance_kernel(num_steps, *args)
+        kernel(0, *args)
+        _COMPILE_SECONDS[name] = time.perf_counter() - started
+    try:
+        return kernel(num_steps, *args)
+    finally:
+        if buffers is not None:  # θ, slots: the first n_t rows of the buffers the kernel grew
+            weights, slots = buffers
+            rep = agent.representation_
+            rep.num_features_ = int(rep._ints[I_NUM_FEATURES])
+            agent.weights_ = weights[: rep.num_features_]
+            if slots is not None:
+                agent.trace_slots_ = slots[: rep.num_features_]
+
+
+def _fixed_arguments(combo: Combination, agent: Agent) -> tuple:
+    """``advance_kernel``'s representation, weight and trace arguments."""
+    actor = agent.actor_weights_ if combo.ints[k.I_AGENT] == k.ACTOR_CRITIC else agent.weights_
+    return (*combo.representation_arrays, agent.weights_, actor, *_traces(combo, agent))
+
+
+def _traces(combo: Combination, agent: Agent, slots: np.ndarray | None = None) -> tuple:
+    """The sparse trace arguments (``slots`` replaces ``trace_slots_``), or stand-ins."""
+    if combo.ints[k.I_TRACES] == k.NO_TRACES:
+        return (_EMPTY_SLOTS, _EMPTY_INTS, _EMPTY_INTS, _EMPTY_FLOATS, _EMPTY_INTS)
+    return (
+        agent.trace_slots_ if slots is None else slots,
+        agent.trace_features_,
+        agent.trace_actions_,
+        agent.trace_values_,
+        agent.trace_count_,
+    )
+
+
+def _adaptive_arguments(combo: Combination, agent: Agent) -> tuple:
+    """((θ, trace slots) buffers if iFDD may grow them else None, ``adaptive_kernel``'s tables).
+
+    θ and the trace slots get room for every feature the iFDD tables can hold, so no
+    discovery outgrows them.
+    """
+    base = combo.representation_arrays
+    if not combo.ints[k.I_IFDD]:
+        traces = _traces(combo, agent)
+        return None, (*base, _NO_ACTIVATE, _NO_DISCOVER, agent.weights_, *traces)
+    rep = agent.representation_
+    capacity = rep._discover_args[2].shape[0]  # feat_start: the most features it holds
+    weights = _row_buffer(agent.weights_, capacity)
+    traces = _traces(combo, agent)
+    slots = None if traces[0] is _EMPTY_SLOTS else _row_buffer(traces[0], capacity)
+    traces = _traces(combo, agent, slots)
+    return (weights, slots), (*base, rep._activate_args, rep._discover_args, weights, *traces)
+
+
+def _row_buffer(array: np.ndarray, rows: int) -> np.ndarray:
+    """``array`` or the buffer it leads (`append_rows`) if it has ``rows`` rows, else a copy."""
+    if array.shape[0] >= rows and array.flags.c_contiguous:
+        return array
+    if _is_leading_view(array) and array.base.shape[0] >= rows:
+        return array.base
+    buffer = np.empty((max(rows, 2 * array.shape[0]), *array.shape[1:]), dtype=array.dtype)
+    buffer[: array.shape[0]] = array
+    return buffer
 
 
 def _divergence(agent: Agent, delta: float) -> DivergenceError:
@@ -219,39 +277,48 @@ def _divergence(agent: Agent, delta: float) -> DivergenceError:
 
 
 def compile_seconds() -> float | None:
-    """Seconds the first kernel call of this process took (compile or cache load), or None."""
-    return _COMPILE_SECONDS[0] if _COMPILE_SECONDS else None
+    """Seconds the kernels' first calls in this process took (compile or cache load), or None."""
+    return sum(_COMPILE_SECONDS.values()) if _COMPILE_SECONDS else None
 
 
-def is_warm() -> bool:
-    """Whether the kernel runs without compiling: called in this process or in numba's cache.
+def is_warm(stepper: CompiledStepper | None = None) -> bool:
+    """Whether ``stepper``'s kernel (default ``advance_kernel``) runs without compiling.
 
-    Reads numba's on-disk cache index (a private numba API); if that API changes the kernel
-    is treated as cold, which only costs speed.
+    Warm means called in this process or found in numba's on-disk cache. Reads numba's cache
+    index (a private numba API); if that API changes the kernel is treated as cold, which
+    only costs speed.
     """
-    if _COMPILE_SECONDS:
+    is_adaptive = stepper is not None and stepper.combination.is_adaptive
+    kernel = ak.adaptive_kernel if is_adaptive else k.advance_kernel
+    if kernel.__name__ in _COMPILE_SECONDS:
         return True
     try:
-        return bool(k.advance_kernel._cache._cache_file._load_index())
+        return bool(kernel._cache._cache_file._load_index())
     except (AttributeError, OSError, EOFError, ValueError):
         return False
 
 
 def warm_up() -> float:
-    """Compile the kernel (or load it from the disk cache) and return `compile_seconds`.
+    """Compile both kernels (or load them from the disk cache) and return `compile_seconds`.
 
-    One kernel serves every combination, so a parent process can call this once before
+    Each kernel serves all its combinations, so a parent process can call this once before
     starting workers, which then load the cached code.
     """
     from conjure.agents.sarsa import SARSA
+    from conjure.domains.blocksworld import BlocksWorld
     from conjure.domains.chain import ChainMDP
-    from conjure.representations import Tabular
+    from conjure.representations import BinaryIndicators, OnlineIFDD, Tabular
 
-    domain = ChainMDP()
-    agent = SARSA(representation=Tabular()).setup(domain.domain_spec, 0)
-    for_combination(domain, agent, seed=0).advance(1)
+    for domain, representation in (
+        (ChainMDP(), Tabular()),
+        (BlocksWorld(num_blocks=2), OnlineIFDD(base=BinaryIndicators())),
+    ):
+        agent = SARSA(representation=representation).setup(domain.domain_spec, 0)
+        stepper = for_combination(domain, agent, seed=0)
+        assert stepper is not None  # both combinations are compiled ones
+        stepper.advance(1)
     seconds = compile_seconds()
-    assert seconds is not None  # the advance above called the kernel
+    assert seconds is not None  # the advances above called the kernels
     return seconds
 
 

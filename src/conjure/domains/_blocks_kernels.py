@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-__all__ = ["blocks_legal_actions"]
+__all__ = ["blocks_legal_actions", "blocks_reset", "blocks_step", "legal_moves_into"]
 
 
 @njit(cache=True)
@@ -49,6 +49,18 @@ def blocks_legal_actions(state: np.ndarray, num_blocks: int) -> tuple[np.ndarray
             if steps > n:
                 return empty, 3
     out = np.empty(n * n, dtype=np.int64)
+    count = legal_moves_into(on, above, n, out)
+    return out[:count].copy(), 0
+
+
+@njit(cache=True)
+def legal_moves_into(on: np.ndarray, above: np.ndarray, num_blocks: int, out: np.ndarray) -> int:
+    """Write the sorted legal moves of a well-formed state into ``out``; return their number.
+
+    ``on[i]`` is block i's support (i itself: the table) and ``above[i]`` the block on i or
+    -1 (int or float arrays).
+    """
+    n = num_blocks
     count = 0
     for b in range(n):
         if above[b] >= 0:
@@ -61,7 +73,54 @@ def blocks_legal_actions(state: np.ndarray, num_blocks: int) -> tuple[np.ndarray
             elif above[d] < 0:
                 out[count] = b * n + d
                 count += 1
-    return out[:count].copy(), 0
+    return count
+
+
+# The compiled domain (conjure.compiled): ``dstate`` (int64) = [On vector (n²), on (n),
+# above (n)], ``dparams`` = [n, drop probability, step reward, goal reward].
+
+
+@njit(cache=True)
+def blocks_reset(num_blocks: int, dstate: np.ndarray, obs: np.ndarray) -> None:
+    """Every block on the table, as `BlocksWorld.reset` (no random draw)."""
+    n = num_blocks
+    nn = n * n
+    dstate[:nn] = 0
+    for b in range(n):
+        dstate[b * n + b] = 1
+        dstate[nn + b] = b
+        dstate[nn + n + b] = -1
+    for i in range(nn):
+        obs[i] = dstate[i]
+
+
+@njit(cache=True)
+def blocks_step(
+    dparams: np.ndarray, dstate: np.ndarray, action: int, obs: np.ndarray, rng: np.random.Generator
+) -> tuple[float, bool]:
+    """`BlocksWorld.step` of a legal move with the same one uniform draw; (reward, terminated)."""
+    n = int(dparams[0])
+    nn = n * n
+    block = action // n
+    target = action % n
+    source = dstate[nn + block]
+    if rng.random() < dparams[1]:
+        target = block  # dropped: lands on the table
+    if source != block:
+        dstate[nn + n + source] = -1
+    if target != block:
+        dstate[nn + n + target] = block
+    dstate[nn + block] = target
+    dstate[block * n + source] = 0
+    dstate[block * n + target] = 1
+    for i in range(nn):
+        obs[i] = dstate[i]
+    terminated = block == n - 1 and target == n - 2 and dstate[nn] == 0
+    for i in range(1, n):
+        if not terminated:
+            break
+        terminated = dstate[nn + i] == i - 1
+    return (dparams[3] if terminated else dparams[2]), terminated
 
 
 @njit(cache=True)

@@ -283,7 +283,8 @@ LearningLoop = Stepper
 
 
 #: A run at least this long takes the compiled path even when the kernel is not yet compiled:
-#: the one-time compile (about 20 s on 2 cores) costs less than the Python steps it saves.
+#: the one-time compile (about 20 s on 2 cores; 40 s for the iFDD kernel with an empty numba
+#: cache) costs less than the Python steps it saves.
 COMPILE_WORTH_STEPS = 2_000_000
 
 
@@ -294,11 +295,11 @@ def learning_stepper(
 
     The compiled stepper (``conjure.compiled.for_combination(domain, agent, seed=seed)``) has
     the counters and ``advance(n)`` of `Stepper` and takes the same steps with the same draws.
-    Choice: it is used when the kernel is warm (compiled in this process or in numba's disk
-    cache, `conjure.compiled.is_warm`) or when ``budget_steps`` reaches `COMPILE_WORTH_STEPS`,
-    so a short cold run never waits for a compile it would not earn back; otherwise, when
-    ``for_combination`` answers ``None`` (some part has no kernel), or ``conjure.compiled`` is
-    not installed, a learning `Stepper` runs.
+    Choice: it is used when its kernel is warm (compiled in this process or in numba's disk
+    cache, ``conjure.compiled.is_warm(stepper)``; each kernel separately) or when
+    ``budget_steps`` reaches `COMPILE_WORTH_STEPS`, so a short cold run never waits for a
+    compile it would not earn back; otherwise, when ``for_combination`` answers ``None`` (some
+    part has no kernel), or ``conjure.compiled`` is not installed, a learning `Stepper` runs.
     """
     try:
         from conjure.compiled import for_combination, is_warm
@@ -307,8 +308,9 @@ def learning_stepper(
             raise
         compiled = None
     else:
-        worth = budget_steps >= COMPILE_WORTH_STEPS or is_warm()
-        compiled = for_combination(domain, agent, seed=seed) if worth else None
+        compiled = for_combination(domain, agent, seed=seed)  # packing only: no compile
+        if compiled is not None and budget_steps < COMPILE_WORTH_STEPS and not is_warm(compiled):
+            compiled = None
     return compiled if compiled is not None else Stepper(domain, agent, seed=seed)
 
 

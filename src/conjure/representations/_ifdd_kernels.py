@@ -30,7 +30,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-__all__ = ["activate", "discover", "rebuild_table", "relevance_of"]
+__all__ = ["activate", "discover", "discover_room", "rebuild_table", "relevance_of"]
 
 # ints layout
 I_NUM_FEATURES = 0
@@ -258,14 +258,8 @@ def _make_feature(node, ints, node_feature, node_start, node_len, node_parents, 
 
 
 @njit(cache=True)
-def discover(active, td_error, words, pool, feat_start, feat_len, feat_parents, node_key,
-             node_start, node_len, node_feature, node_parents, node_stats, node_slot, table,
-             heap, ints, floats):  # fmt: skip
-    """Update the relevances of every co-active pair and discover features; Alg 20/21.
-
-    Returns the number of features added (their ids follow the previous count, their parents
-    are in ``feat_parents``), or -1 before changing anything if an array is too small.
-    """
+def discover_room(active, feat_len, pool, node_key, table, ints):
+    """Σ of the active features' set sizes if `discover` fits in the arrays, else -1."""
     k = active.shape[0]
     num_pairs = k * (k - 1) // 2
     total = 0
@@ -278,6 +272,22 @@ def discover(active, td_error, words, pool, feat_start, feat_len, feat_parents, 
         or 2 * (num_nodes + num_pairs) > table.shape[0]
     ):
         return -1
+    return total
+
+
+@njit(cache=True)
+def discover(active, td_error, words, pool, feat_start, feat_len, feat_parents, node_key,
+             node_start, node_len, node_feature, node_parents, node_stats, node_slot, table,
+             heap, ints, floats):  # fmt: skip
+    """Update the relevances of every co-active pair and discover features; Alg 20/21.
+
+    Returns the number of features added (their ids follow the previous count, their parents
+    are in ``feat_parents``), or -1 before changing anything if an array is too small.
+    """
+    total = discover_room(active, feat_len, pool, node_key, table, ints)
+    if total < 0:
+        return -1
+    k = active.shape[0]
     before = ints[I_NUM_FEATURES]
     kind = ints[I_RELEVANCE]
     selection = ints[I_SELECTION]

@@ -1,0 +1,294 @@
+"""Constrained domains with online iFDD on the compiled path: same seed, same learner as Python.
+
+BlocksWorld and Persistent Surveillance (Geramifard 2012, Section 4.1.4) with their initial
+features alone or under online iFDD / iFDD+ (`conjure.compiled._adaptive_kernel`).
+"""
+
+import numpy as np
+import pytest
+
+from conjure.agents import SARSA, ActorCritic, QLearning
+from conjure.compiled import CompiledStepper, for_combination, is_warm
+from conjure.compiled import _adaptive_kernel as ak
+from conjure.compiled.combination import pack_combination
+from conjure.core.schedules import EpisodicDecay, FeatureNormalizedDecay
+from conjure.domains import BlocksWorld, InvertedPendulum, PersistentSurveillance
+from conjure.experiments import run
+from conjure.experiments.loop import LearningLoop, run_episode
+from conjure.policies import EpsilonGreedy, Gibbs
+from conjure.representations import (
+    BinaryIndicators,
+    IndependentDiscretization,
+    OnlineIFDD,
+    RandomExpansion,
+    TileCoding,
+)
+
+DECAY = FeatureNormalizedDecay(alpha_0=0.1, n_0=100)
+
+#: (domain, representation) of Section 4.1.4's runs (smaller ξ than the thesis's, to grow more).
+REPRESENTATIONS = {
+    "ifdd-plus": lambda: OnlineIFDD(
+        base=BinaryIndicators(), relevance="ifdd_plus", discovery_threshold=0.05
+    ),
+    "ifdd-threshold": lambda: OnlineIFDD(base=BinaryIndicators(), discovery_threshold=0.02),
+    "ifdd-plus-signed-unsparsified": lambda: OnlineIFDD(
+        base=BinaryIndicators(),
+        relevance="ifdd_plus_signed",
+        discovery_threshold=0.01,
+        sparsify=False,
+        max_features=100,
+    ),
+    "ifdd-fixed-rate": lambda: OnlineIFDD(base=BinaryIndicators(), discovery_rate=0.4),
+    "indicators": BinaryIndicators,
+    "ifdd-plus-over-buckets": lambda: OnlineIFDD(
+        base=IndependentDiscretization(num_buckets=2),
+        relevance="ifdd_plus",
+        discovery_threshold=0.05,
+    ),
+}
+PST_REPRESENTATIONS = {
+    "pst-ifdd-plus": lambda: OnlineIFDD(
+        base=IndependentDiscretization(), relevance="ifdd_plus", discovery_threshold=20.0
+    ),
+    "pst-ifdd-fixed-rate": lambda: OnlineIFDD(base=IndependentDiscretization(), discovery_rate=2),
+    "pst-independent": IndependentDiscretization,
+}
+AGENTS = {
+    "sarsa": lambda rep: SARSA(representation=rep, step_size=DECAY),
+    "qlearning": lambda rep: QLearning(
+        representation=rep, step_size=EpisodicDecay(alpha_0=0.05, n_0=100)
+    ),
+}
+#: SARSA(λ) with sparse traces; λ = 1 with accumulating traces outgrows the trace arrays.
+TRACE_AGENTS = {
+    "sarsa-lambda": lambda rep: SARSA(representation=rep, step_size=DECAY, trace_decay=0.8),
+    "sarsa-accumulating": lambda rep: SARSA(
+        representation=rep,
+        step_size=FeatureNormalizedDecay(alpha_0=0.01, n_0=100),
+        trace_decay=1.0,
+        trace_kind="accumulating",
+    ),
+}
+#: Uneven advances (20,000 steps), with a greedy policy check after each.
+CHUNKS = (0, 1, 337, 1500, 5000, 13162)
+
+
+def _domain(rep: str):
+    return PersistentSurveillance() if rep.startswith("pst") else BlocksWorld()
+
+
+def _build(rep: str, agent: str, seed: int):
+    domain = _domain(rep)
+    make_rep = {**REPRESENTATIONS, **PST_REPRESENTATIONS}[rep]
+    learner = {**AGENTS, **TRACE_AGENTS}[agent](make_rep()).setup(domain.domain_spec, seed)
+    return domain, learner
+
+
+def _learn(stepper, agent, seed: int, rep: str) -> list:
+    """Advance by `CHUNKS`, checking the greedy policy after each (as a run's policy checks)."""
+    checks = []
+    for i, n in enumerate(CHUNKS):
+        stepper.advance(n)
+        checks.append(run_episode(_domain(rep), agent, max_steps=100, seed=seed + i))
+    return checks
+
+
+def _domain_states(domain) -> tuple:
+    if isinstance(domain, BlocksWorld):
+        return domain._on, domain._above, domain._obs.tolist()
+    return domain._state.tolist(), domain._mask.tolist()
+
+
+@pytest.mark.parametrize("rep", sorted(REPRESENTATIONS) + sorted(PST_REPRESENTATIONS))
+@pytest.mark.parametrize("agent_name", sorted(AGENTS))
+@pytest.mark.parametrize("seed", [0, 5])
+def test_same_seed_gives_the_same_learner_on_both_paths(rep, agent_name, seed):
+    _check_both_paths(rep, agent_name, seed)
+
+
+@pytest.mark.parametrize(
+    "rep", ["ifdd-fixed-rate", "ifdd-threshold", "indicators", "pst-ifdd-plus"]
+)
+@pytest.mark.parametrize("agent_name", sorted(TRACE_AGENTS))
+def test_sarsa_lambda_gives_the_same_learner_on_both_paths(rep, agent_name):
+    _check_both_paths(rep, agent_name, 1)
+
+
+def _check_both_paths(rep: str, agent_name: str, seed: int) -> None:
+    python_domain, python_agent = _build(rep, agent_name, seed)
+    loop = LearningLoop(python_domain, python_agent, seed=seed)
+    python_checks = _learn(loop, python_agent, seed, rep)
+    domain, agent = _build(rep, agent_name, seed)
+    stepper = for_combination(domain, agent, seed=seed)
+    assert isinstance(stepper, CompiledStepper) and stepper.combination.is_adaptive
+    assert _learn(stepper, agent, seed, rep) == python_checks
+    np.testing.assert_array_equal(agent.weights_, python_agent.weights_)
+    assert agent.num_features == python_agent.num_features
+    assert (stepper.total_steps, stepper.num_episodes, stepper.is_mid_episode) == (
+        loop.total_steps,
+        loop.num_episodes,
+        loop.is_mid_episode,
+    )
+    assert stepper.num_failures == loop.num_failures
+    assert (agent.episode_, agent.num_learning_steps_) == (
+        python_agent.episode_,
+        python_agent.num_learning_steps_,
+    )
+    assert agent.rng_.bit_generator.state == python_agent.rng_.bit_generator.state
+    assert domain.np_random.bit_generator.state == python_domain.np_random.bit_generator.state
+    assert _domain_states(domain) == _domain_states(python_domain)
+    if "ifdd" in rep:
+        compiled_rep, python_rep = agent.representation_, python_agent.representation_
+        assert compiled_rep.num_discovered_ == python_rep.num_discovered_ > 0
+        np.testing.assert_array_equal(compiled_rep.parents_, python_rep.parents_)
+        sets, parents, relevances = compiled_rep.potential_features()
+        python_sets, python_parents, python_relevances = python_rep.potential_features()
+        assert [s.tolist() for s in sets] == [s.tolist() for s in python_sets]
+        np.testing.assert_array_equal(parents, python_parents)
+        np.testing.assert_array_equal(relevances, python_relevances)
+        assert compiled_rep.num_discover_calls_ == python_rep.num_discover_calls_ == 20_000
+
+
+def test_episode_returns_are_the_python_paths():
+    # The compiled stepper's episode statistics equal the Python loop's last episodes.
+    domain, agent = _build("ifdd-plus", "sarsa", 2)
+    stats = for_combination(domain, agent, seed=2).advance(6000)
+    python_domain, python_agent = _build("ifdd-plus", "sarsa", 2)
+    loop = LearningLoop(python_domain, python_agent, seed=2)
+    lengths = []
+    while len(lengths) < len(stats.episode_lengths):
+        before = loop.num_completed_episodes
+        loop.advance(1)
+        if loop.num_completed_episodes > before:
+            lengths.append(loop.last_episode.num_steps)
+            assert loop.last_episode.episode_return == stats.episode_returns[len(lengths) - 1]
+    assert lengths == stats.episode_lengths.tolist()
+    assert stats.num_failures == 0 and not stats.episode_failures.any()
+    # a finished tower earns +1 and every move before it -0.001 (Section 4.1.4)
+    finished = stats.episode_lengths < 1000
+    expected = 1.0 - 0.001 * (stats.episode_lengths[finished] - 1)
+    np.testing.assert_allclose(stats.episode_returns[finished], expected)
+
+
+def test_the_representation_and_weights_grow_between_kernel_calls():
+    domain, agent = _build("ifdd-threshold", "sarsa", 1)
+    nodes = agent.representation_._arrays["node_key"].shape[0]
+    for_combination(domain, agent, seed=1).advance(20_000)
+    assert agent.representation_._arrays["node_key"].shape[0] > nodes  # `_grow` ran
+    rep = agent.representation_
+    assert agent.weights_.shape == (rep.num_features_, 36)
+    # θ_f of a discovered feature started at θ_g + θ_h: its rows are θ's own buffer rows
+    assert agent.weights_.base is not None and agent.weights_.base.shape[0] >= rep.num_features_
+
+
+def test_one_compilation_serves_every_constrained_combination():
+    for rep in [*REPRESENTATIONS, *PST_REPRESENTATIONS]:
+        for agent_name in AGENTS:
+            domain, agent = _build(rep, agent_name, 3)
+            for_combination(domain, agent, seed=3).advance(30)
+    stepper = for_combination(*_build("indicators", "sarsa", 0), seed=0)
+    assert is_warm(stepper) and len(ak.adaptive_kernel.overloads) == 1
+
+
+@pytest.mark.parametrize(
+    ("domain", "agent"),
+    [
+        (BlocksWorld(), SARSA(representation=RandomExpansion(base=BinaryIndicators()))),
+        (PersistentSurveillance(), SARSA(representation=TileCoding(memory_size=64))),
+        (InvertedPendulum(), SARSA(representation=OnlineIFDD(base=IndependentDiscretization()))),
+        (BlocksWorld(), ActorCritic(representation=BinaryIndicators())),
+    ],
+)
+def test_constrained_combinations_the_kernel_does_not_cover(domain, agent):
+    assert pack_combination(domain, agent.setup(domain.domain_spec, 0)) is None
+
+
+def test_persistent_surveillance_counts_crashes_as_python_does():
+    # Section 4.1.4: running out of fuel outside REFUEL ends the episode, the domain's failure.
+    domain, agent = _build("pst-independent", "sarsa", 8)
+    stats = for_combination(domain, agent, seed=8).advance(5000)
+    crashed = stats.episode_lengths < 1000
+    assert crashed.any() and stats.num_failures == int(stats.episode_failures.sum())
+    assert stats.episode_failures[crashed].tolist() == [1] * int(crashed.sum())
+
+
+def test_gibbs_over_legal_moves_matches_python():
+    def build():
+        domain = BlocksWorld(num_blocks=4)
+        agent = QLearning(
+            representation=OnlineIFDD(base=BinaryIndicators(), discovery_threshold=0.05),
+            policy=Gibbs(temperature=0.01),
+        )
+        return domain, agent.setup(domain.domain_spec, 4)
+
+    python_domain, python_agent = build()
+    LearningLoop(python_domain, python_agent, seed=4).advance(3000)
+    domain, agent = build()
+    for_combination(domain, agent, seed=4).advance(3000)
+    np.testing.assert_array_equal(agent.weights_, python_agent.weights_)
+    assert agent.rng_.bit_generator.state == python_agent.rng_.bit_generator.state
+
+
+def test_epsilon_greedy_chooses_only_legal_moves():
+    # ε = 1: every action is exploratory; an illegal one would raise in Python and corrupt
+    # the compiled state, so the state must stay a valid On vector after many steps.
+    domain = BlocksWorld()
+    agent = SARSA(representation=BinaryIndicators(), policy=EpsilonGreedy(epsilon=1.0))
+    for_combination(domain, agent.setup(domain.domain_spec, 0), seed=0).advance(5000)
+    assert domain.legal_actions(domain._obs).size > 0  # raises on a malformed state
+    on = domain._obs.reshape(6, 6).argmax(axis=1).tolist()
+    assert domain._obs.sum() == 6 and on == domain._on
+
+
+def _curve(rows: list) -> list:
+    return [{k: v for k, v in row.items() if k not in ("wall_time_s", "steps_per_second")}
+            for row in rows]  # fmt: skip
+
+
+@pytest.mark.parametrize("rep", ["ifdd-plus", "pst-ifdd-plus"])
+def test_a_run_records_the_same_curve_on_both_paths(monkeypatch, rep):
+    import conjure.compiled
+
+    offered = []
+
+    def result(compiled: bool):
+        domain, _ = _build(rep, "sarsa", 0)
+        make_rep = {**REPRESENTATIONS, **PST_REPRESENTATIONS}[rep]
+        warmth = lambda stepper: offered.append(type(stepper)) or compiled  # noqa: E731
+        monkeypatch.setattr(conjure.compiled, "is_warm", warmth)
+        agent = AGENTS["sarsa"](make_rep())
+        return run(domain=domain, agent=agent, budget_steps=8000, seed=11, num_policy_checks=4)
+
+    python_result, compiled_result = result(False), result(True)
+    assert offered == [CompiledStepper, CompiledStepper]  # the compiled path ran the second
+    assert _curve(compiled_result.rows) == _curve(python_result.rows)
+    np.testing.assert_array_equal(compiled_result.agent.weights_, python_result.agent.weights_)
+
+
+def test_save_after_compiled_steps_and_continue_from_the_restored_agent(tmp_path):
+    domain, agent = _build("ifdd-plus", "qlearning", 6)
+    stepper = for_combination(domain, agent, seed=6)
+    stepper.advance(4000)
+    restored = type(agent).restore(agent.save(tmp_path / "agent"))
+    stepper.agent = restored  # the stepper reads its agent at every advance
+    stepper.advance(4000)
+    straight_domain, straight = _build("ifdd-plus", "qlearning", 6)
+    for_combination(straight_domain, straight, seed=6).advance(8000)
+    np.testing.assert_array_equal(restored.weights_, straight.weights_)
+    np.testing.assert_array_equal(
+        restored.representation_.parents_, straight.representation_.parents_
+    )
+    assert restored.rng_.bit_generator.state == straight.rng_.bit_generator.state
+
+
+def test_traces_and_their_slots_grow_between_kernel_calls():
+    domain, agent = _build("ifdd-fixed-rate", "sarsa-accumulating", 2)
+    for_combination(domain, agent, seed=2).advance(20_000)
+    assert agent.trace_values_.shape[0] > 1024  # GROW_TRACES: the agent's own growth ran
+    n = agent.representation_.num_features_
+    assert agent.trace_slots_.shape == (n, 36) and agent.weights_.shape == (n, 36)
+    live = agent.trace_count_[0]
+    slots = agent.trace_slots_[agent.trace_features_[:live], agent.trace_actions_[:live]]
+    assert slots.tolist() == list(range(live))  # every live trace is found from its slot
+    assert (agent.trace_slots_ >= 0).sum() == live
