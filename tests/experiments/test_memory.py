@@ -5,9 +5,7 @@ from __future__ import annotations
 import multiprocessing
 import os
 
-import click
 import pytest
-from click.testing import CliRunner
 
 from conjure.core.errors import InvalidParameterError
 from conjure.experiments.memory import (
@@ -15,7 +13,6 @@ from conjure.experiments.memory import (
     explain_memory_error,
     format_memory_size,
     limit_memory,
-    max_memory_option,
     memory_limit,
     parse_memory_size,
 )
@@ -95,15 +92,3 @@ def test_a_limit_above_the_hard_limit_is_refused(monkeypatch):
     monkeypatch.setattr(resource, "getrlimit", lambda _: (GiB, GiB))
     with pytest.raises(InvalidParameterError, match="exceeds this system's hard limit"):
         check_memory_limit(2 * GiB)
-
-
-def test_the_command_line_option_gives_bytes_or_a_usage_error():
-    @click.command()
-    @max_memory_option
-    def show(max_memory):
-        click.echo(repr(max_memory))
-
-    assert CliRunner().invoke(show, ["--max-memory", "4GiB"]).output.strip() == str(4 * GiB)
-    assert CliRunner().invoke(show, []).output.strip() == "None"
-    bad = CliRunner().invoke(show, ["--max-memory", "lots"])
-    assert bad.exit_code == 2 and "'--max-memory'" in bad.output and "'lots'" in bad.output

@@ -7,7 +7,9 @@ from pathlib import Path
 import click
 from click.testing import CliRunner
 
-from conjure.experiments.options import out_dir_option
+from conjure.experiments.options import max_memory_option, out_dir_option
+
+GiB = 2**30
 
 
 @click.command()
@@ -21,3 +23,15 @@ def test_out_gives_a_path_or_none_and_its_help():
     assert runner.invoke(show, ["--out", "a/b"]).output.strip() == repr(Path("a/b"))
     assert runner.invoke(show, []).output.strip() == "None"
     assert "Where the results go." in runner.invoke(show, ["--help"]).output
+
+
+def test_the_command_line_option_gives_bytes_or_a_usage_error():
+    @click.command()
+    @max_memory_option
+    def show(max_memory):
+        click.echo(repr(max_memory))
+
+    assert CliRunner().invoke(show, ["--max-memory", "4GiB"]).output.strip() == str(4 * GiB)
+    assert CliRunner().invoke(show, []).output.strip() == "None"
+    bad = CliRunner().invoke(show, ["--max-memory", "lots"])
+    assert bad.exit_code == 2 and "'--max-memory'" in bad.output and "'lots'" in bad.output

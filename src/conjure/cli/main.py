@@ -32,8 +32,7 @@ from typing import Any
 import click
 
 from conjure.core.errors import ConjureError
-from conjure.experiments.memory import max_memory_option
-from conjure.experiments.options import out_dir_option
+from conjure.experiments.options import max_memory_option, out_dir_option
 
 __all__ = ["LAZY_COMMANDS", "main"]
 

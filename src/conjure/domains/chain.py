@@ -2,15 +2,16 @@
 
 from __future__ import annotations
 
-from typing import Any, ClassVar
+from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 from gymnasium import spaces
 
 from conjure.core.interfaces import Domain, DomainSpec
 from conjure.core.params import Constraint, Interval, Options
-from conjure.models.enumerate import enumerate_model
-from conjure.models.tabular_model import TabularModel
+
+if TYPE_CHECKING:  # the model and SciPy load when `model` is first called
+    from conjure.models.tabular_model import TabularModel
 
 __all__ = ["ChainMDP"]
 
@@ -152,6 +153,8 @@ class ChainMDP(Domain):
 
     def model(self) -> TabularModel:
         """Return the exact `TabularModel`, enumerated from `outcomes` (Section 2.1)."""
+        from conjure.models.enumerate import enumerate_model
+
         return enumerate_model(self)
 
     def tabular_model(self) -> tuple[np.ndarray, np.ndarray]:

@@ -4,17 +4,18 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
-from typing import Any, ClassVar
+from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
-import scipy.sparse as sp
 from gymnasium import spaces
 
 from conjure.core.cooperative import NoisyDomain
 from conjure.core.errors import InvalidParameterError
 from conjure.core.interfaces import DomainSpec
 from conjure.core.params import Constraint, InstanceOf, Interval, Options, did_you_mean
-from conjure.models.tabular_model import TabularModel
+
+if TYPE_CHECKING:  # the model and SciPy load when `model` is first called
+    from conjure.models.tabular_model import TabularModel
 
 __all__ = ["GridWorld", "check_grid", "load_map", "open_grid", "shipped_maps"]
 
@@ -409,6 +410,10 @@ class GridWorld(NoisyDomain):
         cell without feasible moves stays put), R(s, a) = Σ P^a_{ss'} r(s'), built vectorised
         in Θ(|S||A|) (Section 2.3's P and R).
         """
+        import scipy.sparse as sp
+
+        from conjure.models.tabular_model import TabularModel
+
         grid = self.grid_
         rows, cols = grid.shape
         codes = grid.reshape(-1)

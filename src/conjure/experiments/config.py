@@ -46,6 +46,7 @@ from conjure.core.errors import InvalidParameterError
 from conjure.core.params import Configurable, did_you_mean
 from conjure.experiments import registry
 from conjure.experiments.memory import parse_memory_size
+from conjure.experiments.run import CURVE_COLUMNS
 
 __all__ = [
     "CURVE_COLUMNS",
@@ -62,21 +63,6 @@ __all__ = [
     "resolve_run",
     "set_component_value",
 ]
-
-#: The columns of a learning curve, one row per policy check.
-CURVE_COLUMNS = (
-    "learning_steps",
-    "learning_episodes",
-    "learning_failures",
-    "return",
-    "discounted_return",
-    "episode_length",
-    "failure_rate",
-    "optimality",
-    "num_features",
-    "wall_time_s",
-    "steps_per_second",
-)
 
 
 _NAME_PATTERN = r"^[A-Za-z0-9][A-Za-z0-9_.\-]*$"

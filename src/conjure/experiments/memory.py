@@ -28,8 +28,6 @@ from __future__ import annotations
 import re
 from typing import Any
 
-import click
-
 from conjure.core.errors import InvalidParameterError
 
 __all__ = [
@@ -37,7 +35,6 @@ __all__ = [
     "explain_memory_error",
     "format_memory_size",
     "limit_memory",
-    "max_memory_option",
     "memory_limit",
     "parse_memory_size",
 ]
@@ -171,21 +168,3 @@ def explain_memory_error(message: str) -> str:
         f"the run exceeded its memory limit, max_memory = {format_memory_size(limit)} "
         f"(the worker's address space, RLIMIT_AS): {message}"
     )
-
-
-def _parse_option(context: click.Context, parameter: click.Parameter, value: Any) -> int | None:
-    try:
-        return parse_memory_size(value)
-    except InvalidParameterError as exc:
-        raise click.BadParameter(str(exc)) from None
-
-
-#: The ``--max-memory SIZE`` option of ``conjure run``, ``sweep`` and ``tune`` (bytes or None).
-max_memory_option = click.option(
-    "--max-memory",
-    metavar="SIZE",
-    default=None,
-    callback=_parse_option,
-    help="Each run's memory limit, e.g. 4GiB (default: the config's max_memory, else none). "
-    "A run over it fails alone.",
-)

@@ -15,7 +15,10 @@ from typing import Any
 
 import click
 
-__all__ = ["out_dir_option"]
+from conjure.core.errors import InvalidParameterError
+from conjure.experiments.memory import parse_memory_size
+
+__all__ = ["max_memory_option", "out_dir_option"]
 
 
 def out_dir_option(help_text: str) -> Callable[[Any], Any]:
@@ -34,3 +37,21 @@ def out_dir_option(help_text: str) -> Callable[[Any], Any]:
     return click.option(
         "--out", "out_dir", type=click.Path(path_type=Path), default=None, help=help_text
     )
+
+
+def _parse_memory(context: click.Context, parameter: click.Parameter, value: Any) -> int | None:
+    try:
+        return parse_memory_size(value)
+    except InvalidParameterError as exc:
+        raise click.BadParameter(str(exc)) from None
+
+
+#: The ``--max-memory SIZE`` option of ``conjure run``, ``sweep`` and ``tune`` (bytes or None).
+max_memory_option = click.option(
+    "--max-memory",
+    metavar="SIZE",
+    default=None,
+    callback=_parse_memory,
+    help="Each run's memory limit, e.g. 4GiB (default: the config's max_memory, else none). "
+    "A run over it fails alone.",
+)

@@ -61,8 +61,7 @@ from conjure.experiments.config import (
     resolve_run,
     set_component_value,
 )
-from conjure.experiments.memory import max_memory_option
-from conjure.experiments.options import out_dir_option
+from conjure.experiments.options import max_memory_option, out_dir_option
 from conjure.experiments.parallel import (
     ExperimentResult,
     RunFunction,

@@ -52,8 +52,7 @@ from conjure.core.errors import InvalidParameterError
 from conjure.core.params import did_you_mean
 from conjure.experiments.config import dump_yaml, load_yaml
 from conjure.experiments.executors import Executor, LocalExecutor
-from conjure.experiments.memory import max_memory_option
-from conjure.experiments.options import out_dir_option
+from conjure.experiments.options import max_memory_option, out_dir_option
 from conjure.experiments.parallel import execute_runs, prepare_executor
 from conjure.experiments.results import load_results, make_out_dir, write_atomic
 from conjure.experiments.run import RunFunction, run_resolved
