@@ -171,3 +171,33 @@ def test_an_intact_save_still_restores_exactly(tmp_path):
     directory = _saved_chain_agent(tmp_path, trace_decay=0.5)
     restored = SARSA.restore(directory)
     assert restored.weights_.tolist() == [[1.0, 1.0]] * 4
+
+
+def test_dense_traces_of_earlier_saves_are_converted(tmp_path):
+    # Earlier conjure saved RBF SARSA(λ) traces as one dense (n, |A|) array 'traces'.
+    from conjure.domains import InvertedPendulum
+    from conjure.representations import RBF
+    from conjure.testing.checks import _rollout
+
+    domain = InvertedPendulum()
+    agent = SARSA(representation=RBF(), trace_decay=0.5).setup(domain.domain_spec, seed=0)
+    _rollout(domain, agent, 5, seed=0)
+    directory = agent.save(tmp_path / "agent")
+    dense = np.zeros(agent.weights_.shape)
+    dense[3, 1], dense[7, 0] = 0.25, 1.5
+    with np.load(directory / "arrays.npz", allow_pickle=False) as data:
+        arrays = {k: data[k] for k in data.files if not k.startswith("trace_")}
+    np.savez(directory / "arrays.npz", **arrays, traces=dense)
+    restored = SARSA.restore(directory)
+    count = int(restored.trace_count_[0])
+    live = {
+        (int(f), int(a)): float(v)
+        for f, a, v in zip(
+            restored.trace_features_[:count],
+            restored.trace_actions_[:count],
+            restored.trace_values_[:count],
+            strict=True,
+        )
+    }
+    assert live == {(3, 1): 0.25, (7, 0): 1.5}
+    assert restored.trace_slots_[3, 1] >= 0 and restored.trace_slots_[0, 0] == -1

@@ -7,6 +7,7 @@ from conjure.core import (
     FeatureNormalizedDecay,
     InvalidParameterError,
     Representation,
+    SparseFeatures,
     Transition,
 )
 from conjure.domains import ChainMDP, InvertedPendulum
@@ -36,9 +37,8 @@ def test_sarsa_lambda_converges_to_chain_values(trace_kind):
 
 
 class DenseTabular(Representation):
-    """Tabular one-hot features served densely: must learn exactly what the binary path learns."""
-
-    is_binary = False
+    """Tabular one-hot features encoded densely (every index, zeros included): must learn
+    exactly what the binary encoding learns."""
 
     def __init__(self, *, num_buckets: int = 20):
         self.num_buckets = num_buckets
@@ -50,10 +50,10 @@ class DenseTabular(Representation):
         self.is_set_up_ = True
         return self
 
-    def feature_values(self, state):
+    def encode(self, state):
         phi = np.zeros(self.num_features_)
         phi[self.inner_.active_features(state)] = 1.0
-        return phi
+        return SparseFeatures(np.arange(self.num_features_), phi)
 
 
 @pytest.mark.parametrize("trace_decay", [0.0, 0.7])
@@ -140,3 +140,31 @@ def test_traces_grow_with_discovered_features():
     agent._grow(Expansion(first_new=4, parents=np.array([[0, 1]])))
     assert agent.weights_.shape == (5, 2) and agent.trace_slots_.shape == (5, 2)
     assert np.all(agent.trace_slots_[4] == -1)
+
+
+def test_rbf_sarsa_lambda_matches_dense_accumulating_traces():
+    # The dense SARSA(λ) earlier conjure ran for RBF: e ← γλ e + φ(s, a), θ += αδe. The
+    # sparse traces differ only by traces dropped below min_trace (here 1e-12: negligible).
+    domain = InvertedPendulum()
+    spec = domain.domain_spec
+    agent = SARSA(representation=RBF(), step_size=0.1, trace_decay=0.8, min_trace=1e-12)
+    agent.setup(spec, seed=0)
+    rng = np.random.default_rng(0)
+    states = rng.uniform(spec.low, spec.high, size=(41, 2))
+    actions = rng.integers(spec.num_actions, size=41)
+    weights = np.zeros(agent.weights_.shape)
+    traces = np.zeros_like(weights)
+    decay = spec.discount * 0.8
+    for t in range(40):
+        reward = float(rng.normal())
+        phi = agent.representation_.feature_values(states[t])
+        phi_next = agent.representation_.feature_values(states[t + 1])
+        delta = reward + spec.discount * phi_next @ weights[:, actions[t + 1]]
+        delta -= phi @ weights[:, actions[t]]
+        traces *= decay
+        traces[:, actions[t]] += phi
+        weights += 0.1 * delta * traces
+        transition = Transition(states[t], actions[t], reward, states[t + 1], actions[t + 1], False)
+        assert agent.learn(transition) == pytest.approx(delta, abs=1e-9)
+    np.testing.assert_allclose(agent.weights_, weights, atol=1e-9)
+    assert np.abs(weights).sum() > 0

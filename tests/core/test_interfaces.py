@@ -1,7 +1,15 @@
 import numpy as np
 import pytest
 
-from conjure.core import DomainSpec, Expansion, InvalidParameterError
+from conjure.core import (
+    DomainSpec,
+    Expansion,
+    IncompatibleComponentsError,
+    InvalidParameterError,
+    Representation,
+    SparseFeatures,
+)
+from conjure.core.interfaces import check_binary_features
 
 
 def spec(**changes):
@@ -42,3 +50,63 @@ def test_spec_rejects_bad_bounds(changes, message):
 def test_expansion_counts_new_features():
     assert Expansion(first_new=4, parents=np.array([[0, 1], [2, 3]])).num_new == 2
     assert Expansion(first_new=4).num_new == 0
+
+
+# ------------------------------------------------------------------------------ encode
+
+
+def test_binary_encode_gives_active_features_with_read_only_ones():
+    from conjure.representations import TileCoding
+
+    rep = TileCoding(num_tilings=4, tiles_per_dim=5).setup(spec(), seed=0)
+    first, second = rep.encode(np.array([1.0, 0.2])), rep.encode(np.array([2.0, -0.5]))
+    assert np.array_equal(first.indices, rep.active_features(np.array([1.0, 0.2])))
+    assert first.values.tolist() == [1.0] * 4 and first.has_unit_values()
+    assert second.values is first.values  # one buffer, no allocation per call
+    with pytest.raises(ValueError):
+        first.values[0] = 2.0
+
+
+class Growing(Representation):
+    """Activates features 0 .. s₀ (a varying count), to exercise the ones buffer."""
+
+    def setup(self, spec, seed):
+        self.spec_, self.num_features_, self.is_set_up_ = spec, 4, True
+        return self
+
+    def active_features(self, state):
+        return np.arange(int(state[0]) + 1, dtype=np.int64)
+
+
+def test_binary_encode_values_follow_a_varying_count():
+    rep = Growing().setup(spec(), seed=0)
+    for count in (1, 4, 2, 3):
+        indices, values = rep.encode(np.array([count - 1.0, 0.0]))
+        assert indices.tolist() == list(range(count)) and values.tolist() == [1.0] * count
+    assert rep.feature_values(np.array([1.0, 0.0])).tolist() == [1.0, 1.0, 0.0, 0.0]
+
+
+def test_rbf_encode_lists_every_feature_with_its_value():
+    from conjure.representations import RBF
+
+    rep = RBF(num_centers=3).setup(spec(), seed=0)
+    state = np.array([1.0, 0.3])
+    indices, values = rep.encode(state)
+    assert indices.tolist() == list(range(rep.num_features_))
+    assert np.array_equal(values, rep.feature_values(state))
+    assert not rep.encode(state).has_unit_values() and values[-1] == 1.0  # the bias
+
+
+def test_sparse_features_dot_and_dense_by_hand():
+    phi = SparseFeatures(np.array([0, 2]), np.array([0.5, 2.0]))
+    weights = np.array([[1.0, 0.0], [7.0, 7.0], [2.0, 1.0]])
+    assert phi.dot(weights).tolist() == [4.5, 2.0]
+    assert phi.dense(4).tolist() == [0.5, 0.0, 2.0, 0.0]
+
+
+def test_check_binary_features_refuses_real_values_by_name():
+    from conjure.representations import RBF, Tabular
+
+    check_binary_features(Tabular().setup(spec(), seed=0), "iFDD")
+    with pytest.raises(IncompatibleComponentsError, match=r"iFDD conjoins binary.*RBF"):
+        check_binary_features(RBF().setup(spec(), seed=0), "iFDD")

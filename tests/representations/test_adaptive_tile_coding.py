@@ -53,7 +53,8 @@ def tile_of_box(rep, state):
 
 def test_starts_with_one_tile_covering_everything():
     rep = AdaptiveTileCoding().setup(PENDULUM, seed=0)
-    assert rep.num_features_ == 1 and rep.is_adaptive and rep.is_binary
+    assert rep.num_features_ == 1 and rep.is_adaptive
+    assert rep.encode(np.zeros(2)).has_unit_values()
     for state in random_states(PENDULUM, 50):
         assert rep.active_features(state).tolist() == [0]
 

@@ -64,7 +64,8 @@ def check_cover(rep, state):
 
 def test_initial_tiles_are_equal_intervals_numbered_by_dimension():
     rep = ARiFDD(initial_tiles_per_dim=[2, 4]).setup(PENDULUM, seed=0)
-    assert rep.num_features_ == 6 and rep.is_adaptive and rep.is_binary
+    assert rep.num_features_ == 6 and rep.is_adaptive
+    assert rep.encode(np.zeros(2)).has_unit_values()
     tiles = rep.basic_tiles_
     assert tiles["feature"].tolist() == [0, 1, 2, 3, 4, 5]
     assert tiles["dim"].tolist() == [0, 0, 1, 1, 1, 1]

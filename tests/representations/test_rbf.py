@@ -105,8 +105,8 @@ def test_fresh_array_and_same_state_same_values():
 
 def test_active_features_is_incompatible():
     rep = RBF().setup(PENDULUM, seed=0)
-    assert RBF.is_binary is False
-    with pytest.raises(IncompatibleComponentsError, match="RBF is dense; use feature_values"):
+    assert not rep.encode(np.zeros(2)).has_unit_values()
+    with pytest.raises(IncompatibleComponentsError, match="RBF has real-valued features"):
         rep.active_features(np.zeros(2))
 
 

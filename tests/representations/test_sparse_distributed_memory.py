@@ -57,7 +57,7 @@ def drive(rep, states, seed=0):
 
 def test_initial_grid_covers_the_space():
     rep = SparseDistributedMemory(activation_radius=0.25).setup(LINE, seed=0)
-    assert rep.is_adaptive and rep.is_binary
+    assert rep.is_adaptive and rep.encode(LINE.low).has_unit_values()
     np.testing.assert_allclose(rep.centers_.ravel(), [0.25, 0.75])
     two = SparseDistributedMemory(activation_radius=[0.25, 0.5]).setup(PENDULUM, seed=0)
     np.testing.assert_allclose(two.centers_, [[0.25, 0.5], [0.75, 0.5]])

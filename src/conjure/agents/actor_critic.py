@@ -11,6 +11,7 @@ from conjure.core.interfaces import (
     Expansion,
     Policy,
     Representation,
+    SparseFeatures,
     Transition,
     check_is_set_up,
 )
@@ -28,7 +29,7 @@ class ActorCritic(LinearTDAgent):
     Parameters
     ----------
     representation : Representation
-        The critic's features φ (binary or dense).
+        The critic's features φ, read through `encode` (binary or real-valued).
     actor_representation : Representation or None, default None
         The actor's features ψ (Eq. 2.33); ``None`` means the same features as the critic.
     policy : Policy or None, default None
@@ -116,12 +117,7 @@ class ActorCritic(LinearTDAgent):
                 spec, self.seeds_["actor"]
             )
         actor = self.actor_representation_
-        self._encode_actor = actor.active_features if actor.is_binary else actor.feature_values
-        self._actor_values = (
-            _kernels.q_values_binary if actor.is_binary else _kernels.q_values_dense
-        )
-        self._actor_add = _kernels.add_binary if actor.is_binary else _kernels.add_dense
-        self._actor_is_binary = actor.is_binary
+        self._encode_actor = actor.encode
         self.actor_schedule_ = (
             self.schedule_ if self.actor_step_size is None else make_schedule(self.actor_step_size)
         )
@@ -134,7 +130,7 @@ class ActorCritic(LinearTDAgent):
         """Return a ~ π^actor(s), or argmax_a ρ(s, a) when ``greedy``."""
         check_is_set_up(self, "act")
         psi = self._encode_actor(state)
-        preferences = self._actor_values(self.actor_weights_, psi)
+        preferences = _kernels.q_values(self.actor_weights_, psi[0], psi[1])
         legal = self._all_actions if legal_actions is None else legal_actions
         if greedy:
             return int(greedy_action(preferences, legal))
@@ -144,7 +140,7 @@ class ActorCritic(LinearTDAgent):
     def preferences(self, state: np.ndarray) -> np.ndarray:
         """Return ρ(s, ·) = ωᵀψ(s, ·) (Eq. 2.33)."""
         check_is_set_up(self, "preferences")
-        return self._actor_values(self.actor_weights_, self._encode_actor(state))
+        return _kernels.q_values(self.actor_weights_, *self._encode_actor(state))
 
     def shift_preference(self, state: np.ndarray, action: int, amount: float) -> None:
         """ρ(s, a) += ``amount``: the bias and penalty λ of iCCA (Section 5.3.2; Algorithm 23).
@@ -153,10 +149,10 @@ class ActorCritic(LinearTDAgent):
         tabular actor (the thesis's) nothing else changes.
         """
         check_is_set_up(self, "shift_preference")
-        psi = self._encode_actor(state)
-        norm = float(psi.shape[0]) if self._actor_is_binary else float(psi @ psi)
+        indices, values = self._encode_actor(state)
+        norm = _kernels.squared_norm(values)
         if norm > 0.0:
-            self._actor_add(self.actor_weights_, psi, int(action), float(amount) / norm)
+            _kernels.add(self.actor_weights_, indices, values, int(action), float(amount) / norm)
 
     def learn(self, transition: Transition) -> float:
         """Critic and actor updates of Algorithm 12, lines 6-9; returns δ."""
@@ -166,12 +162,11 @@ class ActorCritic(LinearTDAgent):
         target = transition.reward
         if not transition.terminated:
             target += self.discount_ * self._bootstrap(transition)  # line 6: Q⁺(s, a)
-        episode = max(self.episode_, 1)
-        step_size = self.schedule_.value(episode, self._norm(phi))
+        step_size = self._step_size(self.schedule_, phi)
         delta = self._update(phi, transition.action, target, step_size)  # lines 7-8
         if np.isfinite(delta):
-            actor_step = self.actor_schedule_.value(episode, self._actor_norm(psi))
-            self._actor_add(self.actor_weights_, psi, transition.action, actor_step * delta)
+            actor_step = self._step_size(self.actor_schedule_, psi)
+            _kernels.add(self.actor_weights_, psi[0], psi[1], transition.action, actor_step * delta)
         self._after_update(transition, phi, delta)  # line 9 done above
         return delta
 
@@ -181,14 +176,12 @@ class ActorCritic(LinearTDAgent):
             if self._is_shared
             else self._encode(transition.next_state)
         )
-        return float(self._q_values(self.weights_, next_phi)[transition.next_action])
+        q_next = _kernels.q_values(self.weights_, next_phi[0], next_phi[1])
+        return float(q_next[transition.next_action])
 
-    def _actor_features(self, state: np.ndarray) -> np.ndarray:
+    def _actor_features(self, state: np.ndarray) -> SparseFeatures:
         """ψ(s), from the act cache when possible."""
         return self._features(state, self._encode_actor)
-
-    def _actor_norm(self, psi: np.ndarray) -> float:
-        return float(psi.shape[0]) if self._actor_is_binary else float(np.abs(psi).sum())
 
     def _grow(self, expansion: Expansion) -> None:
         """Grow θ, and ω too when the actor shares the critic's (adaptive) features."""

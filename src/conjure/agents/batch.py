@@ -22,6 +22,7 @@ from conjure.core.interfaces import (
     DomainSpec,
     Policy,
     Representation,
+    SparseFeatures,
     Transition,
     check_is_set_up,
 )
@@ -148,10 +149,7 @@ class BatchAgent(Agent):
     def q_values(self, state: np.ndarray) -> np.ndarray:
         """Q(s, ·) = θᵀφ(s) of the last fit."""
         check_is_set_up(self, "q_values")
-        phi, weights = self._state_features(state), self._q_weights()
-        if self.representation_.is_binary:
-            return weights[phi].sum(axis=0)
-        return phi @ weights
+        return self._state_features(state).dot(self._q_weights())
 
     def act(
         self, state: np.ndarray, greedy: bool = False, legal_actions: np.ndarray | None = None
@@ -164,10 +162,9 @@ class BatchAgent(Agent):
             return int(greedy_action(q, legal))
         return int(self.policy_.select(q, self.rng_, legal))
 
-    def _state_features(self, state: np.ndarray) -> np.ndarray:
-        """φ(s) as ``act`` needs it: active indices (binary) or all values (dense)."""
-        rep = self.representation_
-        return rep.active_features(state) if rep.is_binary else rep.feature_values(state)
+    def _state_features(self, state: np.ndarray) -> SparseFeatures:
+        """φ(s) of the features Q is defined over (the representation's `encode`)."""
+        return self.representation_.encode(state)
 
     def _q_weights(self) -> np.ndarray:
         """θ̄ of the Q that ``act`` uses, shape (n, |A|)."""

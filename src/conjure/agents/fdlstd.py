@@ -12,12 +12,14 @@ import scipy.sparse as sp
 from conjure.agents import persistence
 from conjure.agents.batch import BATCH_PARAMETERS, BatchAgent
 from conjure.agents.lstd import LSTD
-from conjure.core.errors import IncompatibleComponentsError, InvalidParameterError
+from conjure.core.errors import InvalidParameterError
 from conjure.core.interfaces import (
     DomainSpec,
     Policy,
     Representation,
+    SparseFeatures,
     Transition,
+    check_binary_features,
     check_is_set_up,
 )
 from conjure.core.linalg import feature_matrix, lstd_system, solve_regularized
@@ -187,11 +189,7 @@ class FDLSTD(BatchAgent):
         """Validate parameters and set up the initial representation χ for ``spec``."""
         super().setup(spec, seed)
         rep = self.representation_
-        if not rep.is_binary:
-            raise IncompatibleComponentsError(
-                f"FDLSTD conjoins binary features, but {type(rep).__name__} is not binary; use "
-                f"IndependentDiscretization, TileCoding or Tabular."
-            )
+        check_binary_features(rep, "FDLSTD")
         self.features_ = [(f,) for f in range(rep.num_features_)]
         self.parents_ = np.zeros((0, 2), dtype=np.int64)
         self.scores_ = np.zeros(0)
@@ -414,17 +412,17 @@ class FDLSTD(BatchAgent):
         self._q_members = _padded(conjunctions, n0)
         self._indicator = np.zeros(n0 + 1, dtype=bool)
 
-    def _state_features(self, state: np.ndarray) -> np.ndarray:
+    def _state_features(self, state: np.ndarray) -> SparseFeatures:
         """φ_χ(s) of the χ that Q is defined over: active initial features, then conjunctions."""
         active = self.representation_.active_features(state)
-        if not self._q_members.shape[0]:
-            return active
-        indicator = self._indicator
-        indicator[:] = False
-        indicator[active] = True
-        indicator[-1] = True
-        conjunctions = np.flatnonzero(indicator[self._q_members].all(axis=1))
-        return np.concatenate([active, conjunctions + indicator.shape[0] - 1])
+        if self._q_members.shape[0]:
+            indicator = self._indicator
+            indicator[:] = False
+            indicator[active] = True
+            indicator[-1] = True
+            conjunctions = np.flatnonzero(indicator[self._q_members].all(axis=1))
+            active = np.concatenate([active, conjunctions + indicator.shape[0] - 1])
+        return SparseFeatures(active, np.ones(active.shape[0]))
 
     def _state_arrays(self) -> dict[str, np.ndarray]:
         n0 = self.representation_.num_features_

@@ -2,8 +2,10 @@
 
 `LinearTDAgent` holds θ (n_features × |A|), the representation, the policy, the step-size
 schedule, the episode counter and the generator; subclasses say how the bootstrap target
-Q⁺(s, a) is formed. ``act`` caches φ and Q of the states it saw so ``learn`` does not encode a
-state twice: per step the learners pay one feature activation, one Q evaluation and one update.
+Q⁺(s, a) is formed. φ(s) is the representation's `encode` (`SparseFeatures`: indices with their
+values), so binary and real-valued features take one code path. ``act`` caches φ and Q of the
+states it saw so ``learn`` does not encode a state twice: per step the learners pay one feature
+activation, one Q evaluation and one update.
 
 Notes
 -----
@@ -29,6 +31,7 @@ from conjure.core.interfaces import (
     Expansion,
     Policy,
     Representation,
+    SparseFeatures,
     Transition,
     check_is_set_up,
 )
@@ -45,6 +48,8 @@ STEP_SIZE = Interval(float, 0, None, closed="neither") | InstanceOf(
 )
 _FLOAT64 = np.dtype(np.float64)
 _NDARRAY = np.ndarray
+_q_values = _kernels.q_values
+_l1_norm = _kernels.l1_norm
 
 
 def state_key(state: np.ndarray) -> bytes:
@@ -93,21 +98,10 @@ class LinearTDAgent(Agent):
         self.episode_ = 0
         self.num_learning_steps_ = 0
         self._all_actions = np.arange(spec.num_actions, dtype=np.int64)
-        self._bind_kernels(self.representation_)
+        self._encode = self.representation_.encode
         self._forget_cache()
         self.is_set_up_ = True
         return self
-
-    def _bind_kernels(self, representation: Representation) -> None:
-        if representation.is_binary:
-            self._encode = representation.active_features
-            self._q_values = _kernels.q_values_binary
-            self._td_step = _kernels.td_step_binary
-        else:
-            self._encode = representation.feature_values
-            self._q_values = _kernels.q_values_dense
-            self._td_step = _kernels.td_step_dense
-        self._is_binary = representation.is_binary
 
     def begin_episode(self) -> None:
         """Count a new episode (the schedules' ``Episode #``)."""
@@ -131,7 +125,7 @@ class LinearTDAgent(Agent):
         except AttributeError:
             check_is_set_up(self, "act")
         phi = encode(state)
-        q = self._q_values(self.weights_, phi)
+        q = _q_values(self.weights_, phi[0], phi[1])
         legal = self._all_actions if legal_actions is None else legal_actions
         if greedy:
             return int(greedy_action(q, legal))
@@ -141,7 +135,8 @@ class LinearTDAgent(Agent):
     def q_values(self, state: np.ndarray) -> np.ndarray:
         """Return Q(s, ·) under the current weights."""
         check_is_set_up(self, "q_values")
-        return self._q_values(self.weights_, self._encode(state))
+        indices, values = self._encode(state)
+        return _q_values(self.weights_, indices, values)
 
     # ------------------------------------------------------------------ learning
 
@@ -152,7 +147,7 @@ class LinearTDAgent(Agent):
         target = transition.reward
         if not transition.terminated:
             target += self.discount_ * self._bootstrap(transition)  # line 5: Q⁺(s, a)
-        step_size = self.schedule_.value(max(self.episode_, 1), self._norm(phi))
+        step_size = self._step_size(self.schedule_, phi)
         delta = self._update(phi, transition.action, target, step_size)  # lines 6-7
         self._after_update(transition, phi, delta)
         return delta
@@ -161,10 +156,10 @@ class LinearTDAgent(Agent):
         """Return the estimate of the next state's value used in Q⁺(s, a)."""
         raise NotImplementedError
 
-    def _update(self, phi: np.ndarray, action: int, target: float, step_size: float) -> float:
-        return self._td_step(self.weights_, phi, action, target, step_size)
+    def _update(self, phi: SparseFeatures, action: int, target: float, step_size: float) -> float:
+        return _kernels.td_step(self.weights_, phi[0], phi[1], action, target, step_size)
 
-    def _after_update(self, transition: Transition, phi: np.ndarray, delta: float) -> None:
+    def _after_update(self, transition: Transition, phi: SparseFeatures, delta: float) -> None:
         self.num_learning_steps_ += 1
         self._weights_version += 1
         if not math.isfinite(delta):
@@ -174,7 +169,7 @@ class LinearTDAgent(Agent):
                 f"(now {self.step_size!r}) or use a feature-normalised schedule."
             )
         if self.representation_.is_adaptive:
-            expansion = self.representation_.discover(phi, delta, transition.state)
+            expansion = self.representation_.discover(phi[0], delta, transition.state)
             if expansion is not None and expansion.num_new:
                 self._grow(expansion)
 
@@ -183,9 +178,10 @@ class LinearTDAgent(Agent):
         self.weights_ = grow_weights(self.weights_, expansion)
         self._forget_cache()
 
-    def _norm(self, phi: np.ndarray) -> float:
-        """k_t: the number of active features (the L1 norm of φ for dense features)."""
-        return float(phi.shape[0]) if self._is_binary else float(np.abs(phi).sum())
+    def _step_size(self, schedule: StepSizeSchedule, phi: SparseFeatures) -> float:
+        """α_t of ``schedule`` for this episode and φ(s) (k_t = |φ(s)|₁ only if it is used)."""
+        num_active = _l1_norm(phi[1]) if schedule.uses_num_active else 1.0
+        return schedule.value(max(self.episode_, 1), num_active)
 
     # ------------------------------------------------------------------ the act/learn cache
 
@@ -196,14 +192,14 @@ class LinearTDAgent(Agent):
 
     # The hot paths below inline `state_key`'s fast case (a function call costs as much).
 
-    def _remember(self, state: np.ndarray, phi: np.ndarray, q: np.ndarray | None) -> None:
+    def _remember(self, state: np.ndarray, phi: SparseFeatures, q: np.ndarray | None) -> None:
         self._before_last = self._last
         if type(state) is _NDARRAY and state.dtype is _FLOAT64:
             self._last = (state.tobytes(), phi, q, self._weights_version)
         else:
             self._last = (state_key(state), phi, q, self._weights_version)
 
-    def _features(self, state: np.ndarray, encode: Any = None) -> np.ndarray:
+    def _features(self, state: np.ndarray, encode: Any = None) -> SparseFeatures:
         """φ(s) (or ``encode(s)``), from the cache when ``act`` saw a state of the same value.
 
         In the run loop s is the state ``act`` saw before last, so that entry is tried first.
@@ -226,8 +222,11 @@ class LinearTDAgent(Agent):
         else:
             same = state_key(state) == key
         if same:
-            return q if version == self._weights_version else self._q_values(self.weights_, phi)
-        return self._q_values(self.weights_, self._features(state))
+            if version == self._weights_version:
+                return q
+        else:
+            phi = self._features(state)
+        return _q_values(self.weights_, phi[0], phi[1])
 
     # ------------------------------------------------------------------ persistence
 
@@ -260,7 +259,7 @@ class LinearTDAgent(Agent):
         self.episode_ = int(state["episode"])
         self.num_learning_steps_ = int(state["num_learning_steps"])
         self.rng_ = rng_from_state(state["rng"])
-        self._bind_kernels(self.representation_)
+        self._encode = self.representation_.encode
         self.weights_ = saved.array(
             "weights", (self.representation_.num_features_, self.spec_.num_actions)
         )

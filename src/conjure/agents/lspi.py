@@ -28,7 +28,7 @@ class LSPI(BatchAgent):
     Parameters
     ----------
     representation : Representation
-        φ(s) (binary features are assembled sparsely; dense ones work too).
+        φ(s), read through its `encode` and assembled sparsely (binary or real-valued).
     policy : Policy or None, default None
         Behaviour policy π^ε of ``act`` (``None``: ε-greedy, ε = 0.1); `fit` ignores it.
     regularization : float, default 1e-6

@@ -37,7 +37,7 @@ class LSTD(BatchAgent):
     Parameters
     ----------
     representation : Representation
-        φ(s) (binary or dense).
+        φ(s), read through its `encode` (binary or real-valued features).
     regularization : float, default 1e-6
         λ ≥ 0 added to Ã's diagonal where the inverse does not exist.
     policy : Policy or None, default None

@@ -7,7 +7,10 @@ A saved agent is a directory holding
   "params": {...}}`` (nested components are trees too), S is the `DomainSpec` as a dict and
   ``state`` holds counters and generator states (JSON);
 - ``arrays.npz``: the weights, traces, samples and representation arrays, read with
-  ``allow_pickle=False``.
+  ``allow_pickle=False``. Eligibility traces are sparse (``trace_features``,
+  ``trace_actions``, ``trace_values``) for every representation; the dense ``traces`` array
+  earlier conjure saved for real-valued features (RBF with λ > 0) is still read, converted to
+  its non-zero entries.
 
 Loading trusts nothing in the files:
 

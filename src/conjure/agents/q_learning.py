@@ -15,7 +15,7 @@ class QLearning(LinearTDAgent):
     Parameters
     ----------
     representation : Representation
-        φ: binary (sparse indices) or dense (e.g. Gaussian RBF).
+        φ, read through its `encode`: binary features or real-valued ones (Gaussian RBF).
     policy : Policy or None, default None
         The behaviour policy π^ε; ``None`` means ``EpsilonGreedy(epsilon=0.1)``.
     step_size : float or StepSizeSchedule, default 0.1

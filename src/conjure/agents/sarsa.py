@@ -6,7 +6,14 @@ import numpy as np
 
 from conjure.agents import _kernels, persistence
 from conjure.agents.linear_td import LinearTDAgent
-from conjure.core.interfaces import DomainSpec, Expansion, Policy, Representation, Transition
+from conjure.core.interfaces import (
+    DomainSpec,
+    Expansion,
+    Policy,
+    Representation,
+    SparseFeatures,
+    Transition,
+)
 from conjure.core.params import Interval, Options
 from conjure.core.schedules import StepSizeSchedule
 from conjure.representations.weights import append_rows
@@ -20,7 +27,7 @@ class SARSA(LinearTDAgent):
     Parameters
     ----------
     representation : Representation
-        φ: binary (sparse indices) or dense (e.g. Gaussian RBF).
+        φ, read through its `encode`: binary features or real-valued ones (Gaussian RBF).
     policy : Policy or None, default None
         The behaviour policy π^ε; ``None`` means ``EpsilonGreedy(epsilon=0.1)`` (Section 4.1.4).
     step_size : float or StepSizeSchedule, default 0.1
@@ -28,7 +35,8 @@ class SARSA(LinearTDAgent):
     trace_decay : float, default 0.0
         λ in [0, 1]; 0 is Algorithm 11 as written, > 0 adds eligibility traces (SARSA(λ)).
     trace_kind : {"replacing", "accumulating"}, default "replacing"
-        How binary features' traces are refreshed; dense features always accumulate.
+        How the traces of φ(s)'s features are refreshed; a φ(s) with values other than 1
+        always accumulates.
     min_trace : float, default 1e-3
         Traces that decay below this are dropped, in (0, 1).
     initial_weight : float, default 0.0
@@ -45,7 +53,7 @@ class SARSA(LinearTDAgent):
 
     Notes
     -----
-    Symbols: θ ``weights_``, φ(s) ``representation_.active_features``, α ``step_size``,
+    Symbols: θ ``weights_``, φ(s) ``representation_.encode``, α ``step_size``,
     δ the TD error returned by ``learn``, λ ``trace_decay``, γ the domain's discount.
 
     - Choice: θ starts at ``initial_weight`` (zero by default) where Algorithm 11 writes
@@ -53,6 +61,13 @@ class SARSA(LinearTDAgent):
     - Choice: with traces, binary features use replacing traces by default (Singh and Sutton
       1996); traces are cleared at the start of each episode and stored sparsely, so a step
       costs Θ(number of live traces), never Θ(n).
+    - Choice: replacing traces, e(i, a) ← φ_i(s), are defined for binary features (Singh and
+      Sutton 1996); when a φ(s) holds any value other than 1 (Gaussian RBF) that step
+      accumulates, e(i, a) ← γλ e(i, a) + φ_i(s), whatever ``trace_kind`` says.
+    - Choice: real-valued features (RBF) use the same sparse traces, so their traces below
+      ``min_trace`` are dropped too. Earlier conjure kept dense, never dropped traces for
+      them, so SARSA(λ) with RBF differs from those runs only by the dropped traces; an
+      agent saved with such a dense ``traces`` array is restored with its non-zero entries.
 
     Complexity
     ----------
@@ -111,15 +126,12 @@ class SARSA(LinearTDAgent):
 
     def _make_traces(self) -> None:
         n, num_actions = self.weights_.shape
-        if self._is_binary:
-            self.trace_slots_ = np.full((n, num_actions), -1, dtype=np.int64)
-            capacity = 1024
-            self.trace_features_ = np.zeros(capacity, dtype=np.int64)
-            self.trace_actions_ = np.zeros(capacity, dtype=np.int64)
-            self.trace_values_ = np.zeros(capacity)
-            self.trace_count_ = np.zeros(1, dtype=np.int64)
-        else:
-            self.traces_ = np.zeros((n, num_actions))
+        self.trace_slots_ = np.full((n, num_actions), -1, dtype=np.int64)
+        capacity = 1024
+        self.trace_features_ = np.zeros(capacity, dtype=np.int64)
+        self.trace_actions_ = np.zeros(capacity, dtype=np.int64)
+        self.trace_values_ = np.zeros(capacity)
+        self.trace_count_ = np.zeros(1, dtype=np.int64)
 
     def begin_episode(self) -> None:
         """Count a new episode and clear the eligibility traces."""
@@ -128,24 +140,19 @@ class SARSA(LinearTDAgent):
             self._clear_traces()
 
     def _clear_traces(self) -> None:
-        if self._is_binary:
-            _kernels.clear_traces(
-                self.trace_slots_, self.trace_features_, self.trace_actions_, self.trace_count_
-            )
-        else:
-            self.traces_[:] = 0.0
+        _kernels.clear_traces(
+            self.trace_slots_, self.trace_features_, self.trace_actions_, self.trace_count_
+        )
 
-    def _update(self, phi: np.ndarray, action: int, target: float, step_size: float) -> float:
+    def _update(self, phi: SparseFeatures, action: int, target: float, step_size: float) -> float:
+        indices, values = phi
         if not self._has_traces:
-            return self._td_step(self.weights_, phi, action, target, step_size)
-        if not self._is_binary:
-            return _kernels.td_step_traces_dense(
-                self.weights_, phi, action, target, step_size, self._trace_factor, self.traces_
-            )
+            return _kernels.td_step(self.weights_, indices, values, action, target, step_size)
         while True:
-            delta = _kernels.td_step_traces_binary(
+            delta = _kernels.td_step_traces(
                 self.weights_,
-                phi,
+                indices,
+                values,
                 action,
                 target,
                 step_size,
@@ -168,31 +175,25 @@ class SARSA(LinearTDAgent):
         self.trace_actions_ = np.concatenate([self.trace_actions_, np.zeros(extra, np.int64)])
         self.trace_values_ = np.concatenate([self.trace_values_, np.zeros(extra)])
 
-    def _after_update(self, transition: Transition, phi: np.ndarray, delta: float) -> None:
+    def _after_update(self, transition: Transition, phi: SparseFeatures, delta: float) -> None:
         super()._after_update(transition, phi, delta)
         if self._has_traces and transition.terminated:
             self._clear_traces()
 
     def _grow(self, expansion: Expansion) -> None:
         super()._grow(expansion)
-        if not self._has_traces:
-            return
-        if self._is_binary:
+        if self._has_traces:
             self.trace_slots_ = append_rows(self.trace_slots_, expansion.num_new, fill=-1)
-        else:
-            self.traces_ = append_rows(self.traces_, expansion.num_new)
 
     # ------------------------------------------------------------------ persistence
 
     def _state_arrays(self) -> dict[str, np.ndarray]:
         arrays = super()._state_arrays()
-        if self._has_traces and self._is_binary:
+        if self._has_traces:
             count = int(self.trace_count_[0])
             arrays["trace_features"] = self.trace_features_[:count]
             arrays["trace_actions"] = self.trace_actions_[:count]
             arrays["trace_values"] = self.trace_values_[:count]
-        elif self._has_traces:
-            arrays["traces"] = self.traces_
         return arrays
 
     def _load_state(self, saved: persistence.SavedAgent) -> None:
@@ -201,13 +202,16 @@ class SARSA(LinearTDAgent):
             return
         self._make_traces()
         n, num_actions = self.weights_.shape
-        if not self._is_binary:
-            self.traces_[:] = saved.array("traces", (n, num_actions))
-            return
-        features = saved.indices("trace_features", (None,), n)
-        count = features.shape[0]
-        actions = saved.indices("trace_actions", (count,), num_actions)
-        values = saved.array("trace_values", (count,))
+        if "traces" in saved.arrays:  # the dense layout of earlier saves (RBF, λ > 0)
+            dense = saved.array("traces", (n, num_actions))
+            features, actions = np.nonzero(dense)
+            values = dense[features, actions]
+            count = features.shape[0]
+        else:
+            features = saved.indices("trace_features", (None,), n)
+            count = features.shape[0]
+            actions = saved.indices("trace_actions", (count,), num_actions)
+            values = saved.array("trace_values", (count,))
         if np.unique(features * num_actions + actions).shape[0] != count:
             raise saved.damaged("arrays.npz", "two eligibility traces share a (feature, action)")
         while self.trace_values_.shape[0] < count:

@@ -17,6 +17,7 @@ from conjure.core.interfaces import (
     Expansion,
     Policy,
     Representation,
+    SparseFeatures,
     Transition,
 )
 from conjure.core.params import Configurable
@@ -43,6 +44,7 @@ __all__ = [
     "NotSetUpError",
     "Policy",
     "Representation",
+    "SparseFeatures",
     "StepSizeSchedule",
     "Transition",
 ]

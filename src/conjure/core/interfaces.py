@@ -1,7 +1,7 @@
 """The core interfaces: Domain, Representation, Policy, Agent, and the records they exchange.
 
-Names follow Geramifard (2012): φ(s) ``active_features`` (Eq. 2.11 builds φ(s, a) from it),
-θ ``weights``, δ ``td_error``, γ ``discount``.
+Names follow Geramifard (2012): φ(s) ``encode`` (Eq. 2.11 builds φ(s, a) from it), θ
+``weights``, δ ``td_error``, γ ``discount``.
 """
 
 from __future__ import annotations
@@ -13,7 +13,7 @@ from typing import Any, ClassVar, NamedTuple
 import gymnasium as gym
 import numpy as np
 
-from conjure.core.errors import InvalidParameterError, NotSetUpError
+from conjure.core.errors import IncompatibleComponentsError, InvalidParameterError, NotSetUpError
 from conjure.core.params import Configurable
 
 __all__ = [
@@ -23,7 +23,9 @@ __all__ = [
     "Expansion",
     "Policy",
     "Representation",
+    "SparseFeatures",
     "Transition",
+    "check_binary_features",
     "check_is_set_up",
 ]
 
@@ -124,6 +126,44 @@ class Transition(NamedTuple):
     next_action: int
     terminated: bool
     next_legal_actions: np.ndarray | None = None
+
+
+class SparseFeatures(NamedTuple):
+    """φ(s) as its non-zero entries: the one feature encoding learners and planners read.
+
+    ``indices`` are sorted, unique int64 feature numbers and ``values`` the float64 φ_i(s) at
+    them (same length); every feature not listed is 0. Binary representations give values of
+    1 (the active features of Eq. 2.11); Gaussian RBF gives every feature with its value.
+
+    Examples
+    --------
+    >>> phi = SparseFeatures(np.array([0, 2]), np.array([0.5, 1.0]))
+    >>> phi.dense(3).tolist(), phi.has_unit_values()
+    ([0.5, 0.0, 1.0], False)
+    >>> phi.dot(np.array([[2.0, 0.0], [9.0, 9.0], [1.0, 3.0]])).tolist()
+    [2.0, 3.0]
+    """
+
+    indices: np.ndarray
+    values: np.ndarray
+
+    def dense(self, num_features: int) -> np.ndarray:
+        """Return φ(s) as a dense float64 vector of length ``num_features``."""
+        phi = np.zeros(num_features, dtype=np.float64)
+        phi[self.indices] = self.values
+        return phi
+
+    def dot(self, weights: np.ndarray) -> np.ndarray:
+        """Return θᵀφ(s) for θ of shape (n_features, |A|): Q(s, ·) (Eq. 2.11).
+
+        The numpy form for planners and batch learners; online learners use the numba
+        kernels of `conjure.agents._kernels`.
+        """
+        return (weights[self.indices] * self.values[:, None]).sum(axis=0)
+
+    def has_unit_values(self) -> bool:
+        """Whether every listed value is 1, i.e. φ(s) is binary."""
+        return bool(np.all(self.values == 1.0))
 
 
 @dataclass(frozen=True)
@@ -241,36 +281,69 @@ class Domain(gym.Env, Configurable):
 # ---------------------------------------------------------------------------------------------
 # Representation
 
+_NO_VALUES = np.zeros(0, dtype=np.float64)
+_NO_VALUES.flags.writeable = False
+
 
 class Representation(Configurable):
     """Maps a state to features φ(s); Q(s, ·) = θᵀφ(s) with θ of shape (n_features, |A|).
 
-    Binary representations (``is_binary = True``) return the indices of the active features as
-    a sorted int64 array from `active_features` (the sparse φ(s) of Eq. 2.11, per action via
-    the weight column). Dense ones (Gaussian RBF) return all feature values from
-    `feature_values`. A representation never owns weights.
+    `encode` is the one contract learners and planners use: it returns φ(s) as a
+    `SparseFeatures` (sorted indices with their values; Eq. 2.11 takes φ(s, a) from it per
+    action through θ's column). Binary representations implement `active_features`, the
+    sorted int64 indices of the active features, and inherit `encode` with values of 1;
+    real-valued ones (Gaussian RBF) implement `encode` and leave `active_features` raising.
+    `feature_values` is the dense φ(s), built from `encode`. A representation never owns
+    weights.
 
     Adaptive representations (``is_adaptive = True``) implement `discover`, returning an
     `Expansion`; learners then grow their weights (θ_f = θ_g + θ_h, Section 4.1.1).
     """
 
-    is_binary: ClassVar[bool] = True
     is_adaptive: ClassVar[bool] = False
+    # The values `encode` gives binary φ (a read-only view of the ones buffer `_unit_buffer`).
+    _unit_values: np.ndarray = _NO_VALUES
+    _unit_buffer: np.ndarray = _NO_VALUES
 
     def setup(self, spec: DomainSpec, seed: int | np.random.SeedSequence) -> Representation:
         """Validate parameters, build the feature tables for ``spec`` and return ``self``."""
         raise NotImplementedError
 
     def active_features(self, state: np.ndarray) -> np.ndarray:
-        """Return the sorted indices of the active binary features of ``state``."""
-        raise NotImplementedError
+        """Return the sorted indices of the active binary features of ``state``.
+
+        Representations with real-valued features do not implement it (it raises
+        `IncompatibleComponentsError`); use `encode`.
+        """
+        raise IncompatibleComponentsError(
+            f"{type(self).__name__} has real-valued features, not binary active features; "
+            f"use encode (a component needing binary active_features cannot use it)."
+        )
+
+    def encode(self, state: np.ndarray) -> SparseFeatures:
+        """Return φ(s) as `SparseFeatures`: the active features of ``state`` with values 1.
+
+        The values are a read-only view of a buffer of ones the representation keeps (grown
+        when a state has more active features), so encoding allocates nothing per step.
+        """
+        indices = self.active_features(state)
+        ones = self._unit_values
+        if len(ones) != len(indices):
+            ones = self._unit_values = self._ones(len(indices))
+        return _sparse_features(SparseFeatures, (indices, ones))
+
+    def _ones(self, count: int) -> np.ndarray:
+        """A read-only view of ``count`` ones on a buffer grown (doubled) when too short."""
+        buffer = self._unit_buffer
+        if buffer.shape[0] < count:
+            buffer = self._unit_buffer = np.ones(max(count, 2 * buffer.shape[0]))
+            buffer.flags.writeable = False
+        return buffer[:count]
 
     def feature_values(self, state: np.ndarray) -> np.ndarray:
-        """Return the dense feature vector φ(s) of length ``num_features_``."""
+        """Return the dense feature vector φ(s) of length ``num_features_`` (from `encode`)."""
         check_is_set_up(self, "feature_values")
-        phi = np.zeros(self.num_features_, dtype=np.float64)
-        phi[self.active_features(state)] = 1.0
-        return phi
+        return self.encode(state).dense(self.num_features_)
 
     def discover(
         self, active: np.ndarray, td_error: float, state: np.ndarray | None = None
@@ -309,6 +382,31 @@ class Representation(Configurable):
 
     def load_state_arrays(self, arrays: dict[str, np.ndarray]) -> None:
         """Restore what `state_arrays` returned."""
+
+
+_sparse_features = tuple.__new__  # SparseFeatures without its Python-level __new__ (per step)
+
+
+def check_binary_features(representation: Representation, user: str) -> None:
+    """Raise `IncompatibleComponentsError` unless the set-up ``representation`` is binary.
+
+    For components that conjoin binary features (iFDD, FDLSTD). Choice: binary means that
+    `encode` gives values of 1 at the middle of the state box (a real-valued representation
+    such as Gaussian RBF gives other values there); one that passes this probe but is not
+    binary elsewhere still fails at its first `active_features` call, naming itself.
+    """
+    spec = representation.spec_
+    middle = (spec.low + spec.high) / 2.0
+    try:
+        binary = representation.encode(middle).has_unit_values()
+    except IncompatibleComponentsError:
+        binary = False
+    if not binary:
+        raise IncompatibleComponentsError(
+            f"{user} conjoins binary features, but {type(representation).__name__} encodes "
+            f"states with values other than 1; use IndependentDiscretization, TileCoding or "
+            f"Tabular."
+        )
 
 
 # ---------------------------------------------------------------------------------------------

@@ -78,16 +78,15 @@ def row_matrix(
 
 
 def feature_matrix(representation: Representation, states: Sequence[np.ndarray]) -> sp.csr_matrix:
-    """Return the sparse Φ̃ whose row i is φ(s_i)ᵀ (binary or dense features; Eq. 2.10)."""
-    n = representation.num_features_
-    if representation.is_binary:
-        rows = [representation.active_features(np.asarray(s, dtype=np.float64)) for s in states]
-        lengths = np.fromiter((r.shape[0] for r in rows), dtype=np.int64, count=len(rows))
-        indptr = np.concatenate([[0], np.cumsum(lengths)])
-        indices = np.concatenate(rows) if rows else np.zeros(0, dtype=np.int64)
-        return row_matrix(indices, indptr, n)
-    dense = np.array([representation.feature_values(np.asarray(s, float)) for s in states])
-    return sp.csr_matrix(dense.reshape(len(states), n))
+    """Return the sparse Φ̃ whose row i is φ(s_i)ᵀ, from the representation's `encode` (Eq. 2.10)."""
+    rows = [representation.encode(np.asarray(s, dtype=np.float64)) for s in states]
+    lengths = np.fromiter((r.indices.shape[0] for r in rows), dtype=np.int64, count=len(rows))
+    indptr = np.concatenate([[0], np.cumsum(lengths)])
+    if not rows:
+        return row_matrix(np.zeros(0, dtype=np.int64), indptr, representation.num_features_)
+    indices = np.concatenate([r.indices for r in rows])
+    values = np.concatenate([r.values for r in rows])
+    return row_matrix(indices, indptr, representation.num_features_, values=values)
 
 
 def lstd_system(

@@ -8,13 +8,21 @@ features k_t.
 
 from __future__ import annotations
 
+from typing import ClassVar
+
 from conjure.core.params import Configurable, Interval
 
 __all__ = ["ConstantStepSize", "EpisodicDecay", "FeatureNormalizedDecay", "StepSizeSchedule"]
 
 
 class StepSizeSchedule(Configurable):
-    """A step size α_t as a function of the episode number and the active-feature count k_t."""
+    """A step size α_t as a function of the episode number and the active-feature count k_t.
+
+    ``uses_num_active`` says whether α_t depends on k_t; learners skip computing k_t (the
+    L1 norm of φ(s)) for schedules that ignore it and pass 1.
+    """
+
+    uses_num_active: ClassVar[bool] = True
 
     def value(self, episode: int, num_active: float) -> float:
         """Return α_t for 1-based ``episode`` and ``num_active`` = k_t (> 0)."""
@@ -36,6 +44,7 @@ class ConstantStepSize(StepSizeSchedule):
     """
 
     parameter_constraints = {"alpha_0": Interval(float, 0, None, closed="neither")}
+    uses_num_active = False
 
     def __init__(self, *, alpha_0: float = 0.1):
         self.alpha_0 = alpha_0
@@ -58,7 +67,8 @@ class FeatureNormalizedDecay(StepSizeSchedule):
     Notes
     -----
     - k_t is the number of active features of the updated state. Choice: for dense features
-      (Gaussian RBF) the agent passes the L1 norm of φ(s), which equals k_t for binary ones.
+      (Gaussian RBF) the agent passes the L1 norm of φ(s) (`Representation.encode`'s values),
+      which equals k_t for binary ones.
     - Choice: ``episode`` counts from 1 (the first episode gives α_0 / k_t).
 
     Examples
@@ -101,6 +111,7 @@ class EpisodicDecay(StepSizeSchedule):
         "alpha_0": Interval(float, 0, None, closed="neither"),
         "n_0": Interval(float, 0, None),
     }
+    uses_num_active = False
 
     def __init__(self, *, alpha_0: float = 0.1, n_0: float = 1000.0):
         self.alpha_0 = alpha_0

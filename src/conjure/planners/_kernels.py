@@ -194,11 +194,7 @@ def epsilon_greedy_chooser(
     def choose(state: np.ndarray, rng: np.random.Generator) -> int:
         if rng.random() < epsilon:
             return int(rng.integers(num_actions))
-        if representation.is_binary:
-            q = weights[representation.active_features(np.asarray(state, float))].sum(axis=0)
-        else:
-            q = representation.feature_values(np.asarray(state, float)) @ weights
-        return int(np.argmax(q))
+        return int(np.argmax(representation.encode(np.asarray(state, float)).dot(weights)))
 
     return choose
 

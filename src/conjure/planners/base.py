@@ -83,10 +83,7 @@ class Plan:
         if self.q_values is not None and self.model is not None:
             return self.q_values[self.model.state_index(state)]
         if self.representation is not None and self.weights is not None and self.weights.ndim == 2:
-            rep = self.representation
-            if rep.is_binary:
-                return self.weights[rep.active_features(np.asarray(state, float))].sum(axis=0)
-            return rep.feature_values(np.asarray(state, float)) @ self.weights
+            return self.representation.encode(np.asarray(state, float)).dot(self.weights)
         return None
 
     def action(self, state: Any) -> int:

@@ -148,7 +148,6 @@ class ARiFDD(OnlineIFDD):
         "max_features": OPTIONAL_MAX_FEATURES,
     }
 
-    is_binary = True
     is_adaptive = True
     # fixed settings of the OnlineIFDD machinery (not parameters of ARiFDD)
     sparsify = True

@@ -4,8 +4,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from conjure.core.errors import IncompatibleComponentsError, InvalidParameterError
-from conjure.core.interfaces import DomainSpec, Expansion, Representation, check_is_set_up
+from conjure.core.errors import InvalidParameterError
+from conjure.core.interfaces import (
+    DomainSpec,
+    Expansion,
+    Representation,
+    check_binary_features,
+    check_is_set_up,
+)
 from conjure.core.params import InstanceOf, Interval, Options
 from conjure.core.seeding import make_rng, split_seed
 from conjure.representations import _ifdd_kernels as _k
@@ -145,7 +151,6 @@ class OnlineIFDD(Representation):
         "discovery_rate": Interval(float, 0, None, closed="neither") | InstanceOf(type(None)),
     }
 
-    is_binary = True
     is_adaptive = True
 
     def __init__(
@@ -180,14 +185,9 @@ class OnlineIFDD(Representation):
     def setup(self, spec: DomainSpec, seed: int | np.random.SeedSequence) -> OnlineIFDD:
         """Validate the parameters, set up a clone of ``base`` and start from its n₀ features."""
         self.validate_params()
-        if not self.base.is_binary:
-            raise IncompatibleComponentsError(
-                f"{type(self).__name__}.base must be a binary representation (iFDD conjoins "
-                f"binary features); got {type(self.base).__name__}. Use IndependentDiscretization, "
-                f"TileCoding or Tabular."
-            )
         seeds = split_seed(seed, ("base", "conjunctions"))
         base = self.base.clone().setup(spec, seeds["base"])
+        check_binary_features(base, f"{type(self).__name__}.base: iFDD")
         n0 = int(base.num_features_)
         where = f"{type(base).__name__} on {spec.name!r}"
         check_max_features(type(self).__name__, self.max_features, n0, where)

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from conjure.core.errors import IncompatibleComponentsError, InvalidParameterError
-from conjure.core.interfaces import DomainSpec, Representation, check_is_set_up
+from conjure.core.errors import InvalidParameterError
+from conjure.core.interfaces import DomainSpec, Representation, SparseFeatures, check_is_set_up
 from conjure.core.params import InstanceOf, Interval, Options, Predicate
 from conjure.core.seeding import make_rng
 from conjure.representations._kernels import per_dimension, positive_ints, rbf_values
@@ -22,7 +22,7 @@ class RBF(Representation):
     experiments compare against (Lagoudakis & Parr, 2003: a 3 × 3 grid of Gaussians plus a
     constant); Section 2.4 (linear φ with real-valued features, φ(s, a) by Eq. 2.11) and
     Section 6.2.3 (Gaussian features). Dense: every feature is non-zero (sparsity 1,
-    Section 3.1.2), so ``is_binary`` is False and learners must use `feature_values`.
+    Section 3.1.2), so `encode` lists every feature with its real value.
 
     Parameters
     ----------
@@ -58,7 +58,7 @@ class RBF(Representation):
 
     Notes
     -----
-    - Symbols: φ(s) ``feature_values``; c_i ``centers_``; σ ``widths_``.
+    - Symbols: φ(s) ``encode`` (dense: ``feature_values``); c_i ``centers_``; σ ``widths_``.
     - States are normalised by the range: u_d = (s_d − low_d) / (high_d − low_d); widths and
       centers are fractions of the range. Choice: a dimension with ``low == high`` uses a
       range of 1.
@@ -66,10 +66,12 @@ class RBF(Representation):
     - Choice: grid centers are numbered row-major (last dimension fastest); discrete
       dimensions are treated like continuous ones.
     - `active_features` raises `IncompatibleComponentsError`: RBF features are not binary.
+    - Choice: `encode` lists all n features, even those whose Gaussian is tiny, so learners
+      compute exactly the dense θᵀφ(s).
 
     Complexity
     ----------
-    Θ(K · d) per call to `feature_values`, K = number of centers.
+    Θ(K · d) per call to `encode`, K = number of centers.
 
     Examples
     --------
@@ -79,12 +81,12 @@ class RBF(Representation):
     >>> rep = RBF(num_centers=3).setup(spec, seed=0)
     >>> rep.num_features_
     10
-    >>> phi = rep.feature_values([0.5, 0.5])
-    >>> round(float(phi[4]), 3), round(float(phi[0]), 3), float(phi[-1])
+    >>> indices, values = rep.encode([0.5, 0.5])
+    >>> indices.tolist() == list(range(10))
+    True
+    >>> round(float(values[4]), 3), round(float(values[0]), 3), float(values[-1])
     (1.0, 0.368, 1.0)
     """
-
-    is_binary = False
 
     parameter_constraints = {
         "num_centers": positive_ints(),
@@ -157,24 +159,20 @@ class RBF(Representation):
         self._scaled_centers = np.ascontiguousarray((self.centers_ - spec.low) * inv)
         self.spec_ = spec
         self.num_features_ = int(self.centers_.shape[0] + (1 if self.include_bias else 0))
+        self._indices = np.arange(self.num_features_, dtype=np.int64)
+        self._indices.flags.writeable = False
         self.is_set_up_ = True
 
-    def active_features(self, state: np.ndarray) -> np.ndarray:
-        """Raise: RBF features are dense and real-valued; use `feature_values`."""
-        raise IncompatibleComponentsError(
-            "RBF is dense; use feature_values (a learner needing binary active_features "
-            "cannot use RBF)."
-        )
-
-    def feature_values(self, state: np.ndarray) -> np.ndarray:
-        """Return φ(s), a fresh float64 array of length ``num_features_`` (bias last)."""
+    def encode(self, state: np.ndarray) -> SparseFeatures:
+        """Return φ(s) as every index 0 .. n − 1 with a fresh float64 array of values."""
         try:
             affine = self._affine
         except AttributeError:
-            check_is_set_up(self, "feature_values")
+            check_is_set_up(self, "encode")
             raise
         state = self.check_state(state)
-        return rbf_values(state, affine, self._scaled_centers, self.num_features_)
+        values = rbf_values(state, affine, self._scaled_centers, self.num_features_)
+        return SparseFeatures(self._indices, values)
 
     def state_arrays(self) -> dict[str, np.ndarray]:
         """Return the centers and widths (random centers depend on the setup seed)."""

@@ -487,26 +487,28 @@ def check_model_matches_simulation(domain: Domain) -> None:
 
 
 def _features(representation: Representation, state: np.ndarray) -> np.ndarray:
-    if representation.is_binary:
-        return representation.active_features(state)
-    return representation.feature_values(state)
+    """φ(s) as a dense vector, from `Representation.encode`."""
+    return representation.encode(state).dense(representation.num_features_)
 
 
 def check_features_valid(representation: Representation) -> None:
-    """φ(s) is sorted unique int64 indices in range (binary) or finite floats (dense)."""
+    """`encode` gives sorted unique int64 indices in range with as many finite float64 values."""
     spec = _check_spec()
     rep = representation.clone().setup(spec, seed=0)
     assert rep.num_features_ > 0, "A set-up representation needs at least one feature."
     for state in sample_states(spec, 200):
-        phi = _features(rep, state)
-        if rep.is_binary:
-            assert phi.dtype == np.int64, f"active_features must be int64; got {phi.dtype}"
-            assert phi.size > 0, "Every state needs at least one active feature."
-            assert np.all(np.diff(phi) > 0), f"Active features not sorted and unique: {phi}"
-            assert phi[0] >= 0 and phi[-1] < rep.num_features_, f"Index out of range: {phi}"
-        else:
-            assert phi.shape == (rep.num_features_,) and np.all(np.isfinite(phi))
-        assert np.array_equal(phi, _features(rep, state.copy())), "φ(s) is not deterministic."
+        indices, values = rep.encode(state)
+        assert indices.dtype == np.int64, f"encode's indices must be int64; got {indices.dtype}"
+        assert values.dtype == np.float64, f"encode's values must be float64; got {values.dtype}"
+        assert values.shape == indices.shape, "encode's indices and values differ in length."
+        assert indices.size > 0, "Every state needs at least one active feature."
+        assert np.all(np.diff(indices) > 0), f"Indices not sorted and unique: {indices}"
+        assert indices[0] >= 0 and indices[-1] < rep.num_features_, f"Out of range: {indices}"
+        assert np.all(np.isfinite(values)), f"Feature values not finite: {values}"
+        again = rep.encode(state.copy())
+        assert np.array_equal(indices, again.indices) and np.array_equal(values, again.values), (
+            "φ(s) is not deterministic."
+        )
 
 
 def check_wrong_state_shape_raises(representation: Representation) -> None:
@@ -524,7 +526,7 @@ def check_not_set_up_raises(component: Representation | Agent) -> None:
     """Using a component before ``setup`` raises `NotSetUpError`."""
     fresh = component.clone()
     if isinstance(fresh, Representation):
-        calls = [lambda: _features(fresh, np.zeros(2))]
+        calls = [lambda: fresh.encode(np.zeros(2))]
     else:
         state = np.zeros(1)
         calls = [
