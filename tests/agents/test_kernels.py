@@ -111,7 +111,7 @@ def test_actor_add_and_norms():
 
 
 @pytest.mark.parametrize("seed", [0, 1])
-def test_binary_entry_points_equal_unit_values_bit_for_bit(seed):
+def test_values_none_equals_unit_values_bit_for_bit(seed):
     rng = np.random.default_rng(seed)
     active = np.sort(rng.choice(50, size=6, replace=False)).astype(np.int64)
     start = rng.normal(size=(50, 3))
@@ -124,11 +124,11 @@ def test_binary_entry_points_equal_unit_values_bit_for_bit(seed):
             a = _kernels.td_step_traces(
                 with_values, active, ones, step % 3, target, 0.1, 0.9, replacing, 1e-3, *traces_v
             )
-            b = _kernels.td_step_traces_binary(
-                with_none, active, step % 3, target, 0.1, 0.9, replacing, 1e-3, *traces_n
+            b = _kernels.td_step_traces(
+                with_none, active, None, step % 3, target, 0.1, 0.9, replacing, 1e-3, *traces_n
             )
             assert a == b
         assert np.array_equal(with_values, with_none)
     q = np.empty(3)
-    _kernels.q_values_binary_into(start, active, q)
+    _kernels.q_values_into(start, active, None, q)
     assert np.array_equal(q, _kernels.q_values(start, active, ones))

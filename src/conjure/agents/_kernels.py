@@ -4,9 +4,8 @@
 per-action copy of φ(s) in Eq. 2.11 without building φ(s, a). φ(s) is sparse
 (`conjure.core.SparseFeatures`): sorted ``indices`` with their ``values``. ``values`` may be
 ``None`` for binary φ (every value 1; numba compiles that case without reading a value): the
-compiled loop (`conjure.compiled`) passes binary φ that way through the ``*_binary`` entry
-points. Multiplying by a value of 1.0 is exact, so binary φ gives bit-identical results
-either way.
+compiled loops (`conjure.compiled`) pass binary φ that way. Multiplying by a value of 1.0 is
+exact, so binary φ gives bit-identical results either way.
 """
 
 from __future__ import annotations
@@ -173,61 +172,3 @@ def clear_traces(
     for i in range(count[0]):
         slot_of[trace_feature[i], trace_action[i]] = -1
     count[0] = 0
-
-
-# The binary entry points of the compiled loop (`conjure.compiled`): φ as active indices.
-
-
-@njit(cache=True)
-def q_values_binary_into(weights: np.ndarray, active: np.ndarray, q: np.ndarray) -> None:
-    """`q_values_into` for binary φ."""
-    q_values_into(weights, active, None, q)
-
-
-@njit(cache=True)
-def td_step_binary(
-    weights: np.ndarray, active: np.ndarray, action: int, target: float, step_size: float
-) -> float:
-    """`td_step` for binary φ."""
-    return td_step(weights, active, None, action, target, step_size)
-
-
-@njit(cache=True)
-def add_binary(weights: np.ndarray, active: np.ndarray, action: int, amount: float) -> None:
-    """`add` for binary φ."""
-    add(weights, active, None, action, amount)
-
-
-@njit(cache=True)
-def td_step_traces_binary(
-    weights: np.ndarray,
-    active: np.ndarray,
-    action: int,
-    target: float,
-    step_size: float,
-    decay: float,
-    is_replacing: bool,
-    min_trace: float,
-    slot_of: np.ndarray,
-    trace_feature: np.ndarray,
-    trace_action: np.ndarray,
-    trace_value: np.ndarray,
-    count: np.ndarray,
-) -> float:
-    """`td_step_traces` for binary φ."""
-    return td_step_traces(
-        weights,
-        active,
-        None,
-        action,
-        target,
-        step_size,
-        decay,
-        is_replacing,
-        min_trace,
-        slot_of,
-        trace_feature,
-        trace_action,
-        trace_value,
-        count,
-    )

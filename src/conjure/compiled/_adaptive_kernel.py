@@ -10,7 +10,7 @@ sparse eligibility traces) or Q-Learning (Algorithm 10). It is a separate kernel
 shares that module's constants, `step_size`, `select_action` and `record_episode`.
 
 The kernel calls the library's own kernels (`blocks_step`, `pst_step`, `independent_features`,
-`activate`, `discover`, `td_step_binary`, ...) and draws from the same generators in the same
+`activate`, `discover`, `td_step`, ...) and draws from the same generators in the same
 order as the Python path: per step the domain's draws (BlocksWorld's one uniform, Persistent
 Surveillance's 2n) and the agent's one uniform per choice among the legal actions.
 
@@ -26,7 +26,7 @@ Arguments besides those of ``advance_kernel`` (``ints``, ``floats``, ``dparams``
 - ``weights``: θ with at least as many rows as the representation can hold features
   (``feat_start``'s length), so a discovery never outgrows it; rows past n_t are scratch.
 - ``trace_slots`` (as many rows as ``weights``), ``trace_features``, ``trace_actions``,
-  ``trace_values``, ``trace_count``: SARSA's sparse traces (`td_step_traces_binary`), or
+  ``trace_values``, ``trace_count``: SARSA's sparse traces (`td_step_traces`), or
   empty stand-ins without traces. A discovered feature's trace row starts empty (-1), as
   SARSA's ``_grow`` appends it; `GROW_TRACES` stops before a step whose traces might not
   fit (the caller grows them with the agent's own method).
@@ -42,7 +42,7 @@ import math
 import numpy as np
 from numba import njit
 
-from conjure.agents._kernels import clear_traces, q_values_binary_into
+from conjure.agents._kernels import clear_traces, q_values_into
 from conjure.compiled._kernels import (
     DIVERGED,
     DONE,
@@ -255,7 +255,7 @@ def adaptive_kernel(
             if traces != NO_TRACES:
                 clear_traces(trace_slots, trace_features, trace_actions, trace_count)
             phi = _encode(r_kind, is_ifdd, obs, rdims, rvec, activate_args)
-            q_values_binary_into(weights, phi, q)
+            q_values_into(weights, phi, None, q)
             legal = _legal(d_kind, dstate, num_units, mask, legal_buffer)
             action = select_action(policy, q, legal, parameter, agent_rng)
             episode_steps = episode_failures = 0
@@ -276,7 +276,7 @@ def adaptive_kernel(
         target = reward
         if not terminated:
             next_phi = _encode(r_kind, is_ifdd, next_obs, rdims, rvec, activate_args)
-            q_values_binary_into(weights, next_phi, q)
+            q_values_into(weights, next_phi, None, q)
             next_legal = _legal(d_kind, dstate, num_units, mask, next_buffer)
             next_action = select_action(policy, q, next_legal, parameter, agent_rng)
             # Algorithms 10-11, line 5: Q⁺(s, a) = r + γ Q(s', a') or r + γ max_a' Q(s', a')

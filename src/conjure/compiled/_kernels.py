@@ -7,7 +7,7 @@ policy and schedules, and the branches cost nothing next to the arithmetic. Comp
 (``cache=True``), so a second process loads it from disk.
 
 The kernel calls the library's own kernels (`pendulum_step`, `tile_features`,
-`q_values_binary`, `epsilon_greedy_action`, `td_step_binary`, ...) so that both paths do the
+`q_values_into`, `epsilon_greedy_action`, `td_step`, ...) so that both paths do the
 same floating-point operations in the same order, and draws its random numbers from the same
 `numpy.random.Generator` objects in the same order (numba shares the generator's state).
 
@@ -30,13 +30,7 @@ import math
 import numpy as np
 from numba import njit
 
-from conjure.agents._kernels import (
-    add_binary,
-    clear_traces,
-    q_values_binary_into,
-    td_step_binary,
-    td_step_traces_binary,
-)
+from conjure.agents._kernels import add, clear_traces, q_values_into, td_step, td_step_traces
 from conjure.domains._kernels import pendulum_step
 from conjure.policies._kernels import epsilon_greedy_action, gibbs_action, greedy_action
 from conjure.representations._kernels import (
@@ -254,14 +248,14 @@ def td_update(
     """δ and θ's update (Algorithms 10-12, lines 6-7), through SARSA(λ)'s traces if any.
 
     ``sparse`` = (γλ, min trace, slots, features, actions, values, count) of
-    `td_step_traces_binary`; unused when ``traces`` is `NO_TRACES`.
+    `td_step_traces`; unused when ``traces`` is `NO_TRACES`.
     """
     if traces == NO_TRACES:
-        return td_step_binary(weights, phi, action, target, alpha)
+        return td_step(weights, phi, None, action, target, alpha)
     decay, min_trace, slots, features, actions, values, count = sparse
     is_replacing = traces == REPLACING
-    return td_step_traces_binary(
-        weights, phi, action, target, alpha, decay, is_replacing, min_trace, slots, features,
+    return td_step_traces(
+        weights, phi, None, action, target, alpha, decay, is_replacing, min_trace, slots, features,
         actions, values, count,
     )  # fmt: skip
 
@@ -368,7 +362,7 @@ def advance_kernel(
                 quanta,
                 phi_buffer,
             )
-            q_values_binary_into(chooser, phi, q)
+            q_values_into(chooser, phi, None, q)
             action = select_action(policy, q, legal, parameter, agent_rng)
             episode_steps = episode_failures = 0
             total, discounted, weight = 0.0, 0.0, 1.0
@@ -396,7 +390,7 @@ def advance_kernel(
                 quanta,
                 next_buffer,
             )
-            q_values_binary_into(chooser, next_phi, q)
+            q_values_into(chooser, next_phi, None, q)
             next_action = select_action(policy, q, legal, parameter, agent_rng)
         # Learning (Algorithms 10-12, lines 4-7).
         target = reward
@@ -406,7 +400,7 @@ def advance_kernel(
             elif agent == Q_LEARNING:
                 target += discount * q.max()
             else:
-                q_values_binary_into(weights, next_phi, critic_q)
+                q_values_into(weights, next_phi, None, critic_q)
                 target += discount * critic_q[next_action]
         counted = max(episode, 1)
         num_active = float(phi.shape[0])
@@ -414,7 +408,7 @@ def advance_kernel(
         delta = td_update(weights, phi, action, target, alpha, traces, sparse)
         if agent == ACTOR_CRITIC and math.isfinite(delta):
             actor_alpha = step_size(actor_schedule, actor_alpha_0, actor_n_0, counted, num_active)
-            add_binary(actor_weights, phi, action, actor_alpha * delta)
+            add(actor_weights, phi, None, action, actor_alpha * delta)
         learning_steps += 1
         if not math.isfinite(delta):
             status = DIVERGED

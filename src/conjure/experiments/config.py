@@ -45,8 +45,8 @@ from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, ValidationEr
 from conjure.core.errors import InvalidParameterError
 from conjure.core.params import Configurable, did_you_mean
 from conjure.experiments import registry
+from conjure.experiments.loop import CURVE_COLUMNS
 from conjure.experiments.memory import parse_memory_size
-from conjure.experiments.run import CURVE_COLUMNS
 
 __all__ = [
     "CURVE_COLUMNS",

@@ -56,6 +56,7 @@ from conjure.core.interfaces import Agent, Domain, Transition
 
 __all__ = [
     "COMPILE_WORTH_STEPS",
+    "CURVE_COLUMNS",
     "EpisodeStats",
     "LearningLoop",
     "Stepper",
@@ -63,6 +64,21 @@ __all__ = [
     "profile_steps",
     "run_episode",
 ]
+
+#: The columns of a learning curve, one row per policy check.
+CURVE_COLUMNS = (
+    "learning_steps",
+    "learning_episodes",
+    "learning_failures",
+    "return",
+    "discounted_return",
+    "episode_length",
+    "failure_rate",
+    "optimality",
+    "num_features",
+    "wall_time_s",
+    "steps_per_second",
+)
 
 
 class EpisodeStats(NamedTuple):

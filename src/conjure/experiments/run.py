@@ -42,7 +42,7 @@ import numpy as np
 from conjure.core.errors import DivergenceError, InvalidParameterError
 from conjure.core.interfaces import Agent, Domain
 from conjure.core.seeding import seed_to_int, split_seed
-from conjure.experiments.loop import learning_stepper, run_episode
+from conjure.experiments.loop import CURVE_COLUMNS, learning_stepper, run_episode
 from conjure.experiments.memory import explain_memory_error
 
 if TYPE_CHECKING:
@@ -50,20 +50,6 @@ if TYPE_CHECKING:
 
 __all__ = ["CURVE_COLUMNS", "TIMING_COLUMNS", "Result", "run", "run_config", "run_resolved"]
 
-#: The columns of a learning curve, one row per policy check.
-CURVE_COLUMNS = (
-    "learning_steps",
-    "learning_episodes",
-    "learning_failures",
-    "return",
-    "discounted_return",
-    "episode_length",
-    "failure_rate",
-    "optimality",
-    "num_features",
-    "wall_time_s",
-    "steps_per_second",
-)
 #: The curve columns that depend on the machine, not on the seed.
 TIMING_COLUMNS = ("wall_time_s", "steps_per_second")
 
