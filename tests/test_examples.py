@@ -37,3 +37,19 @@ def test_python_api_example_runs_the_yaml_config_to_a_result():
 def test_python_api_example_reports_a_bad_override_clearly():
     with pytest.raises(InvalidParameterError, match="budget_stepz"):
         load_example().run_from_config(overrides=["budget_stepz=10"])
+
+
+def test_own_representation_example_learns_the_same_from_objects_and_from_a_config():
+    path = EXAMPLE.with_name("own_representation.py")
+    spec = importlib.util.spec_from_file_location("own_representation_example", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    from conjure.experiments import registry
+
+    try:
+        from_objects, from_config = module.main(budget_steps=5_000)
+    finally:
+        registry.REPRESENTATIONS.pop("HalfSpaces", None)
+    assert from_objects == from_config and len(from_objects) == 11
+    # Learning with the four half-space features changes how long the greedy policy balances.
+    assert max(from_objects) > from_objects[0]

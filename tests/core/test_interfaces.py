@@ -9,6 +9,7 @@ from conjure.core import (
     Representation,
     SparseFeatures,
 )
+from conjure.core.errors import NotSetUpError
 from conjure.core.interfaces import check_binary_features
 
 
@@ -110,3 +111,13 @@ def test_check_binary_features_refuses_real_values_by_name():
     check_binary_features(Tabular().setup(spec(), seed=0), "iFDD")
     with pytest.raises(IncompatibleComponentsError, match=r"iFDD conjoins binary.*RBF"):
         check_binary_features(RBF().setup(spec(), seed=0), "iFDD")
+
+
+def test_check_state_before_setup_raises_not_set_up_naming_the_class():
+    class Probe(Representation):
+        def active_features(self, state):
+            self.check_state(state)
+            return np.zeros(0, dtype=np.int64)
+
+    with pytest.raises(NotSetUpError, match="Probe"):
+        Probe().encode(np.zeros(2))

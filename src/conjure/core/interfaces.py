@@ -359,13 +359,14 @@ class Representation(Configurable):
         """Return ``state`` as a float64 vector of the set-up dimension, or raise clearly.
 
         A float64 vector of the right length is returned as it is (the hot path: one type and
-        one shape test).
+        one shape test). Before `setup` it raises `NotSetUpError`.
         """
-        if (
-            type(state) is np.ndarray
-            and state.dtype == np.float64
-            and state.shape == self.spec_.low.shape
-        ):
+        try:
+            shape = self.spec_.low.shape
+        except AttributeError:
+            check_is_set_up(self, "encode")
+            raise
+        if type(state) is np.ndarray and state.dtype == np.float64 and state.shape == shape:
             return state
         array = np.asarray(state, dtype=np.float64)
         if array.ndim != 1 or array.shape[0] != self.spec_.num_dims:
