@@ -1,5 +1,3 @@
-import time
-
 import numpy as np
 import pytest
 
@@ -86,7 +84,9 @@ def test_common_agent_checks():
 
 
 @pytest.mark.slow
-def test_large_sparse_batch_is_fast():
+def test_a_large_sparse_batch_fits_and_values_follow_the_reward():
+    # r = s_0 whatever the action, and moves are small: Q rises with s_0 for every action.
+    # (Its speed is measured in benchmarks/planning_speed.py, not here.)
     spec = DomainSpec(
         name="box",
         low=[0.0, 0.0],
@@ -106,10 +106,10 @@ def test_large_sparse_batch_is_fast():
     ]
     rep = TileCoding(num_tilings=4, tiles_per_dim=24)
     agent = LSPI(representation=rep, max_iterations=3).setup(spec, seed=0)
-    started = time.perf_counter()
     agent.fit(batch)
     assert agent.num_features >= 2000
-    assert (time.perf_counter() - started) / agent.iterations_ < 10.0
+    low, high = agent.q_values(np.array([0.1, 0.5])), agent.q_values(np.array([0.9, 0.5]))
+    assert np.all(high > low + 1.0)
 
 
 def test_learning_curve_rises_on_the_chain_through_run():
