@@ -4,7 +4,8 @@ Usage: ``python benchmarks/compiled_loop.py [--steps N] [--repeats R] [--no-comp
 
 Workload (issue 11): SARSA + tile coding (8 tilings of 10x10) with ε-greedy (ε = 0.1) and a
 constant step size on the inverted pendulum, measured three ways side by side, interleaved
-repeat by repeat (the machine is shared; the median of ``repeats`` is reported):
+repeat by repeat with the RBF workload below (the machine is shared; the median of
+``repeats`` is reported):
 
 - ``python``: `conjure.experiments.loop.LearningLoop.advance` (six Python-to-numba calls per
   step);
@@ -12,8 +13,13 @@ repeat by repeat (the machine is shared; the median of ``repeats`` is reported):
 - ``hand-written``: `reference_loop` below, one numba function doing the same arithmetic with
   preallocated buffers and no library code: the limit the compiled path is compared against.
 
-Compile times are measured in fresh processes with an empty numba cache (``cold``, the first
-run on a machine) and then with that cache filled (``warm``, every later process).
+Second workload: SARSA + Gaussian RBF (3x3 centers plus a bias, real-valued φ) with the same
+policy and step size on the pendulum, ``python`` and ``compiled`` paths side by side (the
+compiled path runs the kernel's real-valued compilation).
+
+Compile times are measured for each workload in fresh processes with an empty numba cache
+(``cold``, the first run on a machine) and then with that cache filled (``warm``, every later
+process).
 """
 
 from __future__ import annotations
@@ -37,14 +43,19 @@ from conjure.compiled import for_combination
 from conjure.domains import InvertedPendulum
 from conjure.experiments.loop import LearningLoop
 from conjure.policies import EpsilonGreedy
-from conjure.representations import TileCoding
+from conjure.representations import RBF, TileCoding
 
 NUM_TILINGS, TILES, EPSILON, STEP_SIZE = 8, 10, 0.1, 0.05
+WORKLOADS = ("tiles", "rbf")
 
 
-def make_agent() -> SARSA:
+def make_agent(workload: str = "tiles") -> SARSA:
+    if workload == "rbf":
+        representation = RBF(num_centers=3)
+    else:
+        representation = TileCoding(num_tilings=NUM_TILINGS, tiles_per_dim=TILES)
     return SARSA(
-        representation=TileCoding(num_tilings=NUM_TILINGS, tiles_per_dim=TILES),
+        representation=representation,
         policy=EpsilonGreedy(epsilon=EPSILON),
         step_size=STEP_SIZE,
     )
@@ -161,17 +172,27 @@ def _rate(advance, num_steps: int) -> float:
     return num_steps / (time.perf_counter() - started)
 
 
+def _paths(workload: str, num_steps: int) -> dict:
+    """The Python and compiled paths of ``workload``, each with its own agent and domain."""
+    domain = InvertedPendulum()
+    python_loop = LearningLoop(domain, make_agent(workload).setup(domain.domain_spec, 0), seed=0)
+    domain = InvertedPendulum()
+    agent = make_agent(workload).setup(domain.domain_spec, 0)
+    stepper = for_combination(domain, agent, seed=0)
+    return {
+        (workload, "python"): (python_loop.advance, max(num_steps // 20, 1_000)),
+        (workload, "compiled"): (stepper.advance, num_steps),
+    }
+
+
 def runners(num_steps: int) -> dict:
-    domain = InvertedPendulum()
-    python_loop = LearningLoop(domain, make_agent().setup(domain.domain_spec, 0), seed=0)
-    domain = InvertedPendulum()
-    stepper = for_combination(domain, make_agent().setup(domain.domain_spec, 0), seed=0)
+    """Every measured path, keyed by (workload, path)."""
     weights = np.zeros(((TILES + 1) ** 2 * NUM_TILINGS, 3))
     rng = np.random.default_rng(0)
     return {
-        "python": (python_loop.advance, max(num_steps // 20, 1_000)),
-        "compiled": (stepper.advance, num_steps),
-        "hand-written": (lambda n: reference_loop(n, weights, rng), num_steps),
+        **_paths("tiles", num_steps),
+        ("tiles", "hand-written"): (lambda n: reference_loop(n, weights, rng), num_steps),
+        **_paths("rbf", num_steps),
     }
 
 
@@ -183,12 +204,13 @@ from conjure.compiled import compile_seconds, for_combination
 from conjure.domains import InvertedPendulum
 imported = time.perf_counter() - started
 domain = InvertedPendulum()
-for_combination(domain, make_agent().setup(domain.domain_spec, 0), seed=0).advance(1)
+agent = make_agent(sys.argv[1]).setup(domain.domain_spec, 0)
+for_combination(domain, agent, seed=0).advance(1)
 print(compile_seconds(), imported)
 """
 
 
-def compile_times() -> dict[str, tuple[float, float]]:
+def compile_times(workload: str) -> dict[str, tuple[float, float]]:
     """(kernel compile or load seconds, import seconds) in fresh processes: cold, then warm."""
     here = os.path.dirname(os.path.abspath(__file__))
     times = {}
@@ -196,7 +218,7 @@ def compile_times() -> dict[str, tuple[float, float]]:
         env = {**os.environ, "NUMBA_CACHE_DIR": cache}
         for label in ("cold", "warm"):
             out = subprocess.run(
-                [sys.executable, "-c", _COMPILE_SNIPPET],
+                [sys.executable, "-c", "import sys\n" + _COMPILE_SNIPPET, workload],
                 cwd=here,
                 env=env,
                 capture_output=True,
@@ -221,22 +243,27 @@ def main() -> None:
         for name, (advance, num_steps) in table.items():
             rates[name].append(_rate(advance, num_steps))
     medians = {name: statistics.median(values) for name, values in rates.items()}
-    reference = medians["hand-written"]
-    out = Table(
-        title=f"SARSA + TileCoding({NUM_TILINGS} x {TILES}x{TILES}), InvertedPendulum "
-        f"(median of {args.repeats}, interleaved)"
-    )
-    for column in ("path", "steps/s", "µs/step", "x hand-written"):
-        out.add_column(column, justify="right")
-    for name, rate in medians.items():
-        out.add_row(name, f"{rate:,.0f}", f"{1e6 / rate:.3f}", f"{reference / rate:.2f}")
+    titles = {
+        "tiles": (f"SARSA + TileCoding({NUM_TILINGS} x {TILES}x{TILES})", "hand-written"),
+        "rbf": ("SARSA + RBF(3x3 + bias)", "compiled"),
+    }
     console = Console()
-    console.print(out)
+    for workload, (title, reference_path) in titles.items():
+        reference = medians[(workload, reference_path)]
+        out = Table(title=f"{title}, InvertedPendulum (median of {args.repeats}, interleaved)")
+        for column in ("path", "steps/s", "µs/step", f"x {reference_path}"):
+            out.add_column(column, justify="right")
+        for (kind, path), rate in medians.items():
+            if kind == workload:
+                out.add_row(path, f"{rate:,.0f}", f"{1e6 / rate:.3f}", f"{reference / rate:.2f}")
+        console.print(out)
     if not args.no_compile_times:
-        for label, (seconds, imported) in compile_times().items():
-            console.print(
-                f"{label} numba cache: first kernel call {seconds:.2f} s (import {imported:.2f} s)"
-            )
+        for workload in WORKLOADS:
+            for label, (seconds, imported) in compile_times(workload).items():
+                console.print(
+                    f"{workload}, {label} numba cache: first kernel call {seconds:.2f} s "
+                    f"(import {imported:.2f} s)"
+                )
 
 
 if __name__ == "__main__":

@@ -61,7 +61,7 @@ def test_actor_critic_with_gibbs_is_packed():
 @pytest.mark.parametrize(
     ("domain", "agent"),
     [
-        (InvertedPendulum(), SARSA(representation=RBF())),  # dense features
+        (InvertedPendulum(), SARSA(representation=type("MyRBF", (RBF,), {})())),  # a subclass
         (InvertedPendulum(), MySARSA(representation=Tabular())),  # a subclass
         (BlocksWorld(), ActorCritic(representation=IndependentDiscretization())),  # legal actions
         (ChainMDP(), LSPI(representation=Tabular())),  # a batch learner
@@ -93,5 +93,21 @@ def test_an_agent_that_is_not_set_up_is_refused():
 
 def test_packed_arrays_are_contiguous():
     combo = _pack(InvertedPendulum(), SARSA(representation=TileCoding(memory_size=64)))
-    for array in (*combo.domain_arrays, *combo.representation_arrays):
+    *tables, rbf = combo.representation_arrays
+    assert rbf is None  # binary φ: the kernel reads no values
+    for array in (*combo.domain_arrays, *tables):
         assert array.flags.c_contiguous and array.dtype in (np.int64, np.float64)
+
+
+def test_rbf_is_packed_with_every_feature_listed():
+    domain, agent = GridWorld.gridworld_1(), QLearning(representation=RBF(num_centers=3))
+    combo = _pack(domain, agent)
+    rep = agent.representation_
+    assert combo.ints[k.I_REP] == k.RBF and combo.ints[k.I_MAX_ACTIVE] == 3 * 3 + 1
+    rvec, (affine, centers) = combo.representation_arrays[3], combo.representation_arrays[6]
+    assert rvec.tolist() == list(range(10)) and rvec.flags.writeable
+    # The kernel's values for a state are the representation's own, bit for bit.
+    state = np.array([1.0, 2.0])
+    values = k.feature_values((affine, centers), 10, state)
+    np.testing.assert_array_equal(values, rep.encode(state).values)
+    assert k.feature_values(None, 10, state) is None

@@ -4,14 +4,21 @@ import numpy as np
 import pytest
 
 from conjure.agents import SARSA, ActorCritic, QLearning
-from conjure.compiled import CompiledStepper, _kernels, compile_seconds, for_combination, warm_up
+from conjure.compiled import (
+    CompiledStepper,
+    _kernels,
+    compile_seconds,
+    for_combination,
+    is_warm,
+    warm_up,
+)
 from conjure.core.errors import DivergenceError, InvalidParameterError
 from conjure.core.schedules import EpisodicDecay, FeatureNormalizedDecay
 from conjure.domains import ChainMDP, GridWorld, InvertedPendulum
 from conjure.domains.gridworld import open_grid
 from conjure.experiments.loop import LearningLoop
 from conjure.policies import EpsilonGreedy, Gibbs
-from conjure.representations import IndependentDiscretization, Tabular, TileCoding
+from conjure.representations import RBF, IndependentDiscretization, Tabular, TileCoding
 
 DECAY = FeatureNormalizedDecay(alpha_0=1.0, n_0=100)
 
@@ -84,6 +91,39 @@ COMBINATIONS = {
             step_size=0.3,
             actor_step_size=EpisodicDecay(alpha_0=0.5, n_0=100),
             policy=Gibbs(temperature=0.5),
+        ),
+    ),
+    # Real-valued φ (Gaussian RBF): the same kernels with the values; the exact same sums in the
+    # same order, so weights agree to the bit. k_t = |φ(s)|₁ under the decaying schedule;
+    # replacing traces fall back to accumulating for values other than 1, on both paths.
+    "pendulum-rbf-sarsa": (
+        lambda: InvertedPendulum(start_noise=0.2),
+        lambda: SARSA(representation=RBF(), step_size=DECAY),
+    ),
+    "pendulum-rbf-sarsa-lambda-replacing": (
+        InvertedPendulum,
+        lambda: SARSA(representation=RBF(num_centers=4), step_size=0.05, trace_decay=0.9),
+    ),
+    "gridworld-rbf-sarsa-lambda-accumulating": (
+        GridWorld.gridworld_1,
+        lambda: SARSA(
+            representation=RBF(width=0.3),
+            step_size=DECAY,
+            trace_decay=0.7,
+            trace_kind="accumulating",
+        ),
+    ),
+    "chain-rbf-qlearning": (
+        lambda: ChainMDP(num_states=8, num_actions=2, slip=0.2),
+        lambda: QLearning(
+            representation=RBF(num_centers=5, include_bias=False),
+            step_size=EpisodicDecay(alpha_0=0.3, n_0=10),
+        ),
+    ),
+    "pendulum-rbf-actor-critic": (
+        InvertedPendulum,
+        lambda: ActorCritic(
+            representation=RBF(), step_size=0.1, actor_step_size=DECAY, policy=Gibbs()
         ),
     ),
 }
@@ -224,9 +264,13 @@ def test_advance_rejects_bad_step_counts(bad):
         for_combination(domain, agent).advance(bad)
 
 
-def test_one_compilation_serves_every_combination():
+def test_one_compilation_serves_every_binary_combination_and_one_every_rbf_one():
     assert warm_up() == compile_seconds() > 0.0
     for name in COMBINATIONS:
         domain, agent = _build(name, 1)
-        for_combination(domain, agent, seed=1).advance(50)
-    assert len(_kernels.advance_kernel.overloads) == 1
+        stepper = for_combination(domain, agent, seed=1)
+        stepper.advance(50)
+        assert is_warm(stepper)
+    # The representation tuple ends with None (binary φ) or RBF's arrays (real-valued φ).
+    last = sorted(str(sig[8].types[-1]) for sig in _kernels.advance_kernel.overloads)
+    assert len(last) == 2 and last[1] == "none" and last[0].startswith("UniTuple")

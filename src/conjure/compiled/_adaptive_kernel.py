@@ -288,7 +288,7 @@ def adaptive_kernel(
                     best = max(best, q[next_legal[i]])
                 target += discount * best
         alpha = step_size(schedule, alpha_0, n_0, max(episode, 1), float(phi.shape[0]))
-        delta = td_update(weights, phi, action, target, alpha, traces, sparse)
+        delta = td_update(weights, phi, None, action, target, alpha, traces, sparse)
         learning_steps += 1
         if not math.isfinite(delta):
             status = DIVERGED

@@ -17,8 +17,11 @@ Packed arguments (see `conjure.compiled.stepper` for how they are built):
 - ``floats`` float64: the parameters named by the ``F_*`` constants.
 - ``dparams`` (float64 1-D), ``dtable`` (int64 2-D), ``dcells`` (float64 2-D): the domain's
   constants; ``dstate`` (float64 1-D) its internal state, updated in place.
-- ``rdims``, ``rlayout``, ``rgroups``, ``rvec``, ``htable``, ``hcounts``: the representation's
-  tables (`conjure.representations._kernels`).
+- ``rep``: the representation's tables (`conjure.representations._kernels`), the tuple
+  (``rdims``, ``rlayout``, ``rgroups``, ``rvec``, ``htable``, ``hcounts``, ``rbf``); ``rbf`` is
+  None for binary φ (every value 1, never read) or RBF's (affine, scaled centers), whose φ(s)
+  lists every feature (``rvec`` = 0 .. n − 1) with its Gaussian value. The two cases are two
+  compilations of the kernel, so the binary ones never carry a values array.
 - ``loop`` int64 and ``loop_f`` float64: the resumable loop state (``L_*`` constants),
   ``obs`` the current state s.
 """
@@ -30,12 +33,20 @@ import math
 import numpy as np
 from numba import njit
 
-from conjure.agents._kernels import add, clear_traces, q_values_into, td_step, td_step_traces
+from conjure.agents._kernels import (
+    add,
+    clear_traces,
+    l1_norm,
+    q_values_into,
+    td_step,
+    td_step_traces,
+)
 from conjure.domains._kernels import pendulum_step
 from conjure.policies._kernels import epsilon_greedy_action, gibbs_action, greedy_action
 from conjure.representations._kernels import (
     hashed_tile_features,
     independent_features,
+    rbf_values,
     tabular_feature,
     tile_indices_into,
 )
@@ -44,6 +55,7 @@ from conjure.representations._kernels import (
 PENDULUM, GRIDWORLD, CHAIN = 0, 1, 2
 # Representation codes.
 TILES, HASHED_TILES, TABULAR, INDEPENDENT = 0, 1, 2, 3
+RBF = 5  # (4 is the adaptive kernel's `INDICATORS`)
 # Agent codes.
 SARSA, Q_LEARNING, ACTOR_CRITIC = 0, 1, 2
 # Policy codes.
@@ -170,17 +182,16 @@ def domain_step(
 def encode(
     kind: int,
     state: np.ndarray,
-    rdims: np.ndarray,
-    rlayout: np.ndarray,
-    rgroups: np.ndarray,
-    rvec: np.ndarray,
+    rep: tuple,
     num_tilings: int,
-    htable: np.ndarray,
-    hcounts: np.ndarray,
     quanta: np.ndarray,
     out: np.ndarray,
 ) -> np.ndarray:
-    """φ(s) by the representation's own kernel (unhashed tiles are written into ``out``)."""
+    """φ(s)'s indices by the representation's own kernel.
+
+    Unhashed tiles are written into ``out``; RBF lists every feature (``rvec``).
+    """
+    rdims, rlayout, rgroups, rvec, htable, hcounts, _ = rep
     if kind == TILES:
         tile_indices_into(state, rdims, rlayout, rgroups, num_tilings, quanta, out)
         return out
@@ -188,7 +199,30 @@ def encode(
         return hashed_tile_features(state, rdims, rlayout, rgroups, num_tilings, htable, hcounts)
     if kind == TABULAR:
         return tabular_feature(state, rdims, rvec)
+    if kind == RBF:
+        return rvec
     return independent_features(state, rdims, rvec)
+
+
+@njit(cache=True)
+def feature_values(rbf: tuple | None, num_features: int, state: np.ndarray) -> np.ndarray | None:
+    """φ(s)'s values: None for binary φ (``rbf`` None), else `RBF.encode`'s Gaussians.
+
+    ``rbf`` = (affine, scaled centers) of `conjure.representations.RBF`. numba compiles the
+    two cases apart, so binary φ never reads a value.
+    """
+    if rbf is None:
+        return None
+    affine, centers = rbf
+    return rbf_values(state, affine, centers, num_features)
+
+
+@njit(cache=True)
+def num_active(indices: np.ndarray, values: np.ndarray | None) -> float:
+    """k_t = |φ(s)|₁, the learners' `_step_size` (the number of features for binary φ)."""
+    if values is None:
+        return float(indices.shape[0])
+    return l1_norm(values)
 
 
 @njit(cache=True)
@@ -239,6 +273,7 @@ def record_episode(
 def td_update(
     weights: np.ndarray,
     phi: np.ndarray,
+    values: np.ndarray | None,
     action: int,
     target: float,
     alpha: float,
@@ -247,16 +282,18 @@ def td_update(
 ) -> float:
     """δ and θ's update (Algorithms 10-12, lines 6-7), through SARSA(λ)'s traces if any.
 
-    ``sparse`` = (γλ, min trace, slots, features, actions, values, count) of
+    ``phi``, ``values``: φ(s) as `td_step` takes it (``values`` None for binary φ).
+
+    ``sparse`` = (γλ, min trace, slots, features, actions, trace values, count) of
     `td_step_traces`; unused when ``traces`` is `NO_TRACES`.
     """
     if traces == NO_TRACES:
-        return td_step(weights, phi, None, action, target, alpha)
-    decay, min_trace, slots, features, actions, values, count = sparse
+        return td_step(weights, phi, values, action, target, alpha)
+    decay, min_trace, slots, features, actions, trace_values, count = sparse
     is_replacing = traces == REPLACING
     return td_step_traces(
-        weights, phi, None, action, target, alpha, decay, is_replacing, min_trace, slots, features,
-        actions, values, count,
+        weights, phi, values, action, target, alpha, decay, is_replacing, min_trace, slots,
+        features, actions, trace_values, count,
     )  # fmt: skip
 
 
@@ -274,12 +311,7 @@ def advance_kernel(
     dcells: np.ndarray,
     dstate: np.ndarray,
     domain_rng: np.random.Generator,
-    rdims: np.ndarray,
-    rlayout: np.ndarray,
-    rgroups: np.ndarray,
-    rvec: np.ndarray,
-    htable: np.ndarray,
-    hcounts: np.ndarray,
+    rep: tuple,
     weights: np.ndarray,
     actor_weights: np.ndarray,
     trace_slots: np.ndarray,
@@ -336,11 +368,11 @@ def advance_kernel(
     episode, learning_steps = loop[L_EPISODE], loop[L_LEARNING_STEPS]
     episode_failures = loop[L_EPISODE_FAILURES]
     total, discounted, weight = loop_f[LF_RETURN], loop_f[LF_DISCOUNTED], loop_f[LF_WEIGHT]
+    rbf, num_features = rep[6], rep[3].shape[0]
     phi = phi_buffer
+    values = feature_values(rbf, num_features, obs)  # φ(s)'s values (None: binary φ)
     if phase == IN_EPISODE:
-        phi = encode(
-            r_kind, obs, rdims, rlayout, rgroups, rvec, num_tilings, htable, hcounts, quanta, phi
-        )
+        phi = encode(r_kind, obs, rep, num_tilings, quanta, phi)
     while done < num_steps:
         if phase == NEEDS_RESET:
             domain_reset(d_kind, dparams, dstate, dcells, obs, domain_rng)
@@ -349,20 +381,9 @@ def advance_kernel(
             episode += 1
             if traces != NO_TRACES:
                 clear_traces(trace_slots, trace_features, trace_actions, trace_count)
-            phi = encode(
-                r_kind,
-                obs,
-                rdims,
-                rlayout,
-                rgroups,
-                rvec,
-                num_tilings,
-                htable,
-                hcounts,
-                quanta,
-                phi_buffer,
-            )
-            q_values_into(chooser, phi, None, q)
+            phi = encode(r_kind, obs, rep, num_tilings, quanta, phi_buffer)
+            values = feature_values(rbf, num_features, obs)
+            q_values_into(chooser, phi, values, q)
             action = select_action(policy, q, legal, parameter, agent_rng)
             episode_steps = episode_failures = 0
             total, discounted, weight = 0.0, 0.0, 1.0
@@ -374,23 +395,12 @@ def advance_kernel(
             d_kind, dparams, dtable, dcells, dstate, action, next_obs, domain_rng
         )
         episode_steps += 1
-        next_phi = phi
+        next_phi, next_values = phi, values
         next_action = 0
         if not terminated:
-            next_phi = encode(
-                r_kind,
-                next_obs,
-                rdims,
-                rlayout,
-                rgroups,
-                rvec,
-                num_tilings,
-                htable,
-                hcounts,
-                quanta,
-                next_buffer,
-            )
-            q_values_into(chooser, next_phi, None, q)
+            next_phi = encode(r_kind, next_obs, rep, num_tilings, quanta, next_buffer)
+            next_values = feature_values(rbf, num_features, next_obs)
+            q_values_into(chooser, next_phi, next_values, q)
             next_action = select_action(policy, q, legal, parameter, agent_rng)
         # Learning (Algorithms 10-12, lines 4-7).
         target = reward
@@ -400,15 +410,15 @@ def advance_kernel(
             elif agent == Q_LEARNING:
                 target += discount * q.max()
             else:
-                q_values_into(weights, next_phi, None, critic_q)
+                q_values_into(weights, next_phi, next_values, critic_q)
                 target += discount * critic_q[next_action]
         counted = max(episode, 1)
-        num_active = float(phi.shape[0])
-        alpha = step_size(schedule, alpha_0, n_0, counted, num_active)
-        delta = td_update(weights, phi, action, target, alpha, traces, sparse)
+        k_t = num_active(phi, values)
+        alpha = step_size(schedule, alpha_0, n_0, counted, k_t)
+        delta = td_update(weights, phi, values, action, target, alpha, traces, sparse)
         if agent == ACTOR_CRITIC and math.isfinite(delta):
-            actor_alpha = step_size(actor_schedule, actor_alpha_0, actor_n_0, counted, num_active)
-            add(actor_weights, phi, None, action, actor_alpha * delta)
+            actor_alpha = step_size(actor_schedule, actor_alpha_0, actor_n_0, counted, k_t)
+            add(actor_weights, phi, values, action, actor_alpha * delta)
         learning_steps += 1
         if not math.isfinite(delta):
             status = DIVERGED
@@ -436,6 +446,7 @@ def advance_kernel(
                     phi_buffer[i] = next_buffer[i]
             else:
                 phi = next_phi
+            values = next_values
             action = next_action
     loop[L_PHASE], loop[L_ACTION], loop[L_EPISODE_STEPS] = phase, action, episode_steps
     loop[L_EPISODE], loop[L_LEARNING_STEPS] = episode, learning_steps

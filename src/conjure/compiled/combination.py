@@ -8,7 +8,8 @@ representation, agent, policy and step-size schedules into the few arrays that
 Supported (Geramifard 2012, Algorithms 10-12):
 
 - domains: `InvertedPendulum`, `GridWorld`, `ChainMDP`;
-- representations: `TileCoding` (hashed or not), `Tabular`, `IndependentDiscretization`;
+- representations: `TileCoding` (hashed or not), `Tabular`, `IndependentDiscretization`,
+  `RBF` (real-valued φ, Section 3.1.2);
 - agents: `SARSA` (with or without replacing/accumulating traces), `QLearning`,
   `ActorCritic` (actor sharing the critic's features);
 - policies: `EpsilonGreedy`, `Gibbs`; schedules: `ConstantStepSize`,
@@ -55,6 +56,7 @@ from conjure.domains.pendulum import InvertedPendulum
 from conjure.domains.persistent_surveillance import PersistentSurveillance
 from conjure.policies import EpsilonGreedy, Gibbs
 from conjure.representations import (
+    RBF,
     BinaryIndicators,
     IndependentDiscretization,
     OnlineIFDD,
@@ -79,8 +81,9 @@ class Combination:
     domain_arrays : tuple of ndarray
         ``(dparams, dtable, dcells)``, the domain's constants.
     representation_arrays : tuple of ndarray
-        ``(rdims, rlayout, rgroups, rvec, htable, hcounts)``; the hash table is the
-        representation's own (updated in place by both paths). The adaptive kernel's are
+        ``(rdims, rlayout, rgroups, rvec, htable, hcounts, rbf)``; the hash table is the
+        representation's own (updated in place by both paths); ``rbf`` is None (binary φ) or
+        `RBF`'s ``(affine, scaled centers)``. The adaptive kernel's are
         ``(rdims, rvec)`` of the base; it reads `OnlineIFDD`'s tables at every call (they
         grow).
     read_domain, write_domain : callable
@@ -203,18 +206,23 @@ def _representation(rep: Any) -> tuple[int, int, int, tuple[np.ndarray, ...]] | 
             code, htable, hcounts = k.HASHED_TILES, rep._hash_table, rep._hash_counts
         else:
             code, htable, hcounts = k.TILES, _INT_EMPTY, empty_vec
-        arrays = (rep._dims, rep._layout, rep._group_table, empty_vec, htable, hcounts)
+        arrays = (rep._dims, rep._layout, rep._group_table, empty_vec, htable, hcounts, None)
         return code, rep._num_tilings, rep.num_active_, arrays
     if kind is Tabular:
         return (
             k.TABULAR,
             0,
             1,
-            (rep._dims, _INT_EMPTY, _INT_EMPTY, rep._strides, _INT_EMPTY, empty_vec),
+            (rep._dims, _INT_EMPTY, _INT_EMPTY, rep._strides, _INT_EMPTY, empty_vec, None),
         )
     if kind is IndependentDiscretization:
-        arrays = (rep._dims, _INT_EMPTY, _INT_EMPTY, rep.offsets_, _INT_EMPTY, empty_vec)
+        arrays = (rep._dims, _INT_EMPTY, _INT_EMPTY, rep.offsets_, _INT_EMPTY, empty_vec, None)
         return k.INDEPENDENT, 0, rep.offsets_.shape[0], arrays
+    if kind is RBF:  # φ(s) lists every feature (a writable copy of `encode`'s indices)
+        rbf = (rep._affine, rep._scaled_centers)
+        indices = rep._indices.copy()
+        arrays = (_FLOAT_EMPTY, _INT_EMPTY, _INT_EMPTY, indices, _INT_EMPTY, empty_vec, rbf)
+        return k.RBF, 0, rep.num_features_, arrays
     return None
 
 

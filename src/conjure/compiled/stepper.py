@@ -28,7 +28,9 @@ Notes
 - Compilation: two kernels, ``advance_kernel`` (fixed features, every action legal) and
   ``adaptive_kernel`` (legal actions, growing features); each serves all its combinations
   (the arguments have the same types), is compiled once per machine and cached on disk;
-  `compile_seconds` reports the first calls' cost in this process.
+  `compile_seconds` reports the first calls' cost in this process. ``advance_kernel`` has
+  one more compilation for real-valued φ (`RBF`: its representation tuple carries the
+  Gaussians' arrays instead of None), so binary φ never pays for reading values.
 """
 
 from __future__ import annotations
@@ -37,6 +39,7 @@ import time
 from typing import NamedTuple
 
 import numpy as np
+from numba.core import types
 
 from conjure.compiled import _adaptive_kernel as ak
 from conjure.compiled import _kernels as k
@@ -56,8 +59,10 @@ _EMPTY_FLOATS = np.zeros(0)
 _I1, _I2, _F1, _F2 = (np.zeros((0,) * d, t) for t in (np.int64, np.float64) for d in (1, 2))
 _NO_ACTIVATE = (_I1, _I1, _I1, _I1, _I2, _I2, _I2, _I1, _I2, _I1)
 _NO_DISCOVER = (_I1, _I1, _I1, _I1, _I2, _I1, _I1, _I1, _I1, _I2, _F2, _I1, _I1, _I1, _I1, _F1)
-#: The first call's seconds (compile or cache load) of each kernel, by name.
+#: The first call's seconds (compile or cache load) of each kernel, by `_kernel_name`.
 _COMPILE_SECONDS: dict[str, float] = {}
+#: Position of the representation tuple among ``advance_kernel``'s arguments.
+_REP_ARGUMENT = 8
 
 
 class AdvanceStats(NamedTuple):
@@ -202,7 +207,7 @@ def _call_kernel(
         kernel, buffers, middle = k.advance_kernel, None, _fixed_arguments(combo, agent)
         middle = (*combo.domain_arrays, dstate, domain.np_random, *middle)
     args = (combo.ints, combo.floats, *middle, agent.rng_, obs, loop, loop_f)
-    name = kernel.__name__
+    name = _kernel_name(combo)
     if name not in _COMPILE_SECONDS:  # a zero-step call: compile (or load the cache) alone
         started = time.perf_counter()
         kernel(0, *args)
@@ -219,10 +224,22 @@ def _call_kernel(
                 agent.trace_slots_ = slots[: rep.num_features_]
 
 
+def _is_real_valued(combo: Combination) -> bool:
+    """Whether φ has real values (`RBF`): ``advance_kernel``'s second compilation."""
+    return not combo.is_adaptive and combo.representation_arrays[-1] is not None
+
+
+def _kernel_name(combo: Combination) -> str:
+    """The kernel compilation ``combo`` runs in (the `_COMPILE_SECONDS` key)."""
+    if combo.is_adaptive:
+        return ak.adaptive_kernel.__name__
+    return k.advance_kernel.__name__ + ("[real-valued]" if _is_real_valued(combo) else "")
+
+
 def _fixed_arguments(combo: Combination, agent: Agent) -> tuple:
     """``advance_kernel``'s representation, weight and trace arguments."""
     actor = agent.actor_weights_ if combo.ints[k.I_AGENT] == k.ACTOR_CRITIC else agent.weights_
-    return (*combo.representation_arrays, agent.weights_, actor, *_traces(combo, agent))
+    return (combo.representation_arrays, agent.weights_, actor, *_traces(combo, agent))
 
 
 def _traces(combo: Combination, agent: Agent, slots: np.ndarray | None = None) -> tuple:
@@ -282,35 +299,47 @@ def compile_seconds() -> float | None:
 
 
 def is_warm(stepper: CompiledStepper | None = None) -> bool:
-    """Whether ``stepper``'s kernel (default ``advance_kernel``) runs without compiling.
+    """Whether ``stepper``'s kernel (default ``advance_kernel``, binary φ) runs without compiling.
 
-    Warm means called in this process or found in numba's on-disk cache. Reads numba's cache
-    index (a private numba API); if that API changes the kernel is treated as cold, which
-    only costs speed.
+    Warm means called in this process or found in numba's on-disk cache (for
+    ``advance_kernel``, the compilation of ``stepper``'s binary or real-valued φ). Reads
+    numba's cache index (a private numba API); if that API changes the kernel is treated as
+    cold, which only costs speed.
     """
-    is_adaptive = stepper is not None and stepper.combination.is_adaptive
+    combo = None if stepper is None else stepper.combination
+    is_adaptive = combo is not None and combo.is_adaptive
     kernel = ak.adaptive_kernel if is_adaptive else k.advance_kernel
-    if kernel.__name__ in _COMPILE_SECONDS:
+    name = kernel.__name__ if combo is None else _kernel_name(combo)
+    if name in _COMPILE_SECONDS:
         return True
+    real_valued = combo is not None and _is_real_valued(combo)
     try:
-        return bool(kernel._cache._cache_file._load_index())
-    except (AttributeError, OSError, EOFError, ValueError):
+        index = kernel._cache._cache_file._load_index()
+        if is_adaptive:
+            return bool(index)
+        return any(
+            (signature[_REP_ARGUMENT].types[-1] != types.none) == real_valued
+            for signature, *_ in index
+        )
+    except (AttributeError, OSError, EOFError, ValueError, IndexError, TypeError):
         return False
 
 
 def warm_up() -> float:
     """Compile both kernels (or load them from the disk cache) and return `compile_seconds`.
 
-    Each kernel serves all its combinations, so a parent process can call this once before
-    starting workers, which then load the cached code.
+    Each kernel serves all its combinations (``advance_kernel`` in its binary and real-valued
+    compilations), so a parent process can call this once before starting workers, which
+    then load the cached code.
     """
     from conjure.agents.sarsa import SARSA
     from conjure.domains.blocksworld import BlocksWorld
     from conjure.domains.chain import ChainMDP
-    from conjure.representations import BinaryIndicators, OnlineIFDD, Tabular
+    from conjure.representations import RBF, BinaryIndicators, OnlineIFDD, Tabular
 
     for domain, representation in (
         (ChainMDP(), Tabular()),
+        (ChainMDP(), RBF()),
         (BlocksWorld(num_blocks=2), OnlineIFDD(base=BinaryIndicators())),
     ):
         agent = SARSA(representation=representation).setup(domain.domain_spec, 0)
