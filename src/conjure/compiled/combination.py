@@ -16,10 +16,12 @@ Supported (Geramifard 2012, Algorithms 10-12):
 
 and, in `conjure.compiled._adaptive_kernel` (Section 4.1.4, Algorithms 19-21):
 
-- domains with legal actions: `BlocksWorld`, `PersistentSurveillance`;
-- representations: `BinaryIndicators` or `IndependentDiscretization`, alone or as the base
-  of `OnlineIFDD` (any relevance, threshold or fixed-rate discovery);
-- agents: `SARSA` (with or without traces), `QLearning`; the policies and schedules above.
+- domains with legal actions: `BlocksWorld`, `PersistentSurveillance`, with
+  `BinaryIndicators` or `IndependentDiscretization`, alone or as the base of `OnlineIFDD`
+  (any relevance, threshold or fixed-rate discovery);
+- the domains above, with `OnlineIFDD` over `TileCoding` (hashed or not), `Tabular` or
+  `IndependentDiscretization`;
+- agents: the three above (traces for `SARSA` only, as above); the policies and schedules above.
 
 Notes
 -----
@@ -81,11 +83,11 @@ class Combination:
     representation_arrays : tuple of ndarray
         ``(rdims, rlayout, rgroups, rvec, htable, hcounts)``; the hash table is the
         representation's own (updated in place by both paths). The adaptive kernel's are
-        ``(rdims, rvec)`` of the base; it reads `OnlineIFDD`'s tables at every call (they
+        those of `OnlineIFDD`'s base; it reads `OnlineIFDD`'s tables at every call (they
         grow).
     read_domain, write_domain : callable
-        Copy the domain's internal state to / from a float64 vector (int64 for the adaptive
-        kernel).
+        Copy the domain's internal state to / from a float64 vector (int64 for `BlocksWorld`
+        and `PersistentSurveillance`).
     is_adaptive : bool
         Whether `conjure.compiled._adaptive_kernel` runs it (else ``advance_kernel``).
     """
@@ -218,15 +220,22 @@ def _representation(rep: Any) -> tuple[int, int, int, tuple[np.ndarray, ...]] | 
     return None
 
 
-def _adaptive_representation(rep: Any) -> tuple[int, bool, tuple[np.ndarray, ...]] | None:
-    """(base code, whether iFDD is on top, (rdims, rvec)) for the adaptive kernel, or None."""
+def _adaptive_representation(
+    rep: Any, is_constrained: bool
+) -> tuple[int, int, int, tuple[np.ndarray, ...]] | None:
+    """`_representation`'s answer for the adaptive kernel, or None.
+
+    For `OnlineIFDD`'s base; on a constrained domain also for the base alone.
+    """
     is_ifdd = type(rep) is OnlineIFDD
     base = rep.base_ if is_ifdd else rep
-    if type(base) is BinaryIndicators:
-        return ak.INDICATORS, is_ifdd, (_FLOAT_EMPTY, np.zeros(0, dtype=np.int64))
-    if type(base) is IndependentDiscretization:
-        return k.INDEPENDENT, is_ifdd, (base._dims, base.offsets_)
-    return None
+    if is_constrained and type(base) is BinaryIndicators:
+        empty_vec = np.zeros(0, dtype=np.int64)
+        arrays = (_FLOAT_EMPTY, _INT_EMPTY, _INT_EMPTY, empty_vec, _INT_EMPTY, empty_vec)
+        return ak.INDICATORS, 0, 0, arrays
+    if is_constrained and type(base) is not IndependentDiscretization:
+        return None
+    return _representation(base) if is_ifdd or is_constrained else None
 
 
 # ---------------------------------------------------------------------------------------------
@@ -284,18 +293,13 @@ def pack_combination(domain: Domain, agent: Agent) -> Combination | None:
     if agent_codes is None:
         return None
     domain_code, domain_arrays, read, write = domain_packer(domain)
-    is_adaptive = domain_code in (ak.BLOCKS, ak.PERSISTENT_SURVEILLANCE)
-    is_ifdd = False
-    if is_adaptive:
-        if agent_codes[0] == k.ACTOR_CRITIC:
-            return None
-        adaptive = _adaptive_representation(agent.representation_)
-        if adaptive is None:
-            return None
-        rep_code, is_ifdd, arrays = adaptive
-        rep = (rep_code, 0, 0, arrays)
-    elif domain.domain_spec.has_action_constraints:
+    is_constrained = domain_code in (ak.BLOCKS, ak.PERSISTENT_SURVEILLANCE)
+    if not is_constrained and domain.domain_spec.has_action_constraints:
         return None
+    is_ifdd = type(agent.representation_) is OnlineIFDD
+    is_adaptive = is_constrained or is_ifdd
+    if is_adaptive:
+        rep = _adaptive_representation(agent.representation_, is_constrained)
     else:
         rep = _representation(agent.representation_)
     policy = _policy(agent.policy_)
@@ -339,8 +343,6 @@ def pack_combination(domain: Domain, agent: Agent) -> Combination | None:
         min_trace,
     )
     contiguous = tuple(np.ascontiguousarray(a) for a in rep_arrays[:4]) + rep_arrays[4:]
-    if is_adaptive:
-        contiguous = tuple(np.ascontiguousarray(a) for a in rep_arrays)
     return Combination(
         ints=ints,
         floats=floats,
