@@ -10,7 +10,7 @@ from conjure.core.errors import NotSetUpError
 from conjure.core.schedules import ConstantStepSize, FeatureNormalizedDecay
 from conjure.domains import BlocksWorld, ChainMDP, GridWorld, InvertedPendulum
 from conjure.policies import EpsilonGreedy, Gibbs
-from conjure.representations import RBF, IndependentDiscretization, Tabular, TileCoding
+from conjure.representations import RBF, Tabular, TileCoding
 
 
 class MySARSA(SARSA):
@@ -63,7 +63,7 @@ def test_actor_critic_with_gibbs_is_packed():
     [
         (InvertedPendulum(), SARSA(representation=RBF())),  # dense features
         (InvertedPendulum(), MySARSA(representation=Tabular())),  # a subclass
-        (BlocksWorld(), ActorCritic(representation=IndependentDiscretization())),  # legal actions
+        (BlocksWorld(num_blocks=3), SARSA(representation=Tabular())),  # legal actions, a table
         (ChainMDP(), LSPI(representation=Tabular())),  # a batch learner
         (
             ChainMDP(),
