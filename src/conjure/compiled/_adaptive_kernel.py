@@ -1,23 +1,23 @@
 """The compiled learning loop of domains with legal actions and growing representations.
 
 `adaptive_kernel` runs the step order of `conjure.experiments.loop.LearningLoop` for the
-constrained domains of Geramifard (2012), Section 4.1.4, BlocksWorld and Persistent
-Surveillance, with their initial features (`BinaryIndicators` or
-`IndependentDiscretization`) alone or with online iFDD on top (Algorithm 19 for φ̇, Algorithm
-20/21 or the fixed rate of Eq. 4.6 for discovery), and for the unconstrained domains of
-`conjure.compiled._kernels` (every action legal) with online iFDD over tile coding, a table or
-independent discretization (Section 4.1.4's pendulum); learners SARSA (Algorithm 11, with or
-without sparse eligibility traces), Q-Learning (Algorithm 10) or Actor-Critic with the actor
-sharing the critic's features (Algorithm 12). It is a separate kernel from
-`conjure.compiled._kernels.advance_kernel`, so that kernel's compile time does not grow; it
-calls that module's `domain_reset`, `domain_step`, `encode`, `step_size`, `select_action` and
-`record_episode`.
+constrained domains of Geramifard (2012), Sections 4.1.4 and 5.3.5, BlocksWorld, Persistent
+Surveillance, Rescue Mission and the UAV missions, with their initial features
+(`BinaryIndicators` or `IndependentDiscretization`) alone or with online iFDD on top
+(Algorithm 19 for φ̇, Algorithm 20/21 or the fixed rate of Eq. 4.6 for discovery), and for
+the unconstrained domains of `conjure.compiled._kernels` (every action legal) with online iFDD
+over tile coding, a table or independent discretization (Section 4.1.4's pendulum); learners
+SARSA (Algorithm 11, with or without sparse eligibility traces), Q-Learning (Algorithm 10) or
+Actor-Critic with the actor sharing the critic's features (Algorithm 12). It is a separate
+kernel from `conjure.compiled._kernels.advance_kernel`, so that kernel's compile time does
+not grow; it calls that module's `domain_reset`, `domain_step`, `encode`, `step_size`,
+`select_action` and `record_episode`.
 
 The kernel calls the library's own kernels (`blocks_step`, `pst_step`, `independent_features`,
 `activate`, `discover`, `td_step`, ...) and draws from the same generators in the same
-order as the Python path: per step the domain's draws (BlocksWorld's one uniform, Persistent
-Surveillance's 2n, those of `domain_step`) and the agent's one uniform per choice among the
-legal actions.
+order as the Python path: per step the domain's draws (BlocksWorld's and Rescue Mission's one
+uniform, Persistent Surveillance's and a UAV mission's 2n, those of `domain_step`) and the
+agent's one uniform per choice among the legal actions.
 
 Arguments besides those of ``advance_kernel`` (``ints``, ``floats``, ``dparams``, ``dtable``,
 ``dcells``, ``loop``, ``loop_f``, ``obs``, the generators, the representation's six tables):
@@ -97,11 +97,24 @@ from conjure.compiled._kernels import (
     td_update,
 )
 from conjure.domains._blocks_kernels import blocks_reset, blocks_step, legal_moves_into
-from conjure.domains._uav_kernels import BASE, pst_fill_legal_mask, pst_step
+from conjure.domains._mission_kernels import legal_actions, mission_step
+from conjure.domains._uav_kernels import (
+    BASE,
+    pst_fill_legal_mask,
+    pst_step,
+    rescue_fill_legal_mask,
+    rescue_step,
+)
 from conjure.representations._ifdd_kernels import I_NUM_FEATURES, activate, discover, discover_room
 
 # Domain codes (after those of `conjure.compiled._kernels`).
-BLOCKS, PERSISTENT_SURVEILLANCE = 3, 4
+BLOCKS, PERSISTENT_SURVEILLANCE, RESCUE, UAV_MISSION = 3, 4, 5, 6
+#: Where the start state s₀ begins in ``dparams`` of `RESCUE` and `UAV_MISSION` (after their
+#: scalars: horizon, fuel penalty, failure penalty; the traverse failure probability).
+RESCUE_START, UAV_START = 3, 1
+#: Rescue Mission's graph: neighbours in ``dtable[:, :3]``, degree in ``dtable[:, 3]``;
+#: ``dcells[:, :8]`` the one-edge-away table, then the people and success probability per node.
+RESCUE_PEOPLE, RESCUE_SUCCESS = 8, 9
 # Representation code (after those of `conjure.compiled._kernels`, whose codes it shares).
 INDICATORS = 4
 # Status code (after those of `conjure.compiled._kernels`).
@@ -155,11 +168,15 @@ def _reset(
     if kind == BLOCKS:
         blocks_reset(int(dparams[0]), dstate, obs)
         return
-    num_uavs = int(dparams[0])
-    for i in range(num_uavs):
-        for j in range(4):
-            dstate[4 * i + j] = _PST_START[j]
-        dstate[4 * i] = int(dparams[2])
+    if kind == PERSISTENT_SURVEILLANCE:
+        for i in range(int(dparams[0])):
+            for j in range(4):
+                dstate[4 * i + j] = _PST_START[j]
+            dstate[4 * i] = int(dparams[2])
+    else:  # the missions: s₀ is packed after their scalars
+        start = RESCUE_START if kind == RESCUE else UAV_START
+        for i in range(dstate.shape[0]):
+            dstate[i] = int(dparams[start + i])
     for i in range(dstate.shape[0]):
         obs[i] = dstate[i]
 
@@ -184,6 +201,23 @@ def _step(
     if kind == BLOCKS:
         reward, terminated = blocks_step(dparams, dstate, action, obs, rng)
         return reward, terminated, 0.0
+    if kind == RESCUE:  # one uniform per step, as `RescueMission.step`
+        u = rng.random()
+        nodes = dcells.shape[0]
+        next_obs, reward, terminated, failed = rescue_step(
+            dstate, action, u, dtable[:, :3], dtable[:, 3], dcells[:, :nodes],
+            dcells[:, RESCUE_PEOPLE], dcells[:, RESCUE_SUCCESS], int(dparams[0]), dparams[1],
+            dparams[2], mask,
+        )  # fmt: skip
+        obs[:] = next_obs
+        return reward, terminated, 1.0 if failed else 0.0
+    if kind == UAV_MISSION:  # 2n uniforms per step, as `UAVMission.step`
+        next_state, reward, terminated, cost = mission_step(
+            dstate, action, dtable[0], dcells, dparams[0], rng
+        )
+        dstate[:] = next_state
+        obs[:] = next_state
+        return reward, terminated, cost
     for i in range(uniforms.shape[0]):  # as np_random.random(2n)
         uniforms[i] = rng.random()
     next_obs, reward, terminated = pst_step(
@@ -206,12 +240,14 @@ def _step(
 
 
 @njit(cache=True, inline="always")
-def _legal(kind: int, dstate: np.ndarray, num_units: int, mask: np.ndarray, out: np.ndarray):
+def _legal(kind: int, domain: tuple, num_units: int, mask: np.ndarray, out: np.ndarray):
     """The sorted legal actions of the domain's current state (a view of ``out``).
 
-    ``num_units`` is the number of blocks or UAVs; ``mask`` is scratch. Every action is legal
-    in the domains of ``advance_kernel``.
+    ``domain`` is (dparams, dtable, dcells, dstate, fstate), ``num_units`` the number of blocks
+    or UAVs of BlocksWorld and Persistent Surveillance; ``mask`` is scratch. Every action is
+    legal in the domains of ``advance_kernel``.
     """
+    dtable, dstate = domain[1], domain[3]
     if kind < BLOCKS:
         for a in range(out.shape[0]):
             out[a] = a
@@ -222,7 +258,15 @@ def _legal(kind: int, dstate: np.ndarray, num_units: int, mask: np.ndarray, out:
             dstate[nn : nn + num_units], dstate[nn + num_units :], num_units, out
         )
         return out[:count]
-    pst_fill_legal_mask(dstate, num_units, mask)
+    if kind == UAV_MISSION:
+        nodes = dtable.shape[0] - 1
+        legal = legal_actions(dstate, dtable[0], dtable[1:, :nodes])
+        out[: legal.shape[0]] = legal
+        return out[: legal.shape[0]]
+    if kind == RESCUE:
+        rescue_fill_legal_mask(dstate, dtable[:, :3], dtable[:, 3], mask)
+    else:
+        pst_fill_legal_mask(dstate, num_units, mask)
     count = 0
     for a in range(mask.shape[0]):
         if mask[a]:
@@ -289,7 +333,8 @@ def adaptive_kernel(
     domain = (dparams, dtable, dcells, dstate, fstate)
     rep = (rdims, rlayout, rgroups, rvec, htable, hcounts)
     scratch = (np.empty(obs.shape[0], dtype=np.int64), np.empty(ints[I_MAX_ACTIVE], np.int64))
-    num_units = int(dparams[0]) if d_kind >= BLOCKS else 0  # blocks or UAVs
+    is_units = d_kind == BLOCKS or d_kind == PERSISTENT_SURVEILLANCE
+    num_units = int(dparams[0]) if is_units else 0  # blocks or UAVs
     feat_len, feat_parents = discover_args[3], discover_args[4]
     pool, node_key, table = discover_args[1], discover_args[5], discover_args[12]
     r_ints = discover_args[14]
@@ -326,7 +371,7 @@ def adaptive_kernel(
                 clear_traces(trace_slots, trace_features, trace_actions, trace_count)
             phi = _encode(r_kind, is_ifdd, obs, rep, num_tilings, scratch, activate_args)
             q_values_into(chooser, phi, None, q)
-            legal = _legal(d_kind, dstate, num_units, mask, legal_buffer)
+            legal = _legal(d_kind, domain, num_units, mask, legal_buffer)
             action = select_action(policy, q, legal, parameter, agent_rng)
             episode_steps = episode_failures = 0
             total, discounted, weight = 0.0, 0.0, 1.0
@@ -347,7 +392,7 @@ def adaptive_kernel(
         if not terminated:
             next_phi = _encode(r_kind, is_ifdd, next_obs, rep, num_tilings, scratch, activate_args)
             q_values_into(chooser, next_phi, None, q)
-            next_legal = _legal(d_kind, dstate, num_units, mask, next_buffer)
+            next_legal = _legal(d_kind, domain, num_units, mask, next_buffer)
             next_action = select_action(policy, q, next_legal, parameter, agent_rng)
             # Algorithms 10-12, line 5: Q⁺(s, a) = r + γ Q(s', a') or r + γ max_a' Q(s', a')
             if agent == SARSA:

@@ -14,14 +14,15 @@ Supported (Geramifard 2012, Algorithms 10-12):
 - policies: `EpsilonGreedy`, `Gibbs`; schedules: `ConstantStepSize`,
   `FeatureNormalizedDecay`, `EpisodicDecay`.
 
-and, in `conjure.compiled._adaptive_kernel` (Section 4.1.4, Algorithms 19-21):
+and, in `conjure.compiled._adaptive_kernel` (Sections 4.1.4 and 5.3.5, Algorithms 19-21):
 
-- domains with legal actions: `BlocksWorld`, `PersistentSurveillance`, with
-  `BinaryIndicators` or `IndependentDiscretization`, alone or as the base of `OnlineIFDD`
-  (any relevance, threshold or fixed-rate discovery);
-- the domains above, with `OnlineIFDD` over `TileCoding` (hashed or not), `Tabular` or
-  `IndependentDiscretization`;
-- agents: the three above (traces for `SARSA` only, as above); the policies and schedules above.
+- domains with legal actions: `BlocksWorld`, `PersistentSurveillance`, `RescueMission`,
+  `UAVMission`, with `BinaryIndicators` or `IndependentDiscretization`, alone or as the base
+  of `OnlineIFDD` (any relevance, threshold or fixed-rate discovery);
+- `InvertedPendulum`, `GridWorld`, `ChainMDP` with `OnlineIFDD` over `TileCoding` (hashed or
+  not), `Tabular` or `IndependentDiscretization`;
+- agents: `SARSA` (with or without traces), `QLearning`, `ActorCritic` (actor sharing the
+  critic's features); the policies and schedules above.
 
 Notes
 -----
@@ -49,12 +50,14 @@ from conjure.core.schedules import (
     FeatureNormalizedDecay,
     StepSizeSchedule,
 )
-from conjure.domains._uav_kernels import pst_fill_legal_mask
+from conjure.domains._uav_kernels import pst_fill_legal_mask, rescue_fill_legal_mask
 from conjure.domains.blocksworld import BlocksWorld
 from conjure.domains.chain import ChainMDP
 from conjure.domains.gridworld import GridWorld
 from conjure.domains.pendulum import InvertedPendulum
 from conjure.domains.persistent_surveillance import PersistentSurveillance
+from conjure.domains.rescue_mission import RescueMission
+from conjure.domains.uav_mission import UAVMission
 from conjure.policies import EpsilonGreedy, Gibbs
 from conjure.representations import (
     BinaryIndicators,
@@ -183,13 +186,53 @@ def _persistent_surveillance(domain: PersistentSurveillance) -> tuple:
     return ak.PERSISTENT_SURVEILLANCE, (dparams, _INT_EMPTY, _FLOAT_EMPTY), read, write
 
 
+def _rescue(domain: RescueMission) -> tuple:
+    horizon, fuel_penalty, failure_penalty = domain._scalars
+    start = domain._start_state()
+    dparams = np.array([float(horizon), fuel_penalty, failure_penalty, *start])
+    table = np.column_stack([domain.neighbours_, domain._degrees]).astype(np.int64)
+    cells = np.column_stack([domain._is_near, domain._people, domain._success]).astype(float)
+
+    def read(d: RescueMission) -> np.ndarray:
+        return d._state.copy()
+
+    def write(d: RescueMission, state: np.ndarray) -> None:
+        d._state[:] = state
+        rescue_fill_legal_mask(d._state, d.neighbours_, d._degrees, d._mask)
+
+    return ak.RESCUE, (dparams, table, cells), read, write
+
+
+def _uav_mission(domain: UAVMission) -> tuple:
+    graph = domain.graph_
+    dparams = np.array([domain._eta, *graph.initial_state()])
+    layout, adjacency = domain._layout, domain._adjacency
+    nodes = adjacency.shape[0]
+    table = np.zeros((nodes + 1, max(nodes, layout.shape[0])), dtype=np.int64)
+    table[0, : layout.shape[0]] = layout
+    table[1:, :nodes] = adjacency
+
+    def read(d: UAVMission) -> np.ndarray:
+        return d._state.astype(np.int64)
+
+    def write(d: UAVMission, state: np.ndarray) -> None:
+        d._state = state.astype(np.float64)
+
+    cells = np.array(domain._tables[3], dtype=np.float64)  # node table (a writeable copy)
+    return ak.UAV_MISSION, (dparams, table, cells), read, write
+
+
 _DOMAINS: dict[type, Callable[[Any], tuple]] = {
     InvertedPendulum: _pendulum,
     GridWorld: _gridworld,
     ChainMDP: _chain,
     BlocksWorld: _blocks,
     PersistentSurveillance: _persistent_surveillance,
+    RescueMission: _rescue,
+    UAVMission: _uav_mission,
 }
+#: The domains with legal actions (`conjure.compiled._adaptive_kernel` only).
+_CONSTRAINED = (ak.BLOCKS, ak.PERSISTENT_SURVEILLANCE, ak.RESCUE, ak.UAV_MISSION)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -293,7 +336,7 @@ def pack_combination(domain: Domain, agent: Agent) -> Combination | None:
     if agent_codes is None:
         return None
     domain_code, domain_arrays, read, write = domain_packer(domain)
-    is_constrained = domain_code in (ak.BLOCKS, ak.PERSISTENT_SURVEILLANCE)
+    is_constrained = domain_code in _CONSTRAINED
     if not is_constrained and domain.domain_spec.has_action_constraints:
         return None
     is_ifdd = type(agent.representation_) is OnlineIFDD
