@@ -20,6 +20,8 @@ from conjure.domains import (
     GridWorld,
     InvertedPendulum,
     PersistentSurveillance,
+    RescueMission,
+    UAVMission,
 )
 from conjure.experiments import run
 from conjure.experiments.loop import LearningLoop, run_episode
@@ -80,7 +82,20 @@ UNCONSTRAINED_REPRESENTATIONS = {
     ),
     "chain-ifdd-over-table": lambda: OnlineIFDD(base=Tabular(), discovery_threshold=0.01),
 }
-ALL_REPRESENTATIONS = {**REPRESENTATIONS, **PST_REPRESENTATIONS, **UNCONSTRAINED_REPRESENTATIONS}
+#: Rescue Mission and a UAV mission (Sections 4.1.4 and 5.3.5) over their discrete dimensions.
+MISSION_REPRESENTATIONS = {
+    "rescue-ifdd-plus": lambda: OnlineIFDD(
+        base=IndependentDiscretization(), relevance="ifdd_plus", discovery_threshold=0.5
+    ),
+    "rescue-independent": IndependentDiscretization,
+    "uav-ifdd-fixed-rate": lambda: OnlineIFDD(base=IndependentDiscretization(), discovery_rate=1),
+}
+ALL_REPRESENTATIONS = {
+    **REPRESENTATIONS,
+    **PST_REPRESENTATIONS,
+    **UNCONSTRAINED_REPRESENTATIONS,
+    **MISSION_REPRESENTATIONS,
+}
 AGENTS = {
     "sarsa": lambda rep: SARSA(representation=rep, step_size=DECAY),
     "qlearning": lambda rep: QLearning(
@@ -113,6 +128,8 @@ def _domain(rep: str):
         "pendulum": lambda: InvertedPendulum(force_noise=10.0, start_noise=0.05),
         "gridworld": GridWorld,
         "chain": lambda: ChainMDP(num_states=6, num_actions=2, slip=0.2),
+        "rescue": RescueMission,
+        "uav": lambda: UAVMission(traverse_failure=0.1),
     }
     return domains.get(rep.split("-")[0], BlocksWorld)()
 
@@ -136,8 +153,10 @@ def _learn(stepper, agent, seed: int, rep: str) -> list:
 def _domain_states(domain) -> tuple:
     if isinstance(domain, BlocksWorld):
         return domain._on, domain._above, domain._obs.tolist()
-    if isinstance(domain, PersistentSurveillance):
+    if isinstance(domain, (PersistentSurveillance, RescueMission)):
         return domain._state.tolist(), domain._mask.tolist()
+    if isinstance(domain, UAVMission):
+        return (domain._state.tolist(),)
     if isinstance(domain, InvertedPendulum):
         return domain._theta, domain._theta_dot
     return (domain._cell,) if isinstance(domain, GridWorld) else (domain._state,)
@@ -159,6 +178,8 @@ def test_same_seed_gives_the_same_learner_on_both_paths(rep, agent_name, seed):
         "pst-ifdd-plus",
         "pendulum-ifdd-plus-over-tiles",
         "gridworld-ifdd-plus-over-buckets",
+        "rescue-ifdd-plus",
+        "uav-ifdd-fixed-rate",
     ],
 )
 @pytest.mark.parametrize("agent_name", sorted(TRACE_AGENTS))
@@ -177,6 +198,8 @@ def test_sarsa_lambda_gives_the_same_learner_on_both_paths(rep, agent_name):
         "pendulum-ifdd-over-hashed-tiles",
         "gridworld-ifdd-plus-over-buckets",
         "chain-ifdd-over-table",
+        "rescue-ifdd-plus",
+        "uav-ifdd-fixed-rate",
     ],
 )
 @pytest.mark.parametrize("seed", [0, 5])
@@ -285,6 +308,8 @@ def test_one_compilation_serves_every_adaptive_combination():
             ActorCritic(representation=BinaryIndicators(), actor_representation=BinaryIndicators()),
         ),  # separate actor features
         (InvertedPendulum(), SARSA(representation=OnlineIFDD(base=HashedTabular()))),
+        (RescueMission(), SARSA(representation=TileCoding(memory_size=64))),
+        (UAVMission(), QLearning(representation=OnlineIFDD(base=TileCoding(memory_size=64)))),
         (
             InvertedPendulum(),
             ActorCritic(
@@ -339,7 +364,9 @@ def _curve(rows: list) -> list:
             for row in rows]  # fmt: skip
 
 
-@pytest.mark.parametrize("rep", ["ifdd-plus", "pst-ifdd-plus", "pendulum-ifdd-plus-over-tiles"])
+@pytest.mark.parametrize(
+    "rep", ["ifdd-plus", "pst-ifdd-plus", "pendulum-ifdd-plus-over-tiles", "rescue-ifdd-plus"]
+)
 def test_a_run_records_the_same_curve_on_both_paths(monkeypatch, rep):
     import conjure.compiled
 
