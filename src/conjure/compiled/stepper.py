@@ -19,14 +19,14 @@ Notes
   counter, the learning-step counter and the domain's state are written back after every
   ``advance``, so policy checks, `Agent.save` and the Python path see the same objects.
 - Choice: a learner's act/learn cache is dropped after every ``advance`` (θ changed under it).
-- Choice (constrained domains with `OnlineIFDD`): the representation's tables are its own
-  arrays, updated in place; when a discovery would not fit, the kernel returns, the
-  representation grows them with its own method and the kernel continues. θ (and SARSA(λ)'s
+- Choice (with `OnlineIFDD`): the representation's tables are its own arrays, updated in
+  place; when a discovery would not fit, the kernel returns, the representation grows them
+  with its own method and the kernel continues. θ (and Actor-Critic's ω, SARSA(λ)'s
   ``trace_slots_``) is passed with as many rows as the representation can hold features (a
   buffer that `append_rows` keeps using) and set to its first n_t rows after every call, as
   the Python learner's `grow_weights` / ``append_rows`` would leave it.
 - Compilation: two kernels, ``advance_kernel`` (fixed features, every action legal) and
-  ``adaptive_kernel`` (legal actions, growing features); each serves all its combinations
+  ``adaptive_kernel`` (legal actions or growing features); each serves all its combinations
   (the arguments have the same types), is compiled once per machine and cached on disk;
   `compile_seconds` reports the first calls' cost in this process.
 """
