@@ -19,10 +19,13 @@ compilation excluded), each the median of ``repeats`` runs:
 3. Microseconds of one `discover` call that adds exactly one feature (a fresh pair), with and
    without the learner's `grow_weights`, against a call that adds nothing.
 4. SARSA + iFDD+ on BlocksWorld (``examples/blocksworld.yaml``'s ``ifdd_plus`` agent) and
-   Persistent Surveillance on the Python path (`LearningLoop`) and on the compiled path
-   (`conjure.compiled`, issue 11), the same 5 N steps from the same seeds; the compiled
-   kernel's first call in this process (compile, or load from numba's disk cache) is timed
-   separately and not in steps/s. ``--paths-only`` runs only this table.
+   Persistent Surveillance, Actor-Critic + iFDD+ on BlocksWorld, SARSA + signed iFDD+ on the
+   pendulum (``examples/reproduction/fig_4_8_pendulum_ifdd_plus.yaml``) and SARSA + iFDD at a
+   fixed rate on Rescue Mission (``fig_4_7_rescue.yaml``) on the Python path
+   (`LearningLoop`) and on the compiled path (`conjure.compiled`, issue 11), the same 5 N
+   steps from the same seeds; the compiled kernels' first calls in this process (compile, or
+   load from numba's disk cache) are timed separately and not in steps/s. ``--paths-only``
+   runs only this table.
 """
 
 from __future__ import annotations
@@ -35,10 +38,10 @@ import numpy as np
 from rich.console import Console
 from rich.table import Table
 
-from conjure.agents import SARSA
+from conjure.agents import SARSA, ActorCritic
 from conjure.compiled import compile_seconds, for_combination
 from conjure.core.schedules import FeatureNormalizedDecay
-from conjure.domains import BlocksWorld, InvertedPendulum, PersistentSurveillance
+from conjure.domains import BlocksWorld, InvertedPendulum, PersistentSurveillance, RescueMission
 from conjure.experiments.loop import LearningLoop
 from conjure.policies import EpsilonGreedy
 from conjure.representations import BinaryIndicators, IndependentDiscretization, TileCoding
@@ -170,10 +173,42 @@ def surveillance_ifdd_plus() -> tuple[PersistentSurveillance, SARSA]:
     return PersistentSurveillance(), sarsa(DOMAIN_WORKLOADS[2][2].clone())
 
 
+def blocks_actor_critic() -> tuple[BlocksWorld, ActorCritic]:
+    """`blocks_ifdd_plus`'s features and critic step size under Actor-Critic (Gibbs actor)."""
+    domain, sarsa_agent = blocks_ifdd_plus()
+    agent = ActorCritic(representation=sarsa_agent.representation, step_size=sarsa_agent.step_size)
+    return domain, agent
+
+
+def pendulum_ifdd_plus() -> tuple[InvertedPendulum, SARSA]:
+    """examples/reproduction/fig_4_8_pendulum_ifdd_plus.yaml's learner (ξ = 0.02)."""
+    representation = OnlineIFDD(
+        base=IndependentDiscretization(num_buckets=20),
+        relevance="ifdd_plus_signed",
+        discovery_threshold=0.02,
+    )
+    step_size = FeatureNormalizedDecay(alpha_0=1.0, n_0=100)
+    policy = EpsilonGreedy(epsilon=0.1)
+    agent = SARSA(representation=representation, policy=policy, step_size=step_size)
+    return InvertedPendulum(), agent
+
+
+def rescue_ifdd_fixed_rate() -> tuple[RescueMission, SARSA]:
+    """examples/reproduction/fig_4_7_rescue.yaml's ``ifdd_fixed_rate`` learner."""
+    representation = OnlineIFDD(base=IndependentDiscretization(), discovery_rate=0.004)
+    step_size = FeatureNormalizedDecay(alpha_0=0.1, n_0=1000)
+    policy = EpsilonGreedy(epsilon=0.1)
+    agent = SARSA(representation=representation, policy=policy, step_size=step_size)
+    return RescueMission(), agent
+
+
 #: (name, fresh (domain, learner)) of the Python vs compiled comparison (issue 11).
 PATH_WORKLOADS = (
-    ("BlocksWorld, iFDD+ xi = 0.05 (examples/)", blocks_ifdd_plus),
-    ("PersistentSurveillance, iFDD+ xi = 200", surveillance_ifdd_plus),
+    ("BlocksWorld, SARSA + iFDD+ xi = 0.05 (examples/)", blocks_ifdd_plus),
+    ("PersistentSurveillance, SARSA + iFDD+ xi = 200", surveillance_ifdd_plus),
+    ("BlocksWorld, Actor-Critic + iFDD+ xi = 0.05", blocks_actor_critic),
+    ("InvertedPendulum, SARSA + signed iFDD+ xi = 0.02 (fig 4-8)", pendulum_ifdd_plus),
+    ("RescueMission, SARSA + iFDD at C = 0.004 (fig 4-7)", rescue_ifdd_fixed_rate),
 )
 
 
@@ -199,7 +234,7 @@ def both_paths(make, steps: int, repeats: int) -> dict[str, tuple[float, int]]:
 
 
 def print_both_paths(console: Console, steps: int, repeats: int) -> None:
-    table = Table(title=f"SARSA + iFDD+, Python vs compiled path: {steps:,} steps per run")
+    table = Table(title=f"iFDD learners, Python vs compiled path: {steps:,} steps per run")
     table.add_column("workload")
     table.add_column("path")
     table.add_column("steps/s", justify="right")

@@ -1,7 +1,9 @@
-"""Constrained domains with online iFDD on the compiled path: same seed, same learner as Python.
+"""Online iFDD and legal actions on the compiled path: same seed, same learner as Python.
 
 BlocksWorld and Persistent Surveillance (Geramifard 2012, Section 4.1.4) with their initial
-features alone or under online iFDD / iFDD+ (`conjure.compiled._adaptive_kernel`).
+features alone or under online iFDD / iFDD+, and the pendulum, GridWorld and chain with
+online iFDD over tile coding, a table or independent discretization
+(`conjure.compiled._adaptive_kernel`), learned by SARSA(λ), Q-Learning or Actor-Critic.
 """
 
 import numpy as np
@@ -12,15 +14,25 @@ from conjure.compiled import CompiledStepper, for_combination, is_warm
 from conjure.compiled import _adaptive_kernel as ak
 from conjure.compiled.combination import pack_combination
 from conjure.core.schedules import EpisodicDecay, FeatureNormalizedDecay
-from conjure.domains import BlocksWorld, InvertedPendulum, PersistentSurveillance
+from conjure.domains import (
+    BlocksWorld,
+    ChainMDP,
+    GridWorld,
+    InvertedPendulum,
+    PersistentSurveillance,
+    RescueMission,
+    UAVMission,
+)
 from conjure.experiments import run
 from conjure.experiments.loop import LearningLoop, run_episode
 from conjure.policies import EpsilonGreedy, Gibbs
 from conjure.representations import (
     BinaryIndicators,
+    HashedTabular,
     IndependentDiscretization,
     OnlineIFDD,
     RandomExpansion,
+    Tabular,
     TileCoding,
 )
 
@@ -54,6 +66,36 @@ PST_REPRESENTATIONS = {
     "pst-ifdd-fixed-rate": lambda: OnlineIFDD(base=IndependentDiscretization(), discovery_rate=2),
     "pst-independent": IndependentDiscretization,
 }
+#: Every action legal (the domains of `conjure.compiled._kernels`), iFDD over fixed features.
+UNCONSTRAINED_REPRESENTATIONS = {
+    "pendulum-ifdd-plus-over-tiles": lambda: OnlineIFDD(
+        base=TileCoding(), relevance="ifdd_plus", discovery_threshold=0.05
+    ),
+    "pendulum-ifdd-over-hashed-tiles": lambda: OnlineIFDD(
+        base=TileCoding(memory_size=256), discovery_threshold=0.5
+    ),
+    "pendulum-ifdd-fixed-rate-over-buckets": lambda: OnlineIFDD(
+        base=IndependentDiscretization(), discovery_rate=0.4
+    ),
+    "gridworld-ifdd-plus-over-buckets": lambda: OnlineIFDD(
+        base=IndependentDiscretization(), relevance="ifdd_plus", discovery_threshold=0.01
+    ),
+    "chain-ifdd-over-table": lambda: OnlineIFDD(base=Tabular(), discovery_threshold=0.01),
+}
+#: Rescue Mission and a UAV mission (Sections 4.1.4 and 5.3.5) over their discrete dimensions.
+MISSION_REPRESENTATIONS = {
+    "rescue-ifdd-plus": lambda: OnlineIFDD(
+        base=IndependentDiscretization(), relevance="ifdd_plus", discovery_threshold=0.5
+    ),
+    "rescue-independent": IndependentDiscretization,
+    "uav-ifdd-fixed-rate": lambda: OnlineIFDD(base=IndependentDiscretization(), discovery_rate=1),
+}
+ALL_REPRESENTATIONS = {
+    **REPRESENTATIONS,
+    **PST_REPRESENTATIONS,
+    **UNCONSTRAINED_REPRESENTATIONS,
+    **MISSION_REPRESENTATIONS,
+}
 AGENTS = {
     "sarsa": lambda rep: SARSA(representation=rep, step_size=DECAY),
     "qlearning": lambda rep: QLearning(
@@ -70,18 +112,32 @@ TRACE_AGENTS = {
         trace_kind="accumulating",
     ),
 }
+#: Algorithm 12 with the actor sharing the critic's (growing) features.
+ACTOR_CRITIC = {
+    "actor-critic": lambda rep: ActorCritic(
+        representation=rep, step_size=FeatureNormalizedDecay(alpha_0=0.05, n_0=100)
+    ),
+}
 #: Uneven advances (20,000 steps), with a greedy policy check after each.
 CHUNKS = (0, 1, 337, 1500, 5000, 13162)
 
 
 def _domain(rep: str):
-    return PersistentSurveillance() if rep.startswith("pst") else BlocksWorld()
+    domains = {
+        "pst": PersistentSurveillance,
+        "pendulum": lambda: InvertedPendulum(force_noise=10.0, start_noise=0.05),
+        "gridworld": GridWorld,
+        "chain": lambda: ChainMDP(num_states=6, num_actions=2, slip=0.2),
+        "rescue": RescueMission,
+        "uav": lambda: UAVMission(traverse_failure=0.1),
+    }
+    return domains.get(rep.split("-")[0], BlocksWorld)()
 
 
 def _build(rep: str, agent: str, seed: int):
     domain = _domain(rep)
-    make_rep = {**REPRESENTATIONS, **PST_REPRESENTATIONS}[rep]
-    learner = {**AGENTS, **TRACE_AGENTS}[agent](make_rep()).setup(domain.domain_spec, seed)
+    make_agent = {**AGENTS, **TRACE_AGENTS, **ACTOR_CRITIC}[agent]
+    learner = make_agent(ALL_REPRESENTATIONS[rep]()).setup(domain.domain_spec, seed)
     return domain, learner
 
 
@@ -97,10 +153,16 @@ def _learn(stepper, agent, seed: int, rep: str) -> list:
 def _domain_states(domain) -> tuple:
     if isinstance(domain, BlocksWorld):
         return domain._on, domain._above, domain._obs.tolist()
-    return domain._state.tolist(), domain._mask.tolist()
+    if isinstance(domain, (PersistentSurveillance, RescueMission)):
+        return domain._state.tolist(), domain._mask.tolist()
+    if isinstance(domain, UAVMission):
+        return (domain._state.tolist(),)
+    if isinstance(domain, InvertedPendulum):
+        return domain._theta, domain._theta_dot
+    return (domain._cell,) if isinstance(domain, GridWorld) else (domain._state,)
 
 
-@pytest.mark.parametrize("rep", sorted(REPRESENTATIONS) + sorted(PST_REPRESENTATIONS))
+@pytest.mark.parametrize("rep", sorted(ALL_REPRESENTATIONS))
 @pytest.mark.parametrize("agent_name", sorted(AGENTS))
 @pytest.mark.parametrize("seed", [0, 5])
 def test_same_seed_gives_the_same_learner_on_both_paths(rep, agent_name, seed):
@@ -108,11 +170,41 @@ def test_same_seed_gives_the_same_learner_on_both_paths(rep, agent_name, seed):
 
 
 @pytest.mark.parametrize(
-    "rep", ["ifdd-fixed-rate", "ifdd-threshold", "indicators", "pst-ifdd-plus"]
+    "rep",
+    [
+        "ifdd-fixed-rate",
+        "ifdd-threshold",
+        "indicators",
+        "pst-ifdd-plus",
+        "pendulum-ifdd-plus-over-tiles",
+        "gridworld-ifdd-plus-over-buckets",
+        "rescue-ifdd-plus",
+        "uav-ifdd-fixed-rate",
+    ],
 )
 @pytest.mark.parametrize("agent_name", sorted(TRACE_AGENTS))
 def test_sarsa_lambda_gives_the_same_learner_on_both_paths(rep, agent_name):
     _check_both_paths(rep, agent_name, 1)
+
+
+@pytest.mark.parametrize(
+    "rep",
+    [
+        "ifdd-plus",
+        "ifdd-fixed-rate",
+        "indicators",
+        "pst-ifdd-plus",
+        "pendulum-ifdd-plus-over-tiles",
+        "pendulum-ifdd-over-hashed-tiles",
+        "gridworld-ifdd-plus-over-buckets",
+        "chain-ifdd-over-table",
+        "rescue-ifdd-plus",
+        "uav-ifdd-fixed-rate",
+    ],
+)
+@pytest.mark.parametrize("seed", [0, 5])
+def test_actor_critic_gives_the_same_learner_on_both_paths(rep, seed):
+    _check_both_paths(rep, "actor-critic", seed)
 
 
 def _check_both_paths(rep: str, agent_name: str, seed: int) -> None:
@@ -124,6 +216,8 @@ def _check_both_paths(rep: str, agent_name: str, seed: int) -> None:
     assert isinstance(stepper, CompiledStepper) and stepper.combination.is_adaptive
     assert _learn(stepper, agent, seed, rep) == python_checks
     np.testing.assert_array_equal(agent.weights_, python_agent.weights_)
+    if isinstance(agent, ActorCritic):
+        np.testing.assert_array_equal(agent.actor_weights_, python_agent.actor_weights_)
     assert agent.num_features == python_agent.num_features
     assert (stepper.total_steps, stepper.num_episodes, stepper.is_mid_episode) == (
         loop.total_steps,
@@ -140,7 +234,9 @@ def _check_both_paths(rep: str, agent_name: str, seed: int) -> None:
     assert _domain_states(domain) == _domain_states(python_domain)
     if "ifdd" in rep:
         compiled_rep, python_rep = agent.representation_, python_agent.representation_
-        assert compiled_rep.num_discovered_ == python_rep.num_discovered_ > 0
+        assert compiled_rep.num_discovered_ == python_rep.num_discovered_
+        # one active cell has no co-active pair: iFDD over a table never discovers
+        assert python_rep.num_discovered_ > 0 or type(python_rep.base_) is Tabular
         np.testing.assert_array_equal(compiled_rep.parents_, python_rep.parents_)
         sets, parents, relevances = compiled_rep.potential_features()
         python_sets, python_parents, python_relevances = python_rep.potential_features()
@@ -171,20 +267,27 @@ def test_episode_returns_are_the_python_paths():
     np.testing.assert_allclose(stats.episode_returns[finished], expected)
 
 
-def test_the_representation_and_weights_grow_between_kernel_calls():
-    domain, agent = _build("ifdd-threshold", "sarsa", 1)
+@pytest.mark.parametrize(
+    ("rep", "agent_name"),
+    [("ifdd-threshold", "sarsa"), ("pendulum-ifdd-plus-over-tiles", "actor-critic")],
+)
+def test_the_representation_and_weights_grow_between_kernel_calls(rep, agent_name):
+    domain, agent = _build(rep, agent_name, 1)
     nodes = agent.representation_._arrays["node_key"].shape[0]
     for_combination(domain, agent, seed=1).advance(20_000)
     assert agent.representation_._arrays["node_key"].shape[0] > nodes  # `_grow` ran
     rep = agent.representation_
-    assert agent.weights_.shape == (rep.num_features_, 36)
-    # θ_f of a discovered feature started at θ_g + θ_h: its rows are θ's own buffer rows
-    assert agent.weights_.base is not None and agent.weights_.base.shape[0] >= rep.num_features_
+    num_actions = domain.domain_spec.num_actions
+    weights = [agent.weights_, *([agent.actor_weights_] if agent_name == "actor-critic" else [])]
+    for w in weights:
+        assert w.shape == (rep.num_features_, num_actions)
+        # θ_f of a discovered feature started at θ_g + θ_h: its rows are the buffer's own rows
+        assert w.base is not None and w.base.shape[0] >= rep.num_features_
 
 
-def test_one_compilation_serves_every_constrained_combination():
-    for rep in [*REPRESENTATIONS, *PST_REPRESENTATIONS]:
-        for agent_name in AGENTS:
+def test_one_compilation_serves_every_adaptive_combination():
+    for rep in ALL_REPRESENTATIONS:
+        for agent_name in [*AGENTS, *ACTOR_CRITIC]:
             domain, agent = _build(rep, agent_name, 3)
             for_combination(domain, agent, seed=3).advance(30)
     stepper = for_combination(*_build("indicators", "sarsa", 0), seed=0)
@@ -196,11 +299,26 @@ def test_one_compilation_serves_every_constrained_combination():
     [
         (BlocksWorld(), SARSA(representation=RandomExpansion(base=BinaryIndicators()))),
         (PersistentSurveillance(), SARSA(representation=TileCoding(memory_size=64))),
-        (InvertedPendulum(), SARSA(representation=OnlineIFDD(base=IndependentDiscretization()))),
-        (BlocksWorld(), ActorCritic(representation=BinaryIndicators())),
+        (
+            PersistentSurveillance(),
+            SARSA(representation=OnlineIFDD(base=TileCoding(memory_size=64))),
+        ),
+        (
+            BlocksWorld(),
+            ActorCritic(representation=BinaryIndicators(), actor_representation=BinaryIndicators()),
+        ),  # separate actor features
+        (InvertedPendulum(), SARSA(representation=OnlineIFDD(base=HashedTabular()))),
+        (RescueMission(), SARSA(representation=TileCoding(memory_size=64))),
+        (UAVMission(), QLearning(representation=OnlineIFDD(base=TileCoding(memory_size=64)))),
+        (
+            InvertedPendulum(),
+            ActorCritic(
+                representation=OnlineIFDD(base=TileCoding()), actor_representation=TileCoding()
+            ),
+        ),
     ],
 )
-def test_constrained_combinations_the_kernel_does_not_cover(domain, agent):
+def test_adaptive_combinations_the_kernel_does_not_cover(domain, agent):
     assert pack_combination(domain, agent.setup(domain.domain_spec, 0)) is None
 
 
@@ -246,7 +364,9 @@ def _curve(rows: list) -> list:
             for row in rows]  # fmt: skip
 
 
-@pytest.mark.parametrize("rep", ["ifdd-plus", "pst-ifdd-plus"])
+@pytest.mark.parametrize(
+    "rep", ["ifdd-plus", "pst-ifdd-plus", "pendulum-ifdd-plus-over-tiles", "rescue-ifdd-plus"]
+)
 def test_a_run_records_the_same_curve_on_both_paths(monkeypatch, rep):
     import conjure.compiled
 
@@ -254,7 +374,7 @@ def test_a_run_records_the_same_curve_on_both_paths(monkeypatch, rep):
 
     def result(compiled: bool):
         domain, _ = _build(rep, "sarsa", 0)
-        make_rep = {**REPRESENTATIONS, **PST_REPRESENTATIONS}[rep]
+        make_rep = ALL_REPRESENTATIONS[rep]
         warmth = lambda stepper: offered.append(type(stepper)) or compiled  # noqa: E731
         monkeypatch.setattr(conjure.compiled, "is_warm", warmth)
         agent = AGENTS["sarsa"](make_rep())

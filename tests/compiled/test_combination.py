@@ -4,11 +4,19 @@ import numpy as np
 import pytest
 
 from conjure.agents import LSPI, SARSA, ActorCritic, QLearning
+from conjure.compiled import _adaptive_kernel as ak
 from conjure.compiled import _kernels as k
 from conjure.compiled.combination import pack_combination
 from conjure.core.errors import NotSetUpError
 from conjure.core.schedules import ConstantStepSize, FeatureNormalizedDecay
-from conjure.domains import BlocksWorld, ChainMDP, GridWorld, InvertedPendulum
+from conjure.domains import (
+    BlocksWorld,
+    ChainMDP,
+    GridWorld,
+    InvertedPendulum,
+    RescueMission,
+    UAVMission,
+)
 from conjure.policies import EpsilonGreedy, Gibbs
 from conjure.representations import RBF, IndependentDiscretization, Tabular, TileCoding
 
@@ -63,7 +71,7 @@ def test_actor_critic_with_gibbs_is_packed():
     [
         (InvertedPendulum(), SARSA(representation=type("MyRBF", (RBF,), {})())),  # a subclass
         (InvertedPendulum(), MySARSA(representation=Tabular())),  # a subclass
-        (BlocksWorld(), ActorCritic(representation=IndependentDiscretization())),  # legal actions
+        (BlocksWorld(num_blocks=3), SARSA(representation=Tabular())),  # legal actions, a table
         (ChainMDP(), LSPI(representation=Tabular())),  # a batch learner
         (
             ChainMDP(),
@@ -111,3 +119,19 @@ def test_rbf_is_packed_with_every_feature_listed():
     values = k.feature_values((affine, centers), 10, state)
     np.testing.assert_array_equal(values, rep.encode(state).values)
     assert k.feature_values(None, 10, state) is None
+
+
+def test_mission_packing_reads_the_domains_tables():
+    rescue = RescueMission(max_fuel=7)
+    combo = _pack(rescue, SARSA(representation=IndependentDiscretization()))
+    dparams, table, cells = combo.domain_arrays
+    assert combo.is_adaptive and combo.ints[k.I_DOMAIN] == ak.RESCUE
+    start = dparams[ak.RESCUE_START :].tolist()
+    assert start == rescue.reset(seed=0)[0].tolist() and start[1] == start[3] == 7.0
+    assert table[:, :3].tolist() == rescue.neighbours_.tolist()
+    assert table[0, 3] == 2 and cells[2, ak.RESCUE_PEOPLE] == 3.0  # base: 2 edges; node 2: 3
+    uav = UAVMission(traverse_failure=0.25)
+    combo = _pack(uav, QLearning(representation=IndependentDiscretization()))
+    dparams, table, cells = combo.domain_arrays
+    assert dparams[0] == 0.25 and dparams[ak.UAV_START :].tolist() == uav.reset()[0].tolist()
+    assert table[1:].tolist() == uav._adjacency.tolist()  # 7 nodes: the layout row is 7 wide

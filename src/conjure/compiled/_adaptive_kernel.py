@@ -1,30 +1,36 @@
 """The compiled learning loop of domains with legal actions and growing representations.
 
 `adaptive_kernel` runs the step order of `conjure.experiments.loop.LearningLoop` for the
-constrained domains of Geramifard (2012), Section 4.1.4, BlocksWorld and Persistent
-Surveillance, with their initial features (`BinaryIndicators` or
-`IndependentDiscretization`) alone or with online iFDD on top (Algorithm 19 for φ̇, Algorithm
-20/21 or the fixed rate of Eq. 4.6 for discovery), and SARSA (Algorithm 11, with or without
-sparse eligibility traces) or Q-Learning (Algorithm 10). It is a separate kernel from
-`conjure.compiled._kernels.advance_kernel`, so that kernel's compile time does not grow; it
-shares that module's constants, `step_size`, `select_action` and `record_episode`.
+constrained domains of Geramifard (2012), Sections 4.1.4 and 5.3.5, BlocksWorld, Persistent
+Surveillance, Rescue Mission and the UAV missions, with their initial features
+(`BinaryIndicators` or `IndependentDiscretization`) alone or with online iFDD on top
+(Algorithm 19 for φ̇, Algorithm 20/21 or the fixed rate of Eq. 4.6 for discovery), and for
+the unconstrained domains of `conjure.compiled._kernels` (every action legal) with online iFDD
+over tile coding, a table or independent discretization (Section 4.1.4's pendulum); learners
+SARSA (Algorithm 11, with or without sparse eligibility traces), Q-Learning (Algorithm 10) or
+Actor-Critic with the actor sharing the critic's features (Algorithm 12). It is a separate
+kernel from `conjure.compiled._kernels.advance_kernel`, so that kernel's compile time does
+not grow; it calls that module's `domain_reset`, `domain_step`, `encode`, `step_size`,
+`select_action` and `record_episode`.
 
 The kernel calls the library's own kernels (`blocks_step`, `pst_step`, `independent_features`,
 `activate`, `discover`, `td_step`, ...) and draws from the same generators in the same
-order as the Python path: per step the domain's draws (BlocksWorld's one uniform, Persistent
-Surveillance's 2n) and the agent's one uniform per choice among the legal actions.
+order as the Python path: per step the domain's draws (BlocksWorld's and Rescue Mission's one
+uniform, Persistent Surveillance's and a UAV mission's 2n, those of `domain_step`) and the
+agent's one uniform per choice among the legal actions.
 
-Arguments besides those of ``advance_kernel`` (``ints``, ``floats``, ``dparams``, ``loop``,
-``loop_f``, ``obs``, the generators):
+Arguments besides those of ``advance_kernel`` (``ints``, ``floats``, ``dparams``, ``dtable``,
+``dcells``, ``loop``, ``loop_f``, ``obs``, the generators, the representation's six tables):
 
-- ``dstate`` int64: the domain's internal state (see `conjure.compiled.combination`).
-- ``rdims``, ``rvec``: `IndependentDiscretization`'s bucket table and offsets (empty for the
-  indicators).
+- ``dstate`` int64: the constrained domain's internal state (see
+  `conjure.compiled.combination`), and ``fstate`` float64 the unconstrained one's (each empty
+  for the other kind).
 - ``activate_args`` and ``discover_args``: `OnlineIFDD`'s own argument tuples of `activate`
   and `discover` (its tables, updated in place), or empty stand-ins of the same types without
   iFDD (``ints[I_IFDD] == 0``).
 - ``weights``: θ with at least as many rows as the representation can hold features
   (``feat_start``'s length), so a discovery never outgrows it; rows past n_t are scratch.
+  ``actor_weights``: Actor-Critic's ω, likewise (θ itself for the other learners).
 - ``trace_slots`` (as many rows as ``weights``), ``trace_features``, ``trace_actions``,
   ``trace_values``, ``trace_count``: SARSA's sparse traces (`td_step_traces`), or
   empty stand-ins without traces. A discovered feature's trace row starts empty (-1), as
@@ -42,10 +48,13 @@ import math
 import numpy as np
 from numba import njit
 
-from conjure.agents._kernels import clear_traces, q_values_into
+from conjure.agents._kernels import add, clear_traces, q_values_into
 from conjure.compiled._kernels import (
+    ACTOR_CRITIC,
     DIVERGED,
     DONE,
+    F_ACTOR_ALPHA,
+    F_ACTOR_N0,
     F_ALPHA,
     F_DISCOUNT,
     F_MIN_TRACE,
@@ -53,17 +62,19 @@ from conjure.compiled._kernels import (
     F_POLICY,
     F_TRACE_FACTOR,
     GROW_TRACES,
+    I_ACTOR_SCHEDULE,
     I_AGENT,
     I_CAP,
     I_DOMAIN,
     I_IFDD,
+    I_MAX_ACTIVE,
     I_NUM_ACTIONS,
+    I_NUM_TILINGS,
     I_POLICY,
     I_REP,
     I_SCHEDULE,
     I_TRACES,
     IN_EPISODE,
-    INDEPENDENT,
     L_ACTION,
     L_EPISODE,
     L_EPISODE_FAILURES,
@@ -77,19 +88,34 @@ from conjure.compiled._kernels import (
     NEEDS_RESET,
     NO_TRACES,
     SARSA,
+    domain_reset,
+    domain_step,
+    encode,
     record_episode,
     select_action,
     step_size,
     td_update,
 )
 from conjure.domains._blocks_kernels import blocks_reset, blocks_step, legal_moves_into
-from conjure.domains._uav_kernels import BASE, pst_fill_legal_mask, pst_step
+from conjure.domains._mission_kernels import legal_actions, mission_step
+from conjure.domains._uav_kernels import (
+    BASE,
+    pst_fill_legal_mask,
+    pst_step,
+    rescue_fill_legal_mask,
+    rescue_step,
+)
 from conjure.representations._ifdd_kernels import I_NUM_FEATURES, activate, discover, discover_room
-from conjure.representations._kernels import independent_features
 
 # Domain codes (after those of `conjure.compiled._kernels`).
-BLOCKS, PERSISTENT_SURVEILLANCE = 3, 4
-# Representation code (after those of `conjure.compiled._kernels`; `INDEPENDENT` is shared).
+BLOCKS, PERSISTENT_SURVEILLANCE, RESCUE, UAV_MISSION = 3, 4, 5, 6
+#: Where the start state s₀ begins in ``dparams`` of `RESCUE` and `UAV_MISSION` (after their
+#: scalars: horizon, fuel penalty, failure penalty; the traverse failure probability).
+RESCUE_START, UAV_START = 3, 1
+#: Rescue Mission's graph: neighbours in ``dtable[:, :3]``, degree in ``dtable[:, 3]``;
+#: ``dcells[:, :8]`` the one-edge-away table, then the people and success probability per node.
+RESCUE_PEOPLE, RESCUE_SUCCESS = 8, 9
+# Representation code (after those of `conjure.compiled._kernels`, whose codes it shares).
 INDICATORS = 4
 # Status code (after those of `conjure.compiled._kernels`).
 GROW_REPRESENTATION = 3
@@ -102,31 +128,53 @@ def _encode(
     kind: int,
     is_ifdd: bool,
     obs: np.ndarray,
-    rdims: np.ndarray,
-    rvec: np.ndarray,
+    rep: tuple,
+    num_tilings: int,
+    scratch: tuple,
     activate_args: tuple,
 ) -> np.ndarray:
-    """φ⁰(s) of the base representation, or φ̇(s) from it (`OnlineIFDD.active_features`)."""
-    if kind == INDEPENDENT:
-        initial = independent_features(obs, rdims, rvec)
-    else:
+    """φ⁰(s) of the base representation, or φ̇(s) from it (`OnlineIFDD.active_features`).
+
+    ``rep`` is the base's tables as `conjure.compiled._kernels.encode` takes them (binary:
+    its last entry is None) and ``scratch`` the (quanta, tiles) buffers of unhashed tile
+    coding, which ``activate`` copies.
+    """
+    if kind == INDICATORS:
         initial = np.flatnonzero(obs)
+    else:
+        quanta, tiles = scratch
+        initial = encode(kind, obs, rep, num_tilings, quanta, tiles)
     if is_ifdd:
         return activate(initial, *activate_args)
     return initial
 
 
 @njit(cache=True)
-def _reset(kind: int, dparams: np.ndarray, dstate: np.ndarray, obs: np.ndarray) -> None:
-    """The domain's ``reset(seed=None)`` (neither draws); writes s into ``obs``."""
+def _reset(
+    kind: int,
+    dparams: np.ndarray,
+    dcells: np.ndarray,
+    dstate: np.ndarray,
+    fstate: np.ndarray,
+    obs: np.ndarray,
+    rng: np.random.Generator,
+) -> None:
+    """The domain's ``reset(seed=None)`` with its draws; writes s into ``obs``."""
+    if kind < BLOCKS:
+        domain_reset(kind, dparams, fstate, dcells, obs, rng)
+        return
     if kind == BLOCKS:
         blocks_reset(int(dparams[0]), dstate, obs)
         return
-    num_uavs = int(dparams[0])
-    for i in range(num_uavs):
-        for j in range(4):
-            dstate[4 * i + j] = _PST_START[j]
-        dstate[4 * i] = int(dparams[2])
+    if kind == PERSISTENT_SURVEILLANCE:
+        for i in range(int(dparams[0])):
+            for j in range(4):
+                dstate[4 * i + j] = _PST_START[j]
+            dstate[4 * i] = int(dparams[2])
+    else:  # the missions: s₀ is packed after their scalars
+        start = RESCUE_START if kind == RESCUE else UAV_START
+        for i in range(dstate.shape[0]):
+            dstate[i] = int(dparams[start + i])
     for i in range(dstate.shape[0]):
         obs[i] = dstate[i]
 
@@ -134,18 +182,40 @@ def _reset(kind: int, dparams: np.ndarray, dstate: np.ndarray, obs: np.ndarray) 
 @njit(cache=True)
 def _step(
     kind: int,
-    dparams: np.ndarray,
-    dstate: np.ndarray,
+    domain: tuple,
     action: int,
     obs: np.ndarray,
     mask: np.ndarray,
     uniforms: np.ndarray,
     rng: np.random.Generator,
 ) -> tuple[float, bool, float]:
-    """One domain step with the Python domain's draws; returns (reward, terminated, cost)."""
+    """One domain step with the Python domain's draws; returns (reward, terminated, cost).
+
+    ``domain`` is (dparams, dtable, dcells, dstate, fstate).
+    """
+    dparams, dtable, dcells, dstate, fstate = domain
+    if kind < BLOCKS:
+        return domain_step(kind, dparams, dtable, dcells, fstate, action, obs, rng)
     if kind == BLOCKS:
         reward, terminated = blocks_step(dparams, dstate, action, obs, rng)
         return reward, terminated, 0.0
+    if kind == RESCUE:  # one uniform per step, as `RescueMission.step`
+        u = rng.random()
+        nodes = dcells.shape[0]
+        next_obs, reward, terminated, failed = rescue_step(
+            dstate, action, u, dtable[:, :3], dtable[:, 3], dcells[:, :nodes],
+            dcells[:, RESCUE_PEOPLE], dcells[:, RESCUE_SUCCESS], int(dparams[0]), dparams[1],
+            dparams[2], mask,
+        )  # fmt: skip
+        obs[:] = next_obs
+        return reward, terminated, 1.0 if failed else 0.0
+    if kind == UAV_MISSION:  # 2n uniforms per step, as `UAVMission.step`
+        next_state, reward, terminated, cost = mission_step(
+            dstate, action, dtable[0], dcells, dparams[0], rng
+        )
+        dstate[:] = next_state
+        obs[:] = next_state
+        return reward, terminated, cost
     for i in range(uniforms.shape[0]):  # as np_random.random(2n)
         uniforms[i] = rng.random()
     next_obs, reward, terminated = pst_step(
@@ -168,18 +238,33 @@ def _step(
 
 
 @njit(cache=True, inline="always")
-def _legal(kind: int, dstate: np.ndarray, num_units: int, mask: np.ndarray, out: np.ndarray):
+def _legal(kind: int, domain: tuple, num_units: int, mask: np.ndarray, out: np.ndarray):
     """The sorted legal actions of the domain's current state (a view of ``out``).
 
-    ``num_units`` is the number of blocks or UAVs; ``mask`` is scratch.
+    ``domain`` is (dparams, dtable, dcells, dstate, fstate), ``num_units`` the number of blocks
+    or UAVs of BlocksWorld and Persistent Surveillance; ``mask`` is scratch. Every action is
+    legal in the domains of ``advance_kernel``.
     """
+    dtable, dstate = domain[1], domain[3]
+    if kind < BLOCKS:
+        for a in range(out.shape[0]):
+            out[a] = a
+        return out[: out.shape[0]]
     if kind == BLOCKS:
         nn = num_units * num_units
         count = legal_moves_into(
             dstate[nn : nn + num_units], dstate[nn + num_units :], num_units, out
         )
         return out[:count]
-    pst_fill_legal_mask(dstate, num_units, mask)
+    if kind == UAV_MISSION:
+        nodes = dtable.shape[0] - 1
+        legal = legal_actions(dstate, dtable[0], dtable[1:, :nodes])
+        out[: legal.shape[0]] = legal
+        return out[: legal.shape[0]]
+    if kind == RESCUE:
+        rescue_fill_legal_mask(dstate, dtable[:, :3], dtable[:, 3], mask)
+    else:
+        pst_fill_legal_mask(dstate, num_units, mask)
     count = 0
     for a in range(mask.shape[0]):
         if mask[a]:
@@ -188,19 +273,32 @@ def _legal(kind: int, dstate: np.ndarray, num_units: int, mask: np.ndarray, out:
     return out[:count]
 
 
+@njit(cache=True, inline="always")
+def _grow_row(weights: np.ndarray, parents: np.ndarray, f: int) -> None:
+    """Row f = θ_g + θ_h as `grow_weights` computes it, (0 + θ_g) + θ_h."""
+    g, h = parents[f, 0], parents[f, 1]
+    for a in range(weights.shape[1]):
+        weights[f, a] = 0.0
+        weights[f, a] += weights[g, a]
+        weights[f, a] += weights[h, a]
+
+
 @njit(cache=True)
 def adaptive_kernel(
     num_steps: int,
     ints: np.ndarray,
     floats: np.ndarray,
     dparams: np.ndarray,
+    dtable: np.ndarray,
+    dcells: np.ndarray,
     dstate: np.ndarray,
+    fstate: np.ndarray,
     domain_rng: np.random.Generator,
-    rdims: np.ndarray,
-    rvec: np.ndarray,
+    rep: tuple,
     activate_args: tuple,
     discover_args: tuple,
     weights: np.ndarray,
+    actor_weights: np.ndarray,
     trace_slots: np.ndarray,
     trace_features: np.ndarray,
     trace_actions: np.ndarray,
@@ -217,23 +315,32 @@ def adaptive_kernel(
     """
     d_kind, r_kind, agent, policy = ints[I_DOMAIN], ints[I_REP], ints[I_AGENT], ints[I_POLICY]
     cap, schedule, is_ifdd = ints[I_CAP], ints[I_SCHEDULE], ints[I_IFDD] != 0
+    actor_schedule, num_tilings = ints[I_ACTOR_SCHEDULE], ints[I_NUM_TILINGS]
     discount, parameter = floats[F_DISCOUNT], floats[F_POLICY]
     alpha_0, n_0 = floats[F_ALPHA], floats[F_N0]
+    actor_alpha_0, actor_n_0 = floats[F_ACTOR_ALPHA], floats[F_ACTOR_N0]
     traces = ints[I_TRACES]
     trace_factor, min_trace = floats[F_TRACE_FACTOR], floats[F_MIN_TRACE]
     sparse = (trace_factor, min_trace, trace_slots, trace_features, trace_actions, trace_values,
               trace_count)  # fmt: skip
-    num_units = int(dparams[0])  # blocks or UAVs
+    domain = (dparams, dtable, dcells, dstate, fstate)
+    scratch = (np.empty(obs.shape[0], dtype=np.int64), np.empty(ints[I_MAX_ACTIVE], np.int64))
+    is_units = d_kind == BLOCKS or d_kind == PERSISTENT_SURVEILLANCE
+    num_units = int(dparams[0]) if is_units else 0  # blocks or UAVs
     feat_len, feat_parents = discover_args[3], discover_args[4]
     pool, node_key, table = discover_args[1], discover_args[5], discover_args[12]
     r_ints = discover_args[14]
     num_actions = ints[I_NUM_ACTIONS]
+    # The actor's preferences choose actions for Actor-Critic (shared features), θ otherwise.
+    is_actor_critic = agent == ACTOR_CRITIC
+    chooser = actor_weights if is_actor_critic else weights
     legal_buffer = np.empty(num_actions, dtype=np.int64)
     next_buffer = np.empty(num_actions, dtype=np.int64)
     mask = np.zeros(num_actions, dtype=np.int8)
     uniforms = np.empty(2 * num_units)
     next_obs = np.empty_like(obs)
     q = np.empty(weights.shape[1])
+    critic_q = np.empty(weights.shape[1])
     ep_float = np.empty((16, 2))
     ep_int = np.empty((16, 2), dtype=np.int64)
     num_ended = done = failures = 0
@@ -245,18 +352,18 @@ def adaptive_kernel(
     total, discounted, weight = loop_f[LF_RETURN], loop_f[LF_DISCOUNTED], loop_f[LF_WEIGHT]
     phi = np.empty(0, dtype=np.int64)
     if phase == IN_EPISODE:
-        phi = _encode(r_kind, is_ifdd, obs, rdims, rvec, activate_args)
+        phi = _encode(r_kind, is_ifdd, obs, rep, num_tilings, scratch, activate_args)
     while done < num_steps:
         if phase == NEEDS_RESET:
-            _reset(d_kind, dparams, dstate, obs)
+            _reset(d_kind, dparams, dcells, dstate, fstate, obs, domain_rng)
             phase = NEEDS_BEGIN
         if phase == NEEDS_BEGIN:
             episode += 1
             if traces != NO_TRACES:
                 clear_traces(trace_slots, trace_features, trace_actions, trace_count)
-            phi = _encode(r_kind, is_ifdd, obs, rdims, rvec, activate_args)
-            q_values_into(weights, phi, None, q)
-            legal = _legal(d_kind, dstate, num_units, mask, legal_buffer)
+            phi = _encode(r_kind, is_ifdd, obs, rep, num_tilings, scratch, activate_args)
+            q_values_into(chooser, phi, None, q)
+            legal = _legal(d_kind, domain, num_units, mask, legal_buffer)
             action = select_action(policy, q, legal, parameter, agent_rng)
             episode_steps = episode_failures = 0
             total, discounted, weight = 0.0, 0.0, 1.0
@@ -268,27 +375,35 @@ def adaptive_kernel(
             status = GROW_TRACES
             break
         reward, terminated, cost = _step(
-            d_kind, dparams, dstate, action, next_obs, mask, uniforms, domain_rng
+            d_kind, domain, action, next_obs, mask, uniforms, domain_rng
         )
         episode_steps += 1
         next_phi = phi
         next_action = 0
         target = reward
         if not terminated:
-            next_phi = _encode(r_kind, is_ifdd, next_obs, rdims, rvec, activate_args)
-            q_values_into(weights, next_phi, None, q)
-            next_legal = _legal(d_kind, dstate, num_units, mask, next_buffer)
+            next_phi = _encode(r_kind, is_ifdd, next_obs, rep, num_tilings, scratch, activate_args)
+            q_values_into(chooser, next_phi, None, q)
+            next_legal = _legal(d_kind, domain, num_units, mask, next_buffer)
             next_action = select_action(policy, q, next_legal, parameter, agent_rng)
-            # Algorithms 10-11, line 5: Q⁺(s, a) = r + γ Q(s', a') or r + γ max_a' Q(s', a')
+            # Algorithms 10-12, line 5: Q⁺(s, a) = r + γ Q(s', a') or r + γ max_a' Q(s', a')
             if agent == SARSA:
                 target += discount * q[next_action]
+            elif is_actor_critic:
+                q_values_into(weights, next_phi, None, critic_q)
+                target += discount * critic_q[next_action]
             else:
                 best = q[next_legal[0]]
                 for i in range(1, next_legal.shape[0]):
                     best = max(best, q[next_legal[i]])
                 target += discount * best
-        alpha = step_size(schedule, alpha_0, n_0, max(episode, 1), float(phi.shape[0]))
+        counted = max(episode, 1)
+        num_active = float(phi.shape[0])
+        alpha = step_size(schedule, alpha_0, n_0, counted, num_active)
         delta = td_update(weights, phi, None, action, target, alpha, traces, sparse)
+        if is_actor_critic and math.isfinite(delta):  # Algorithm 12, line 9
+            actor_alpha = step_size(actor_schedule, actor_alpha_0, actor_n_0, counted, num_active)
+            add(actor_weights, phi, None, action, actor_alpha * delta)
         learning_steps += 1
         if not math.isfinite(delta):
             status = DIVERGED
@@ -299,11 +414,9 @@ def adaptive_kernel(
             before = r_ints[I_NUM_FEATURES]
             added = discover(phi, delta, *discover_args)
             for f in range(before, before + added):
-                g, h = feat_parents[f, 0], feat_parents[f, 1]
-                for a in range(weights.shape[1]):  # as `grow_weights`: (0 + θ_g) + θ_h
-                    weights[f, a] = 0.0
-                    weights[f, a] += weights[g, a]
-                    weights[f, a] += weights[h, a]
+                _grow_row(weights, feat_parents, f)
+                if is_actor_critic:
+                    _grow_row(actor_weights, feat_parents, f)
                 if traces != NO_TRACES:
                     trace_slots[f] = -1
             grew = added > 0
@@ -325,7 +438,7 @@ def adaptive_kernel(
         else:
             obs[:] = next_obs
             if grew:  # φ(s) with the new features, as the Python learner re-encodes
-                next_phi = _encode(r_kind, is_ifdd, obs, rdims, rvec, activate_args)
+                next_phi = _encode(r_kind, is_ifdd, obs, rep, num_tilings, scratch, activate_args)
             phi = next_phi
             action = next_action
     loop[L_PHASE], loop[L_ACTION], loop[L_EPISODE_STEPS] = phase, action, episode_steps

@@ -15,12 +15,15 @@ Supported (Geramifard 2012, Algorithms 10-12):
 - policies: `EpsilonGreedy`, `Gibbs`; schedules: `ConstantStepSize`,
   `FeatureNormalizedDecay`, `EpisodicDecay`.
 
-and, in `conjure.compiled._adaptive_kernel` (Section 4.1.4, Algorithms 19-21):
+and, in `conjure.compiled._adaptive_kernel` (Sections 4.1.4 and 5.3.5, Algorithms 19-21):
 
-- domains with legal actions: `BlocksWorld`, `PersistentSurveillance`;
-- representations: `BinaryIndicators` or `IndependentDiscretization`, alone or as the base
+- domains with legal actions: `BlocksWorld`, `PersistentSurveillance`, `RescueMission`,
+  `UAVMission`, with `BinaryIndicators` or `IndependentDiscretization`, alone or as the base
   of `OnlineIFDD` (any relevance, threshold or fixed-rate discovery);
-- agents: `SARSA` (with or without traces), `QLearning`; the policies and schedules above.
+- `InvertedPendulum`, `GridWorld`, `ChainMDP` with `OnlineIFDD` over `TileCoding` (hashed or
+  not), `Tabular` or `IndependentDiscretization`;
+- agents: `SARSA` (with or without traces), `QLearning`, `ActorCritic` (actor sharing the
+  critic's features); the policies and schedules above.
 
 Notes
 -----
@@ -48,12 +51,14 @@ from conjure.core.schedules import (
     FeatureNormalizedDecay,
     StepSizeSchedule,
 )
-from conjure.domains._uav_kernels import pst_fill_legal_mask
+from conjure.domains._uav_kernels import pst_fill_legal_mask, rescue_fill_legal_mask
 from conjure.domains.blocksworld import BlocksWorld
 from conjure.domains.chain import ChainMDP
 from conjure.domains.gridworld import GridWorld
 from conjure.domains.pendulum import InvertedPendulum
 from conjure.domains.persistent_surveillance import PersistentSurveillance
+from conjure.domains.rescue_mission import RescueMission
+from conjure.domains.uav_mission import UAVMission
 from conjure.policies import EpsilonGreedy, Gibbs
 from conjure.representations import (
     RBF,
@@ -83,12 +88,12 @@ class Combination:
     representation_arrays : tuple of ndarray
         ``(rdims, rlayout, rgroups, rvec, htable, hcounts, rbf)``; the hash table is the
         representation's own (updated in place by both paths); ``rbf`` is None (binary φ) or
-        `RBF`'s ``(affine, scaled centers)``. The adaptive kernel's are
-        ``(rdims, rvec)`` of the base; it reads `OnlineIFDD`'s tables at every call (they
+        `RBF`'s ``(affine, scaled centers)``. The adaptive kernel's are those of
+        `OnlineIFDD`'s base (binary: ``rbf`` is None); it reads `OnlineIFDD`'s tables at every call (they
         grow).
     read_domain, write_domain : callable
-        Copy the domain's internal state to / from a float64 vector (int64 for the adaptive
-        kernel).
+        Copy the domain's internal state to / from a float64 vector (int64 for `BlocksWorld`
+        and `PersistentSurveillance`).
     is_adaptive : bool
         Whether `conjure.compiled._adaptive_kernel` runs it (else ``advance_kernel``).
     """
@@ -184,13 +189,53 @@ def _persistent_surveillance(domain: PersistentSurveillance) -> tuple:
     return ak.PERSISTENT_SURVEILLANCE, (dparams, _INT_EMPTY, _FLOAT_EMPTY), read, write
 
 
+def _rescue(domain: RescueMission) -> tuple:
+    horizon, fuel_penalty, failure_penalty = domain._scalars
+    start = domain._start_state()
+    dparams = np.array([float(horizon), fuel_penalty, failure_penalty, *start])
+    table = np.column_stack([domain.neighbours_, domain._degrees]).astype(np.int64)
+    cells = np.column_stack([domain._is_near, domain._people, domain._success]).astype(float)
+
+    def read(d: RescueMission) -> np.ndarray:
+        return d._state.copy()
+
+    def write(d: RescueMission, state: np.ndarray) -> None:
+        d._state[:] = state
+        rescue_fill_legal_mask(d._state, d.neighbours_, d._degrees, d._mask)
+
+    return ak.RESCUE, (dparams, table, cells), read, write
+
+
+def _uav_mission(domain: UAVMission) -> tuple:
+    graph = domain.graph_
+    dparams = np.array([domain._eta, *graph.initial_state()])
+    layout, adjacency = domain._layout, domain._adjacency
+    nodes = adjacency.shape[0]
+    table = np.zeros((nodes + 1, max(nodes, layout.shape[0])), dtype=np.int64)
+    table[0, : layout.shape[0]] = layout
+    table[1:, :nodes] = adjacency
+
+    def read(d: UAVMission) -> np.ndarray:
+        return d._state.astype(np.int64)
+
+    def write(d: UAVMission, state: np.ndarray) -> None:
+        d._state = state.astype(np.float64)
+
+    cells = np.array(domain._tables[3], dtype=np.float64)  # node table (a writeable copy)
+    return ak.UAV_MISSION, (dparams, table, cells), read, write
+
+
 _DOMAINS: dict[type, Callable[[Any], tuple]] = {
     InvertedPendulum: _pendulum,
     GridWorld: _gridworld,
     ChainMDP: _chain,
     BlocksWorld: _blocks,
     PersistentSurveillance: _persistent_surveillance,
+    RescueMission: _rescue,
+    UAVMission: _uav_mission,
 }
+#: The domains with legal actions (`conjure.compiled._adaptive_kernel` only).
+_CONSTRAINED = (ak.BLOCKS, ak.PERSISTENT_SURVEILLANCE, ak.RESCUE, ak.UAV_MISSION)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -226,15 +271,22 @@ def _representation(rep: Any) -> tuple[int, int, int, tuple[np.ndarray, ...]] | 
     return None
 
 
-def _adaptive_representation(rep: Any) -> tuple[int, bool, tuple[np.ndarray, ...]] | None:
-    """(base code, whether iFDD is on top, (rdims, rvec)) for the adaptive kernel, or None."""
+def _adaptive_representation(
+    rep: Any, is_constrained: bool
+) -> tuple[int, int, int, tuple[np.ndarray, ...]] | None:
+    """`_representation`'s answer for the adaptive kernel, or None.
+
+    For `OnlineIFDD`'s base; on a constrained domain also for the base alone.
+    """
     is_ifdd = type(rep) is OnlineIFDD
     base = rep.base_ if is_ifdd else rep
-    if type(base) is BinaryIndicators:
-        return ak.INDICATORS, is_ifdd, (_FLOAT_EMPTY, np.zeros(0, dtype=np.int64))
-    if type(base) is IndependentDiscretization:
-        return k.INDEPENDENT, is_ifdd, (base._dims, base.offsets_)
-    return None
+    if is_constrained and type(base) is BinaryIndicators:
+        empty_vec = np.zeros(0, dtype=np.int64)
+        arrays = (_FLOAT_EMPTY, _INT_EMPTY, _INT_EMPTY, empty_vec, _INT_EMPTY, empty_vec, None)
+        return ak.INDICATORS, 0, 0, arrays
+    if is_constrained and type(base) is not IndependentDiscretization:
+        return None
+    return _representation(base) if is_ifdd or is_constrained else None
 
 
 # ---------------------------------------------------------------------------------------------
@@ -292,18 +344,13 @@ def pack_combination(domain: Domain, agent: Agent) -> Combination | None:
     if agent_codes is None:
         return None
     domain_code, domain_arrays, read, write = domain_packer(domain)
-    is_adaptive = domain_code in (ak.BLOCKS, ak.PERSISTENT_SURVEILLANCE)
-    is_ifdd = False
-    if is_adaptive:
-        if agent_codes[0] == k.ACTOR_CRITIC:
-            return None
-        adaptive = _adaptive_representation(agent.representation_)
-        if adaptive is None:
-            return None
-        rep_code, is_ifdd, arrays = adaptive
-        rep = (rep_code, 0, 0, arrays)
-    elif domain.domain_spec.has_action_constraints:
+    is_constrained = domain_code in _CONSTRAINED
+    if not is_constrained and domain.domain_spec.has_action_constraints:
         return None
+    is_ifdd = type(agent.representation_) is OnlineIFDD
+    is_adaptive = is_constrained or is_ifdd
+    if is_adaptive:
+        rep = _adaptive_representation(agent.representation_, is_constrained)
     else:
         rep = _representation(agent.representation_)
     policy = _policy(agent.policy_)
@@ -347,8 +394,6 @@ def pack_combination(domain: Domain, agent: Agent) -> Combination | None:
         min_trace,
     )
     contiguous = tuple(np.ascontiguousarray(a) for a in rep_arrays[:4]) + rep_arrays[4:]
-    if is_adaptive:
-        contiguous = tuple(np.ascontiguousarray(a) for a in rep_arrays)
     return Combination(
         ints=ints,
         floats=floats,

@@ -19,14 +19,14 @@ Notes
   counter, the learning-step counter and the domain's state are written back after every
   ``advance``, so policy checks, `Agent.save` and the Python path see the same objects.
 - Choice: a learner's act/learn cache is dropped after every ``advance`` (θ changed under it).
-- Choice (constrained domains with `OnlineIFDD`): the representation's tables are its own
-  arrays, updated in place; when a discovery would not fit, the kernel returns, the
-  representation grows them with its own method and the kernel continues. θ (and SARSA(λ)'s
+- Choice (with `OnlineIFDD`): the representation's tables are its own arrays, updated in
+  place; when a discovery would not fit, the kernel returns, the representation grows them
+  with its own method and the kernel continues. θ (and Actor-Critic's ω, SARSA(λ)'s
   ``trace_slots_``) is passed with as many rows as the representation can hold features (a
   buffer that `append_rows` keeps using) and set to its first n_t rows after every call, as
   the Python learner's `grow_weights` / ``append_rows`` would leave it.
 - Compilation: two kernels, ``advance_kernel`` (fixed features, every action legal) and
-  ``adaptive_kernel`` (legal actions, growing features); each serves all its combinations
+  ``adaptive_kernel`` (legal actions or growing features); each serves all its combinations
   (the arguments have the same types), is compiled once per machine and cached on disk;
   `compile_seconds` reports the first calls' cost in this process. ``advance_kernel`` has
   one more compilation for real-valued φ (`RBF`: its representation tuple carries the
@@ -202,7 +202,8 @@ def _call_kernel(
     """One call of the combination's kernel with the agent's current arrays (they may grow)."""
     if combo.is_adaptive:
         kernel, buffers, middle = ak.adaptive_kernel, *_adaptive_arguments(combo, agent)
-        middle = (combo.domain_arrays[0], dstate, domain.np_random, *middle)
+        states = (_EMPTY_INTS, dstate) if dstate.dtype == np.float64 else (dstate, _EMPTY_FLOATS)
+        middle = (*combo.domain_arrays, *states, domain.np_random, *middle)
     else:
         kernel, buffers, middle = k.advance_kernel, None, _fixed_arguments(combo, agent)
         middle = (*combo.domain_arrays, dstate, domain.np_random, *middle)
@@ -215,11 +216,13 @@ def _call_kernel(
     try:
         return kernel(num_steps, *args)
     finally:
-        if buffers is not None:  # θ, slots: the first n_t rows of the buffers the kernel grew
-            weights, slots = buffers
+        if buffers is not None:  # θ, ω, slots: the first n_t rows of the buffers it grew
+            weights, actor, slots = buffers
             rep = agent.representation_
             rep.num_features_ = int(rep._ints[I_NUM_FEATURES])
             agent.weights_ = weights[: rep.num_features_]
+            if actor is not weights:
+                agent.actor_weights_ = actor[: rep.num_features_]
             if slots is not None:
                 agent.trace_slots_ = slots[: rep.num_features_]
 
@@ -238,8 +241,17 @@ def _kernel_name(combo: Combination) -> str:
 
 def _fixed_arguments(combo: Combination, agent: Agent) -> tuple:
     """``advance_kernel``'s representation, weight and trace arguments."""
-    actor = agent.actor_weights_ if combo.ints[k.I_AGENT] == k.ACTOR_CRITIC else agent.weights_
-    return (combo.representation_arrays, agent.weights_, actor, *_traces(combo, agent))
+    return (
+        combo.representation_arrays,
+        agent.weights_,
+        _actor(combo, agent),
+        *_traces(combo, agent),
+    )
+
+
+def _actor(combo: Combination, agent: Agent) -> np.ndarray:
+    """Actor-Critic's ω, or θ for the other learners (the kernels' ``actor_weights``)."""
+    return agent.actor_weights_ if combo.ints[k.I_AGENT] == k.ACTOR_CRITIC else agent.weights_
 
 
 def _traces(combo: Combination, agent: Agent, slots: np.ndarray | None = None) -> tuple:
@@ -256,22 +268,25 @@ def _traces(combo: Combination, agent: Agent, slots: np.ndarray | None = None) -
 
 
 def _adaptive_arguments(combo: Combination, agent: Agent) -> tuple:
-    """((θ, trace slots) buffers if iFDD may grow them else None, ``adaptive_kernel``'s tables).
+    """(buffers if iFDD may grow them else None, ``adaptive_kernel``'s tables).
 
-    θ and the trace slots get room for every feature the iFDD tables can hold, so no
-    discovery outgrows them.
+    The buffers (θ, ω, trace slots; ω is θ itself but for Actor-Critic) get room for every
+    feature the iFDD tables can hold, so no discovery outgrows them.
     """
     base = combo.representation_arrays
     if not combo.ints[k.I_IFDD]:
-        traces = _traces(combo, agent)
-        return None, (*base, _NO_ACTIVATE, _NO_DISCOVER, agent.weights_, *traces)
+        weights = (agent.weights_, _actor(combo, agent))
+        return None, (base, _NO_ACTIVATE, _NO_DISCOVER, *weights, *_traces(combo, agent))
     rep = agent.representation_
     capacity = rep._discover_args[2].shape[0]  # feat_start: the most features it holds
     weights = _row_buffer(agent.weights_, capacity)
+    actor = _actor(combo, agent)
+    actor = weights if actor is agent.weights_ else _row_buffer(actor, capacity)
     traces = _traces(combo, agent)
     slots = None if traces[0] is _EMPTY_SLOTS else _row_buffer(traces[0], capacity)
     traces = _traces(combo, agent, slots)
-    return (weights, slots), (*base, rep._activate_args, rep._discover_args, weights, *traces)
+    tables = (rep._activate_args, rep._discover_args, weights, actor, *traces)
+    return (weights, actor, slots), (base, *tables)
 
 
 def _row_buffer(array: np.ndarray, rows: int) -> np.ndarray:

@@ -217,12 +217,16 @@ class RescueMission(ActionMasking, Domain):
         self._set_start()
         self.action_space = LegalDiscrete(NUM_ACTIONS, self._current_legal, self._current_legal())
 
-    def _set_start(self) -> None:
+    def _start_state(self) -> np.ndarray:
+        """s₀: both UAVs at the base with full fuel, the comm UAV flying, nothing rescued, t = 0."""
         fuel = int(self.max_fuel)
         state = np.zeros(5 + NUM_NODES - 1 + 1, dtype=np.int64)
         state[1] = fuel
         state[3] = fuel
-        self._state = state
+        return state
+
+    def _set_start(self) -> None:
+        self._state = state = self._start_state()
         rescue_fill_legal_mask(state, self.neighbours_, self._degrees, self._mask)
 
     def state_action_count(self) -> int:
