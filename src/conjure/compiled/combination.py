@@ -89,8 +89,8 @@ class Combination:
         ``(rdims, rlayout, rgroups, rvec, htable, hcounts, rbf)``; the hash table is the
         representation's own (updated in place by both paths); ``rbf`` is None (binary φ) or
         `RBF`'s ``(affine, scaled centers)``. The adaptive kernel's are those of
-        `OnlineIFDD`'s base (binary: ``rbf`` is None); it reads `OnlineIFDD`'s tables at every call (they
-        grow).
+        `OnlineIFDD`'s base (binary: ``rbf`` is None); it reads `OnlineIFDD`'s tables at every
+        call (they grow).
     read_domain, write_domain : callable
         Copy the domain's internal state to / from a float64 vector (int64 for `BlocksWorld`
         and `PersistentSurveillance`).
