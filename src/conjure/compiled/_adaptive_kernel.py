@@ -11,7 +11,8 @@ SARSA (Algorithm 11, with or without sparse eligibility traces), Q-Learning (Alg
 Actor-Critic with the actor sharing the critic's features (Algorithm 12). It is a separate
 kernel from `conjure.compiled._kernels.advance_kernel`, so that kernel's compile time does
 not grow; it calls that module's `domain_reset`, `domain_step`, `encode`, `select_action`
-and the per-step pieces both kernels share (`load_loop`, `learn`, `end_step`, `store_loop`).
+and the per-step pieces both kernels share (`load_loop`, `learn`, `tally`, `store_loop`)
+and `record_episode`.
 
 The kernel calls the library's own kernels (`blocks_step`, `pst_step`, `independent_features`,
 `activate`, `discover`, `td_step`, ...) and draws from the same generators in the same
@@ -74,12 +75,13 @@ from conjure.compiled._kernels import (
     domain_reset,
     domain_step,
     encode,
-    end_step,
     learn,
     learner_arguments,
     load_loop,
+    record_episode,
     select_action,
     store_loop,
+    tally,
 )
 from conjure.domains._blocks_kernels import blocks_reset, blocks_step, legal_moves_into
 from conjure.domains._mission_kernels import legal_actions, mission_step
@@ -398,11 +400,14 @@ def adaptive_kernel(
         if traces != NO_TRACES and terminated:
             clear_traces(trace_slots, trace_features, trace_actions, trace_count)
         done += 1
-        (ended, failures, episode_failures, total, discounted, weight, num_ended,
-         ep_float, ep_int) = end_step(reward, terminated, cost, discount, episode_steps, cap,
-                                      failures, episode_failures, total, discounted, weight,
-                                      num_ended, ep_float, ep_int)  # fmt: skip
-        if ended:
+        failures, episode_failures, total, discounted, weight = tally(
+            reward, cost, discount, failures, episode_failures, total, discounted, weight
+        )
+        if terminated or episode_steps >= cap:
+            ep_float, ep_int = record_episode(
+                ep_float, ep_int, num_ended, total, discounted, episode_steps, episode_failures
+            )
+            num_ended += 1
             phase = NEEDS_RESET
         else:
             obs[:] = next_obs

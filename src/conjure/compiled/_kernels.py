@@ -385,27 +385,21 @@ def store_loop(
 
 
 @njit(cache=True, inline="always")
-def end_step(
+def tally(
     reward: float,
-    terminated: bool,
     cost: float,
     discount: float,
-    episode_steps: int,
-    cap: int,
     failures: int,
     episode_failures: int,
     total: float,
     discounted: float,
     weight: float,
-    num_ended: int,
-    ep_float: np.ndarray,
-    ep_int: np.ndarray,
-) -> tuple:
-    """A counted step's statistics; the episode ends when terminated or at the cap.
+) -> tuple[int, int, float, float, float]:
+    """A counted step's statistics: failures (cost > 0), return and discounted return.
 
-    Counts a failure (cost > 0), adds r to the return and γ^t r to the discounted return,
-    and records an ended episode (`record_episode`). Returns (ended, failures, episode
-    failures, return, discounted return, γ^(t+1), episodes ended, ep_float, ep_int).
+    Returns (failures, episode failures, return, discounted return, γ^(t+1)). An ended
+    episode's `record_episode` stays in the kernels, so that the episode arrays are not
+    passed through (and reference-counted) every step.
     """
     if cost > 0.0:
         failures += 1
@@ -413,14 +407,7 @@ def end_step(
     total += reward
     discounted += weight * reward
     weight *= discount
-    ended = terminated or episode_steps >= cap
-    if ended:
-        ep_float, ep_int = record_episode(
-            ep_float, ep_int, num_ended, total, discounted, episode_steps, episode_failures
-        )
-        num_ended += 1
-    return (ended, failures, episode_failures, total, discounted, weight, num_ended,
-            ep_float, ep_int)  # fmt: skip
+    return failures, episode_failures, total, discounted, weight
 
 
 # ---------------------------------------------------------------------------------------------
@@ -536,11 +523,14 @@ def advance_kernel(
         if traces != NO_TRACES and terminated:
             clear_traces(trace_slots, trace_features, trace_actions, trace_count)
         done += 1
-        (ended, failures, episode_failures, total, discounted, weight, num_ended,
-         ep_float, ep_int) = end_step(reward, terminated, cost, discount, episode_steps, cap,
-                                      failures, episode_failures, total, discounted, weight,
-                                      num_ended, ep_float, ep_int)  # fmt: skip
-        if ended:
+        failures, episode_failures, total, discounted, weight = tally(
+            reward, cost, discount, failures, episode_failures, total, discounted, weight
+        )
+        if terminated or episode_steps >= cap:
+            ep_float, ep_int = record_episode(
+                ep_float, ep_int, num_ended, total, discounted, episode_steps, episode_failures
+            )
+            num_ended += 1
             phase = NEEDS_RESET
         else:
             obs[:] = next_obs
