@@ -10,8 +10,9 @@ over tile coding, a table or independent discretization (Section 4.1.4's pendulu
 SARSA (Algorithm 11, with or without sparse eligibility traces), Q-Learning (Algorithm 10) or
 Actor-Critic with the actor sharing the critic's features (Algorithm 12). It is a separate
 kernel from `conjure.compiled._kernels.advance_kernel`, so that kernel's compile time does
-not grow; it calls that module's `domain_reset`, `domain_step`, `encode`, `step_size`,
-`select_action` and `record_episode`.
+not grow; it calls that module's `domain_reset`, `domain_step`, `encode`, `select_action`
+and the per-step pieces both kernels share (`load_loop`, `learn`, `tally`, `store_loop`)
+and `record_episode`.
 
 The kernel calls the library's own kernels (`blocks_step`, `pst_step`, `independent_features`,
 `activate`, `discover`, `td_step`, ...) and draws from the same generators in the same
@@ -48,21 +49,14 @@ import math
 import numpy as np
 from numba import njit
 
-from conjure.agents._kernels import add, clear_traces, q_values_into
+from conjure.agents._kernels import clear_traces, q_values_into
 from conjure.compiled._kernels import (
     ACTOR_CRITIC,
     DIVERGED,
     DONE,
-    F_ACTOR_ALPHA,
-    F_ACTOR_N0,
-    F_ALPHA,
     F_DISCOUNT,
-    F_MIN_TRACE,
-    F_N0,
     F_POLICY,
-    F_TRACE_FACTOR,
     GROW_TRACES,
-    I_ACTOR_SCHEDULE,
     I_AGENT,
     I_CAP,
     I_DOMAIN,
@@ -72,18 +66,8 @@ from conjure.compiled._kernels import (
     I_NUM_TILINGS,
     I_POLICY,
     I_REP,
-    I_SCHEDULE,
     I_TRACES,
     IN_EPISODE,
-    L_ACTION,
-    L_EPISODE,
-    L_EPISODE_FAILURES,
-    L_EPISODE_STEPS,
-    L_LEARNING_STEPS,
-    L_PHASE,
-    LF_DISCOUNTED,
-    LF_RETURN,
-    LF_WEIGHT,
     NEEDS_BEGIN,
     NEEDS_RESET,
     NO_TRACES,
@@ -91,10 +75,13 @@ from conjure.compiled._kernels import (
     domain_reset,
     domain_step,
     encode,
+    learn,
+    learner_arguments,
+    load_loop,
     record_episode,
     select_action,
-    step_size,
-    td_update,
+    store_loop,
+    tally,
 )
 from conjure.domains._blocks_kernels import blocks_reset, blocks_step, legal_moves_into
 from conjure.domains._mission_kernels import legal_actions, mission_step
@@ -314,15 +301,11 @@ def adaptive_kernel(
     Stops early with `GROW_REPRESENTATION` or `GROW_TRACES` (before the step) or `DIVERGED`.
     """
     d_kind, r_kind, agent, policy = ints[I_DOMAIN], ints[I_REP], ints[I_AGENT], ints[I_POLICY]
-    cap, schedule, is_ifdd = ints[I_CAP], ints[I_SCHEDULE], ints[I_IFDD] != 0
-    actor_schedule, num_tilings = ints[I_ACTOR_SCHEDULE], ints[I_NUM_TILINGS]
-    discount, parameter = floats[F_DISCOUNT], floats[F_POLICY]
-    alpha_0, n_0 = floats[F_ALPHA], floats[F_N0]
-    actor_alpha_0, actor_n_0 = floats[F_ACTOR_ALPHA], floats[F_ACTOR_N0]
-    traces = ints[I_TRACES]
-    trace_factor, min_trace = floats[F_TRACE_FACTOR], floats[F_MIN_TRACE]
-    sparse = (trace_factor, min_trace, trace_slots, trace_features, trace_actions, trace_values,
-              trace_count)  # fmt: skip
+    cap, is_ifdd, num_tilings = ints[I_CAP], ints[I_IFDD] != 0, ints[I_NUM_TILINGS]
+    discount, parameter, traces = floats[F_DISCOUNT], floats[F_POLICY], ints[I_TRACES]
+    rates, sparse = learner_arguments(
+        ints, floats, trace_slots, trace_features, trace_actions, trace_values, trace_count
+    )
     domain = (dparams, dtable, dcells, dstate, fstate)
     scratch = (np.empty(obs.shape[0], dtype=np.int64), np.empty(ints[I_MAX_ACTIVE], np.int64))
     is_units = d_kind == BLOCKS or d_kind == PERSISTENT_SURVEILLANCE
@@ -346,10 +329,8 @@ def adaptive_kernel(
     num_ended = done = failures = 0
     delta = 0.0
     status = DONE
-    phase, action, episode_steps = loop[L_PHASE], loop[L_ACTION], loop[L_EPISODE_STEPS]
-    episode, learning_steps = loop[L_EPISODE], loop[L_LEARNING_STEPS]
-    episode_failures = loop[L_EPISODE_FAILURES]
-    total, discounted, weight = loop_f[LF_RETURN], loop_f[LF_DISCOUNTED], loop_f[LF_WEIGHT]
+    (phase, action, episode_steps, episode, learning_steps, episode_failures,
+     total, discounted, weight) = load_loop(loop, loop_f)  # fmt: skip
     phi = np.empty(0, dtype=np.int64)
     if phase == IN_EPISODE:
         phi = _encode(r_kind, is_ifdd, obs, rep, num_tilings, scratch, activate_args)
@@ -397,13 +378,9 @@ def adaptive_kernel(
                 for i in range(1, next_legal.shape[0]):
                     best = max(best, q[next_legal[i]])
                 target += discount * best
-        counted = max(episode, 1)
-        num_active = float(phi.shape[0])
-        alpha = step_size(schedule, alpha_0, n_0, counted, num_active)
-        delta = td_update(weights, phi, None, action, target, alpha, traces, sparse)
-        if is_actor_critic and math.isfinite(delta):  # Algorithm 12, line 9
-            actor_alpha = step_size(actor_schedule, actor_alpha_0, actor_n_0, counted, num_active)
-            add(actor_weights, phi, None, action, actor_alpha * delta)
+        k_t = float(phi.shape[0])  # |φ(s)|₁ of binary φ
+        delta = learn(weights, actor_weights, phi, None, action, target, episode, k_t,
+                      is_actor_critic, traces, rates, sparse)  # fmt: skip
         learning_steps += 1
         if not math.isfinite(delta):
             status = DIVERGED
@@ -423,12 +400,9 @@ def adaptive_kernel(
         if traces != NO_TRACES and terminated:
             clear_traces(trace_slots, trace_features, trace_actions, trace_count)
         done += 1
-        if cost > 0.0:
-            failures += 1
-            episode_failures += 1
-        total += reward
-        discounted += weight * reward
-        weight *= discount
+        failures, episode_failures, total, discounted, weight = tally(
+            reward, cost, discount, failures, episode_failures, total, discounted, weight
+        )
         if terminated or episode_steps >= cap:
             ep_float, ep_int = record_episode(
                 ep_float, ep_int, num_ended, total, discounted, episode_steps, episode_failures
@@ -441,8 +415,6 @@ def adaptive_kernel(
                 next_phi = _encode(r_kind, is_ifdd, obs, rep, num_tilings, scratch, activate_args)
             phi = next_phi
             action = next_action
-    loop[L_PHASE], loop[L_ACTION], loop[L_EPISODE_STEPS] = phase, action, episode_steps
-    loop[L_EPISODE], loop[L_LEARNING_STEPS] = episode, learning_steps
-    loop[L_EPISODE_FAILURES] = episode_failures
-    loop_f[LF_RETURN], loop_f[LF_DISCOUNTED], loop_f[LF_WEIGHT] = total, discounted, weight
+    store_loop(loop, loop_f, phase, action, episode_steps, episode, learning_steps,
+               episode_failures, total, discounted, weight)  # fmt: skip
     return status, done, failures, delta, ep_float[:num_ended], ep_int[:num_ended]

@@ -297,6 +297,119 @@ def td_update(
     )  # fmt: skip
 
 
+@njit(cache=True, inline="always")
+def learner_arguments(
+    ints: np.ndarray,
+    floats: np.ndarray,
+    trace_slots: np.ndarray,
+    trace_features: np.ndarray,
+    trace_actions: np.ndarray,
+    trace_values: np.ndarray,
+    trace_count: np.ndarray,
+) -> tuple[tuple, tuple]:
+    """``rates`` of `learn` and ``sparse`` of `td_update`, read once from ``ints``/``floats``.
+
+    ``rates`` = (schedule, α₀, N₀, actor schedule, actor α₀, actor N₀).
+    """
+    rates = (ints[I_SCHEDULE], floats[F_ALPHA], floats[F_N0],
+             ints[I_ACTOR_SCHEDULE], floats[F_ACTOR_ALPHA], floats[F_ACTOR_N0])  # fmt: skip
+    sparse = (floats[F_TRACE_FACTOR], floats[F_MIN_TRACE], trace_slots, trace_features,
+              trace_actions, trace_values, trace_count)  # fmt: skip
+    return rates, sparse
+
+
+@njit(cache=True, inline="always")
+def learn(
+    weights: np.ndarray,
+    actor_weights: np.ndarray,
+    phi: np.ndarray,
+    values: np.ndarray | None,
+    action: int,
+    target: float,
+    episode: int,
+    k_t: float,
+    is_actor_critic: bool,
+    traces: int,
+    rates: tuple,
+    sparse: tuple,
+) -> float:
+    """α_t, δ and θ's update (Algorithms 10-12, lines 6-7), then ω's (Algorithm 12, line 9).
+
+    ``k_t``: |φ(s)|₁ (`num_active`); ``rates``, ``sparse``: of `learner_arguments`. Returns δ;
+    ω is left alone when δ is not finite.
+    """
+    schedule, alpha_0, n_0, actor_schedule, actor_alpha_0, actor_n_0 = rates
+    counted = max(episode, 1)
+    alpha = step_size(schedule, alpha_0, n_0, counted, k_t)
+    delta = td_update(weights, phi, values, action, target, alpha, traces, sparse)
+    if is_actor_critic and math.isfinite(delta):
+        actor_alpha = step_size(actor_schedule, actor_alpha_0, actor_n_0, counted, k_t)
+        add(actor_weights, phi, values, action, actor_alpha * delta)
+    return delta
+
+
+@njit(cache=True, inline="always")
+def load_loop(loop: np.ndarray, loop_f: np.ndarray) -> tuple:
+    """The loop state ``loop``, ``loop_f`` as locals.
+
+    Returns (phase, action, episode steps, episode, learning steps, episode failures, return,
+    discounted return, γ^t).
+    """
+    phase, action, episode_steps = loop[L_PHASE], loop[L_ACTION], loop[L_EPISODE_STEPS]
+    episode, learning_steps = loop[L_EPISODE], loop[L_LEARNING_STEPS]
+    episode_failures = loop[L_EPISODE_FAILURES]
+    total, discounted, weight = loop_f[LF_RETURN], loop_f[LF_DISCOUNTED], loop_f[LF_WEIGHT]
+    return (phase, action, episode_steps, episode, learning_steps, episode_failures,
+            total, discounted, weight)  # fmt: skip
+
+
+@njit(cache=True, inline="always")
+def store_loop(
+    loop: np.ndarray,
+    loop_f: np.ndarray,
+    phase: int,
+    action: int,
+    episode_steps: int,
+    episode: int,
+    learning_steps: int,
+    episode_failures: int,
+    total: float,
+    discounted: float,
+    weight: float,
+) -> None:
+    """Write the locals of `load_loop` back into ``loop`` and ``loop_f``."""
+    loop[L_PHASE], loop[L_ACTION], loop[L_EPISODE_STEPS] = phase, action, episode_steps
+    loop[L_EPISODE], loop[L_LEARNING_STEPS] = episode, learning_steps
+    loop[L_EPISODE_FAILURES] = episode_failures
+    loop_f[LF_RETURN], loop_f[LF_DISCOUNTED], loop_f[LF_WEIGHT] = total, discounted, weight
+
+
+@njit(cache=True, inline="always")
+def tally(
+    reward: float,
+    cost: float,
+    discount: float,
+    failures: int,
+    episode_failures: int,
+    total: float,
+    discounted: float,
+    weight: float,
+) -> tuple[int, int, float, float, float]:
+    """A counted step's statistics: failures (cost > 0), return and discounted return.
+
+    Returns (failures, episode failures, return, discounted return, γ^(t+1)). An ended
+    episode's `record_episode` stays in the kernels, so that the episode arrays are not
+    passed through (and reference-counted) every step.
+    """
+    if cost > 0.0:
+        failures += 1
+        episode_failures += 1
+    total += reward
+    discounted += weight * reward
+    weight *= discount
+    return failures, episode_failures, total, discounted, weight
+
+
 # ---------------------------------------------------------------------------------------------
 # The loop
 
@@ -333,21 +446,10 @@ def advance_kernel(
     """
     d_kind, r_kind, agent, policy = ints[I_DOMAIN], ints[I_REP], ints[I_AGENT], ints[I_POLICY]
     cap, traces, num_tilings = ints[I_CAP], ints[I_TRACES], ints[I_NUM_TILINGS]
-    schedule, actor_schedule, max_active = (
-        ints[I_SCHEDULE],
-        ints[I_ACTOR_SCHEDULE],
-        ints[I_MAX_ACTIVE],
+    max_active, discount, parameter = ints[I_MAX_ACTIVE], floats[F_DISCOUNT], floats[F_POLICY]
+    rates, sparse = learner_arguments(
+        ints, floats, trace_slots, trace_features, trace_actions, trace_values, trace_count
     )
-    discount, parameter = floats[F_DISCOUNT], floats[F_POLICY]
-    alpha_0, n_0, actor_alpha_0, actor_n_0 = (
-        floats[F_ALPHA],
-        floats[F_N0],
-        floats[F_ACTOR_ALPHA],
-        floats[F_ACTOR_N0],
-    )
-    trace_factor, min_trace = floats[F_TRACE_FACTOR], floats[F_MIN_TRACE]
-    sparse = (trace_factor, min_trace, trace_slots, trace_features, trace_actions, trace_values,
-              trace_count)  # fmt: skip
     legal = np.arange(ints[I_NUM_ACTIONS])
     # The actor's preferences choose actions for Actor-Critic (shared features), θ otherwise.
     chooser = actor_weights if agent == ACTOR_CRITIC else weights
@@ -364,10 +466,8 @@ def advance_kernel(
     delta = 0.0
     status = DONE
     # The loop state, in locals while running.
-    phase, action, episode_steps = loop[L_PHASE], loop[L_ACTION], loop[L_EPISODE_STEPS]
-    episode, learning_steps = loop[L_EPISODE], loop[L_LEARNING_STEPS]
-    episode_failures = loop[L_EPISODE_FAILURES]
-    total, discounted, weight = loop_f[LF_RETURN], loop_f[LF_DISCOUNTED], loop_f[LF_WEIGHT]
+    (phase, action, episode_steps, episode, learning_steps, episode_failures,
+     total, discounted, weight) = load_loop(loop, loop_f)  # fmt: skip
     rbf, num_features = rep[6], rep[3].shape[0]
     phi = phi_buffer
     values = feature_values(rbf, num_features, obs)  # φ(s)'s values (None: binary φ)
@@ -412,13 +512,9 @@ def advance_kernel(
             else:
                 q_values_into(weights, next_phi, next_values, critic_q)
                 target += discount * critic_q[next_action]
-        counted = max(episode, 1)
         k_t = num_active(phi, values)
-        alpha = step_size(schedule, alpha_0, n_0, counted, k_t)
-        delta = td_update(weights, phi, values, action, target, alpha, traces, sparse)
-        if agent == ACTOR_CRITIC and math.isfinite(delta):
-            actor_alpha = step_size(actor_schedule, actor_alpha_0, actor_n_0, counted, k_t)
-            add(actor_weights, phi, values, action, actor_alpha * delta)
+        delta = learn(weights, actor_weights, phi, values, action, target, episode, k_t,
+                      agent == ACTOR_CRITIC, traces, rates, sparse)  # fmt: skip
         learning_steps += 1
         if not math.isfinite(delta):
             status = DIVERGED
@@ -427,12 +523,9 @@ def advance_kernel(
         if traces != NO_TRACES and terminated:
             clear_traces(trace_slots, trace_features, trace_actions, trace_count)
         done += 1
-        if cost > 0.0:
-            failures += 1
-            episode_failures += 1
-        total += reward
-        discounted += weight * reward
-        weight *= discount
+        failures, episode_failures, total, discounted, weight = tally(
+            reward, cost, discount, failures, episode_failures, total, discounted, weight
+        )
         if terminated or episode_steps >= cap:
             ep_float, ep_int = record_episode(
                 ep_float, ep_int, num_ended, total, discounted, episode_steps, episode_failures
@@ -448,8 +541,6 @@ def advance_kernel(
                 phi = next_phi
             values = next_values
             action = next_action
-    loop[L_PHASE], loop[L_ACTION], loop[L_EPISODE_STEPS] = phase, action, episode_steps
-    loop[L_EPISODE], loop[L_LEARNING_STEPS] = episode, learning_steps
-    loop[L_EPISODE_FAILURES] = episode_failures
-    loop_f[LF_RETURN], loop_f[LF_DISCOUNTED], loop_f[LF_WEIGHT] = total, discounted, weight
+    store_loop(loop, loop_f, phase, action, episode_steps, episode, learning_steps,
+               episode_failures, total, discounted, weight)  # fmt: skip
     return status, done, failures, delta, ep_float[:num_ended], ep_int[:num_ended]
