@@ -1,4 +1,4 @@
-"""Write the sweep configs in examples/reproduction/ (run from the repository root).
+"""Write the sweep configs in examples/reproduction/ (from any working directory).
 
 Chapters 3-4: ``fig_3_*``/``fig_4_*``; chapter 5 (safe exploration, iCCA): ``fig_5_*``.
 
@@ -9,7 +9,7 @@ from pathlib import Path
 
 import yaml
 
-OUT = Path("examples/reproduction")
+OUT = Path(__file__).resolve().parents[2] / "examples" / "reproduction"
 KINDS = {
     "pendulum": "InvertedPendulum",
     "blocksworld": "BlocksWorld",
