@@ -4,30 +4,15 @@ import pytest
 from conjure.agents.fdlstd import FDLSTD
 from conjure.agents.lstd import LSTD
 from conjure.core.errors import IncompatibleComponentsError, InvalidParameterError, NotSetUpError
-from conjure.core.interfaces import DomainSpec, Transition
+from conjure.core.interfaces import Transition
 from conjure.domains import InvertedPendulum
 from conjure.representations import RBF, IndependentDiscretization, Tabular
+from conjure.testing import box_spec
 
-GRID = DomainSpec(
-    name="xy",
-    low=[0.0, 0.0],
-    high=[1.0, 1.0],
-    is_discrete=[True, True],
-    num_actions=1,
-    discount=0.9,
-    max_episode_steps=10,
-)
+GRID = box_spec([0.0, 0.0], [1.0, 1.0], [True, True], name="xy", num_actions=1)
 STATES = [np.array([x, y], dtype=float) for x in (0, 1) for y in (0, 1)]
 V2 = {(0, 0): 0.0, (0, 1): 2.0, (1, 0): 2.0, (1, 1): 0.0}  # Section 3.2.1's V2
-GRID3 = DomainSpec(
-    name="xy3",
-    low=[0.0, 0.0],
-    high=[2.0, 2.0],
-    is_discrete=[True, True],
-    num_actions=1,
-    discount=0.9,
-    max_episode_steps=10,
-)
+GRID3 = box_spec([0.0, 0.0], [2.0, 2.0], [True, True], name="xy3", num_actions=1)
 STATES3 = [np.array([x, y], dtype=float) for x in range(3) for y in range(3)]
 
 
