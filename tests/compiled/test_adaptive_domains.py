@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from conjure.agents import SARSA, ActorCritic, QLearning
-from conjure.compiled import CompiledStepper, for_combination, is_warm
+from conjure.compiled import CompiledStepper, for_combination
 from conjure.compiled import _adaptive_kernel as ak
 from conjure.compiled.combination import pack_combination
 from conjure.core.schedules import EpisodicDecay, FeatureNormalizedDecay
@@ -290,8 +290,7 @@ def test_one_compilation_serves_every_adaptive_combination():
         for agent_name in [*AGENTS, *ACTOR_CRITIC]:
             domain, agent = _build(rep, agent_name, 3)
             for_combination(domain, agent, seed=3).advance(30)
-    stepper = for_combination(*_build("indicators", "sarsa", 0), seed=0)
-    assert is_warm(stepper) and len(ak.adaptive_kernel.overloads) == 1
+    assert len(ak.adaptive_kernel.overloads) == 1
 
 
 @pytest.mark.parametrize(
