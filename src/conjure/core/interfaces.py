@@ -389,24 +389,20 @@ _sparse_features = tuple.__new__  # SparseFeatures without its Python-level __ne
 
 
 def check_binary_features(representation: Representation, user: str) -> None:
-    """Raise `IncompatibleComponentsError` unless the set-up ``representation`` is binary.
+    """Raise `IncompatibleComponentsError` unless ``representation`` is binary.
 
-    For components that conjoin binary features (iFDD, FDLSTD). Choice: binary means that
-    `encode` gives values of 1 at the middle of the state box (a real-valued representation
-    such as Gaussian RBF gives other values there); one that passes this probe but is not
-    binary elsewhere still fails at its first `active_features` call, naming itself.
+    For components that conjoin binary features (iFDD, FDLSTD). Binary is the contract of
+    `Representation`: the class implements `active_features` and inherits `encode` (values 1).
     """
-    spec = representation.spec_
-    middle = (spec.low + spec.high) / 2.0
-    try:
-        binary = representation.encode(middle).has_unit_values()
-    except IncompatibleComponentsError:
-        binary = False
-    if not binary:
+    cls = type(representation)
+    if (
+        cls.active_features is Representation.active_features
+        or cls.encode is not Representation.encode
+    ):
         raise IncompatibleComponentsError(
-            f"{user} conjoins binary features, but {type(representation).__name__} encodes "
-            f"states with values other than 1; use IndependentDiscretization, TileCoding or "
-            f"Tabular."
+            f"{user} conjoins binary features, but {cls.__name__} encodes states with "
+            f"real values (it implements encode, not active_features); use "
+            f"IndependentDiscretization, TileCoding or Tabular."
         )
 
 
