@@ -10,7 +10,7 @@ from conjure.core.params import Interval
 from conjure.core.seeding import as_seed_sequence
 from conjure.representations._adaptive_kernels import atc_leaf, atc_record
 from conjure.representations._kernels import per_dimension, positive_ints
-from conjure.representations._max_features import MAX_FEATURES
+from conjure.representations._max_features import MAX_FEATURES, check_max_features
 from conjure.representations.weights import append_rows
 
 __all__ = ["AdaptiveTileCoding"]
@@ -157,12 +157,8 @@ class AdaptiveTileCoding(Representation):
                 cuts = []
             boundaries.append(cuts)
             num_initial *= len(cuts) + 1
-        if num_initial > self.max_features:
-            raise InvalidParameterError(
-                f"`AdaptiveTileCoding.max_features` must be at least the {num_initial} initial "
-                f"tiles of initial_tiles_per_dim={self.initial_tiles_per_dim!r} on "
-                f"{spec.name!r}; got {self.max_features!r}."
-            )
+        where = f"tiles of initial_tiles_per_dim={self.initial_tiles_per_dim!r} on {spec.name!r}"
+        check_max_features(type(self).__name__, self.max_features, num_initial, where)
 
         # the initial grid as a balanced kd-tree: split every leaf along dimension 0, then 1, ...
         node_dim, node_threshold, node_left = [-1], [0.0], [-1]

@@ -11,7 +11,7 @@ from conjure.core.interfaces import DomainSpec, Expansion, Representation, check
 from conjure.core.params import Interval, Predicate
 from conjure.core.seeding import as_seed_sequence
 from conjure.representations._adaptive_kernels import sdm_active, sdm_cell
-from conjure.representations._max_features import MAX_FEATURES
+from conjure.representations._max_features import MAX_FEATURES, check_max_features
 from conjure.representations.weights import append_rows
 
 __all__ = ["SparseDistributedMemory"]
@@ -181,13 +181,11 @@ class SparseDistributedMemory(Representation):
             n = int(np.ceil(1.0 / (2.0 * raw_radius[i]) - 1e-9))
             axes.append((np.arange(n) + 0.5) / n)
         num_initial = int(np.prod([float(axis.shape[0]) for axis in axes]))
-        if num_initial > self.max_features:
-            raise InvalidParameterError(
-                f"`SparseDistributedMemory.max_features` must be at least the {num_initial} "
-                f"prototypes of the initial covering grid (activation_radius="
-                f"{self.activation_radius!r} on {spec.name!r}); got {self.max_features!r}. "
-                f"A larger activation_radius needs fewer prototypes."
-            )
+        where = (
+            f"prototypes of the initial covering grid, activation_radius="
+            f"{self.activation_radius!r} on {spec.name!r}; a larger activation_radius needs fewer"
+        )
+        check_max_features(type(self).__name__, self.max_features, num_initial, where)
         grid_points = np.zeros((1, 0))
         for axis in axes:  # the row-major Cartesian product (no 32-dimension limit)
             grid_points = np.hstack(
