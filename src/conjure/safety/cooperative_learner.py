@@ -168,11 +168,16 @@ class CooperativeLearner(CooperativeAgent):
     def _greedy_learner_action(
         self, state: np.ndarray, planner_action: int, legal_actions: np.ndarray | None
     ) -> int:
-        """argmax_a Q(s, a) of the learner, π^p(s) among the maximisers (policy checks)."""
-        q_values = getattr(self.learner_, "q_values", None)
-        if q_values is None:  # a learner without Q-values (ActorCritic): its own greedy action
-            return int(self.learner_.act(state, True, legal_actions))
-        values = q_values(state)
+        """The learner's greedy action, π^p(s) among the maximisers (policy checks).
+
+        Greedy by what the learner acts on: an actor's preferences, else its Q-values; a
+        learner with neither takes its own greedy action.
+        """
+        learner = self.learner_
+        values_of = getattr(learner, "preferences", None) or getattr(learner, "q_values", None)
+        if values_of is None:
+            return int(learner.act(state, True, legal_actions))
+        values = values_of(state)
         legal = self._actions(legal_actions)
         best = legal[np.argmax(values[legal])]
         return planner_action if values[planner_action] >= values[best] else int(best)
