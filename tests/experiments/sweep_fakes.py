@@ -139,8 +139,8 @@ def fake_sweep(**overrides: Any) -> dict[str, Any]:
 @pytest.fixture
 def isolated_fakes(monkeypatch):
     """Register the fakes in copies of the registries (restored after the test)."""
-    monkeypatch.setattr(registry, "AGENTS", dict(registry.AGENTS))
-    monkeypatch.setattr(registry, "DOMAINS", dict(registry.DOMAINS))
+    monkeypatch.setattr(registry, "AGENTS", registry.AGENTS.copy())
+    monkeypatch.setattr(registry, "DOMAINS", registry.DOMAINS.copy())
     layers = {**registry.LAYERS, "agent": registry.AGENTS, "domain": registry.DOMAINS}
     monkeypatch.setattr(registry, "LAYERS", layers)
     register_fakes()

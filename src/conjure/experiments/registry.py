@@ -78,6 +78,10 @@ class Registry(MutableMapping[str, type[Configurable]]):
     def __len__(self) -> int:
         return len(self._entries)
 
+    def copy(self) -> Registry:
+        """A registry with the same entries (classes stay unimported until looked up)."""
+        return Registry(self._entries)
+
     def class_name(self, kind: str) -> str:
         """The name of the class registered as ``kind``, without importing it."""
         entry = self._entries[kind]
@@ -176,7 +180,7 @@ SCHEDULES = Registry(
 )
 
 #: Every registry by layer name (the ``layer`` argument of `build`).
-LAYERS: dict[str, MutableMapping[str, type[Configurable]]] = {
+LAYERS: dict[str, Registry] = {
     "domain": DOMAINS,
     "representation": REPRESENTATIONS,
     "policy": POLICIES,
@@ -315,13 +319,9 @@ def kind_of(component: Configurable) -> str:
     cls = type(component)
     for registry in LAYERS.values():
         for kind in registry:
-            if _class_name(registry, kind) == cls.__name__ and registry[kind] is cls:
+            if registry.class_name(kind) == cls.__name__ and registry[kind] is cls:
                 return kind
     return cls.__name__
-
-
-def _class_name(registry: Mapping[str, type[Configurable]], kind: str) -> str:
-    return registry.class_name(kind) if isinstance(registry, Registry) else registry[kind].__name__
 
 
 def to_spec(component: Configurable) -> dict[str, Any]:

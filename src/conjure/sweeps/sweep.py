@@ -64,13 +64,12 @@ from conjure.experiments.config import (
 from conjure.experiments.options import max_memory_option, out_dir_option
 from conjure.experiments.parallel import (
     ExperimentResult,
-    RunFunction,
     open_executor,
     pending_runs,
     run_batch,
 )
 from conjure.experiments.results import make_out_dir, write_atomic
-from conjure.experiments.run import run_resolved
+from conjure.experiments.run import RunFunction, run_resolved
 from conjure.sweeps.selection import fresh_seeds, select_best, selected_runs
 
 if TYPE_CHECKING:
