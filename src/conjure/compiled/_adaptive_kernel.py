@@ -78,6 +78,7 @@ from conjure.compiled._kernels import (
     learn,
     learner_arguments,
     load_loop,
+    num_active,
     record_episode,
     select_action,
     store_loop,
@@ -225,18 +226,20 @@ def _step(
 
 
 @njit(cache=True, inline="always")
-def _legal(kind: int, domain: tuple, num_units: int, mask: np.ndarray, out: np.ndarray):
+def _legal(
+    kind: int, domain: tuple, num_units: int, mask: np.ndarray, is_filled: bool, out: np.ndarray
+):
     """The sorted legal actions of the domain's current state (a view of ``out``).
 
     ``domain`` is (dparams, dtable, dcells, dstate, fstate), ``num_units`` the number of blocks
-    or UAVs of BlocksWorld and Persistent Surveillance; ``mask`` is scratch. Every action is
-    legal in the domains of ``advance_kernel``.
+    or UAVs of BlocksWorld and Persistent Surveillance. ``mask`` holds the state's legal mask
+    of Rescue and Persistent Surveillance when ``is_filled`` (their step writes it), else it is
+    filled here. Every action is legal in the domains of ``advance_kernel``: ``out`` then
+    already lists them all (the kernel fills it once).
     """
     dtable, dstate = domain[1], domain[3]
     if kind < BLOCKS:
-        for a in range(out.shape[0]):
-            out[a] = a
-        return out[: out.shape[0]]
+        return out
     if kind == BLOCKS:
         nn = num_units * num_units
         count = legal_moves_into(
@@ -248,9 +251,9 @@ def _legal(kind: int, domain: tuple, num_units: int, mask: np.ndarray, out: np.n
         legal = legal_actions(dstate, dtable[0], dtable[1:, :nodes])
         out[: legal.shape[0]] = legal
         return out[: legal.shape[0]]
-    if kind == RESCUE:
+    if not is_filled and kind == RESCUE:
         rescue_fill_legal_mask(dstate, dtable[:, :3], dtable[:, 3], mask)
-    else:
+    elif not is_filled:
         pst_fill_legal_mask(dstate, num_units, mask)
     count = 0
     for a in range(mask.shape[0]):
@@ -317,8 +320,8 @@ def adaptive_kernel(
     # The actor's preferences choose actions for Actor-Critic (shared features), θ otherwise.
     is_actor_critic = agent == ACTOR_CRITIC
     chooser = actor_weights if is_actor_critic else weights
-    legal_buffer = np.empty(num_actions, dtype=np.int64)
-    next_buffer = np.empty(num_actions, dtype=np.int64)
+    legal_buffer = np.arange(num_actions)  # every action, until a constrained domain writes
+    next_buffer = np.arange(num_actions)
     mask = np.zeros(num_actions, dtype=np.int8)
     uniforms = np.empty(2 * num_units)
     next_obs = np.empty_like(obs)
@@ -344,7 +347,7 @@ def adaptive_kernel(
                 clear_traces(trace_slots, trace_features, trace_actions, trace_count)
             phi = _encode(r_kind, is_ifdd, obs, rep, num_tilings, scratch, activate_args)
             q_values_into(chooser, phi, None, q)
-            legal = _legal(d_kind, domain, num_units, mask, legal_buffer)
+            legal = _legal(d_kind, domain, num_units, mask, False, legal_buffer)
             action = select_action(policy, q, legal, parameter, agent_rng)
             episode_steps = episode_failures = 0
             total, discounted, weight = 0.0, 0.0, 1.0
@@ -365,7 +368,7 @@ def adaptive_kernel(
         if not terminated:
             next_phi = _encode(r_kind, is_ifdd, next_obs, rep, num_tilings, scratch, activate_args)
             q_values_into(chooser, next_phi, None, q)
-            next_legal = _legal(d_kind, domain, num_units, mask, next_buffer)
+            next_legal = _legal(d_kind, domain, num_units, mask, True, next_buffer)
             next_action = select_action(policy, q, next_legal, parameter, agent_rng)
             # Algorithms 10-12, line 5: Q⁺(s, a) = r + γ Q(s', a') or r + γ max_a' Q(s', a')
             if agent == SARSA:
@@ -378,7 +381,7 @@ def adaptive_kernel(
                 for i in range(1, next_legal.shape[0]):
                     best = max(best, q[next_legal[i]])
                 target += discount * best
-        k_t = float(phi.shape[0])  # |φ(s)|₁ of binary φ
+        k_t = num_active(phi, None)
         delta = learn(weights, actor_weights, phi, None, action, target, episode, k_t,
                       is_actor_critic, traces, rates, sparse)  # fmt: skip
         learning_steps += 1
