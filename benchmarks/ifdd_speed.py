@@ -4,7 +4,7 @@ Usage: ``python benchmarks/ifdd_speed.py [--steps N] [--repeats R] [--growth-onl
 --paths-only]``
 
 The thesis's claim (Geramifard 2012, Section 4.1.3) is that online iFDD's per-step cost does
-not depend on the total number of features n_t. Three measurements, after a warm-up (numba
+not depend on the total number of features n_t. Four measurements, after a warm-up (numba
 compilation excluded), each the median of ``repeats`` runs:
 
 1. Per-step microseconds of SARSA + OnlineIFDD through `LearningLoop` (domain step, φ̇ by
