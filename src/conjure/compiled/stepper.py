@@ -49,7 +49,14 @@ from conjure.core.interfaces import Agent, Domain
 from conjure.representations._ifdd_kernels import I_NUM_FEATURES
 from conjure.representations.weights import _is_leading_view
 
-__all__ = ["AdvanceStats", "CompiledStepper", "compile_seconds", "for_combination", "warm_up"]
+__all__ = [
+    "AdvanceStats",
+    "CompiledStepper",
+    "compile_seconds",
+    "for_combination",
+    "is_warm",
+    "warm_up",
+]
 
 _EMPTY_SLOTS = np.zeros((0, 0), dtype=np.int64)
 _EMPTY_INTS = np.zeros(0, dtype=np.int64)
