@@ -254,6 +254,51 @@ def test_activation_equals_the_sorted_power_set_walk_on_random_features(seed, sp
         assert rep.activate_initial(np.array(active)).tolist() == expected  # from the cache
 
 
+def rows_allocated(count):
+    """Rows a block of ``count`` children takes without compaction: 4, 8, 16, ... rows."""
+    total, block = 4, 4
+    while block < count:
+        block *= 2
+        total += block
+    return total
+
+
+def test_parent_index_blocks_hold_every_child_after_compaction():
+    # 30 initial features, 170 discovered ones on a skewed choice of parents: blocks move as
+    # they fill, and the doublings need more rows than `children` has, so it is compacted
+    n0, capacity = 30, 200
+    rng = np.random.default_rng(0)
+    feat_len = np.ones(capacity, dtype=np.int64)
+    feat_parents = np.full((capacity, 2), -1, dtype=np.int64)
+    for f in range(n0, capacity):
+        g = int(rng.integers(0, 3)) if rng.random() < 0.8 else int(rng.integers(0, f))
+        h = int(rng.integers(0, f))
+        while h == g:
+            h = int(rng.integers(0, f))
+        feat_parents[f] = g, h
+        feat_len[f] = 2
+    counts = np.bincount(feat_parents[n0:].ravel(), minlength=capacity)
+    doubled = sum(rows_allocated(int(c)) for c in counts if c)
+    links = np.zeros((capacity, kernels.NUM_L), dtype=np.int64)
+    children = np.empty((4 * capacity + 8, 2), dtype=np.int64)
+    assert doubled > children.shape[0]  # so compaction must have run
+    pair_table = np.full((1024, 3), -1, dtype=np.int64)
+    ints = np.zeros(kernels.NUM_INTS, dtype=np.int64)
+    for n in range(n0 + 10, capacity + 1, 10):  # linked in batches, as discoveries arrive
+        ints[kernels.I_NUM_FEATURES] = n
+        kernels.link_children(feat_len, feat_parents, links, children, pair_table, ints)
+    for p in range(capacity):
+        start, count = links[p, kernels.L_START], links[p, kernels.L_COUNT]
+        rows = sorted(map(tuple, children[start : start + count].tolist()))
+        expected = sorted(
+            (f, int(feat_parents[f, 1 - side]))
+            for f in range(n0, capacity)
+            for side in range(2)
+            if feat_parents[f, side] == p
+        )
+        assert rows == expected, f"feature {p}'s children"
+
+
 def test_activation_cache_forgets_one_entry_at_a_time():
     rep = flag_ifdd(16, discovery_threshold=0.5)
     rep.discover(rep.active_features(flags(16, [0, 1])), 1.0)

@@ -72,6 +72,7 @@ from conjure.compiled._kernels import (
     NEEDS_RESET,
     NO_TRACES,
     SARSA,
+    copy_into,
     domain_reset,
     domain_step,
     encode,
@@ -195,14 +196,14 @@ def _step(
             dcells[:, RESCUE_PEOPLE], dcells[:, RESCUE_SUCCESS], int(dparams[0]), dparams[1],
             dparams[2], mask,
         )  # fmt: skip
-        obs[:] = next_obs
+        copy_into(obs, next_obs)
         return reward, terminated, 1.0 if failed else 0.0
     if kind == UAV_MISSION:  # 2n uniforms per step, as `UAVMission.step`
         next_state, reward, terminated, cost = mission_step(
             dstate, action, dtable[0], dcells, dparams[0], rng
         )
-        dstate[:] = next_state
-        obs[:] = next_state
+        copy_into(dstate, next_state)
+        copy_into(obs, next_state)
         return reward, terminated, cost
     for i in range(uniforms.shape[0]):  # as np_random.random(2n)
         uniforms[i] = rng.random()
@@ -221,7 +222,7 @@ def _step(
         dparams[8] != 0.0,
         mask,
     )
-    obs[:] = next_obs
+    copy_into(obs, next_obs)
     return reward, terminated, 1.0 if terminated else 0.0
 
 
@@ -249,7 +250,7 @@ def _legal(
     if kind == UAV_MISSION:
         nodes = dtable.shape[0] - 1
         legal = legal_actions(dstate, dtable[0], dtable[1:, :nodes])
-        out[: legal.shape[0]] = legal
+        copy_into(out, legal)
         return out[: legal.shape[0]]
     if not is_filled and kind == RESCUE:
         rescue_fill_legal_mask(dstate, dtable[:, :3], dtable[:, 3], mask)
@@ -413,7 +414,7 @@ def adaptive_kernel(
             num_ended += 1
             phase = NEEDS_RESET
         else:
-            obs[:] = next_obs
+            copy_into(obs, next_obs)
             if grew:  # φ(s) with the new features, as the Python learner re-encodes
                 next_phi = _encode(r_kind, is_ifdd, obs, rep, num_tilings, scratch, activate_args)
             phi = next_phi

@@ -249,6 +249,19 @@ def select_action(
 
 
 @njit(cache=True, inline="always")
+def copy_into(target: np.ndarray, source: np.ndarray) -> None:
+    """``target[:n] = source`` for a 1-D ``source`` of length n, as a loop.
+
+    Choice: the kernels copy arrays with loops, never slice assignments or
+    ``np.concatenate``: those link numba's shape-mismatch error path (string formatting,
+    about 2,800 LLVM instructions), and a cached kernel's IR size is the memory its load
+    costs (``benchmarks/startup.py``).
+    """
+    for i in range(source.shape[0]):
+        target[i] = source[i]
+
+
+@njit(cache=True, inline="always")
 def record_episode(
     ep_float: np.ndarray,
     ep_int: np.ndarray,
@@ -260,8 +273,13 @@ def record_episode(
 ) -> tuple[np.ndarray, np.ndarray]:
     """Write an ended episode's statistics at row ``index`` (doubling the arrays when full)."""
     if index == ep_float.shape[0]:
-        ep_float = np.concatenate((ep_float, np.empty_like(ep_float)))
-        ep_int = np.concatenate((ep_int, np.empty_like(ep_int)))
+        grown_float = np.empty((2 * index, 2))
+        grown_int = np.empty((2 * index, 2), dtype=np.int64)
+        for i in range(index):
+            for j in range(2):
+                grown_float[i, j] = ep_float[i, j]
+                grown_int[i, j] = ep_int[i, j]
+        ep_float, ep_int = grown_float, grown_int
     ep_float[index, 0] = total
     ep_float[index, 1] = discounted
     ep_int[index, 0] = length
@@ -533,7 +551,7 @@ def advance_kernel(
             num_ended += 1
             phase = NEEDS_RESET
         else:
-            obs[:] = next_obs
+            copy_into(obs, next_obs)
             if r_kind == TILES:  # φ(s) ← φ(s'): copy, so that φ(s) stays in its buffer
                 for i in range(max_active):
                     phi_buffer[i] = next_buffer[i]

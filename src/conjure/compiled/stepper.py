@@ -64,7 +64,7 @@ _EMPTY_FLOATS = np.zeros(0)
 #: Stand-ins of `OnlineIFDD`'s `activate` and `discover` argument tuples (same types) for
 #: the indicators alone, so both run in one compilation of the adaptive kernel.
 _I1, _I2, _F1, _F2 = (np.zeros((0,) * d, t) for t in (np.int64, np.float64) for d in (1, 2))
-_NO_ACTIVATE = (_I1, _I1, _I1, _I1, _I2, _I2, _I2, _I1, _I2, _I1)
+_NO_ACTIVATE = (_I1, _I1, _I1, _I1, _I2, _I2, _I2, _I2, _I1, _I2, _I1)
 _NO_DISCOVER = (_I1, _I1, _I1, _I1, _I2, _I1, _I1, _I1, _I1, _I2, _F2, _I1, _I1, _I1, _I1, _F1)
 #: The first call's seconds (compile or cache load) of each kernel, by `_kernel_name`.
 _COMPILE_SECONDS: dict[str, float] = {}

@@ -19,8 +19,10 @@ Arrays (all preallocated by the Python class, which grows them when a kernel ret
 - ``heap``: a max-heap of potential nodes by (relevance, then lower node id) for fixed-rate
   iFDD, or an unordered list (swap-remove) for random expansion.
 - ``ints``/``floats``: counters and settings, indexed by the ``I_*``/``F_*`` constants.
-- ``links (capacity, NUM_L)`` and ``pair_table``: the parent index of Algorithm 19's
-  activation (derived from ``feat_parents``, never saved; `link_children` adds new features).
+- ``links (capacity, NUM_L)``, ``children (4 capacity + 8, 2)`` and ``pair_table``: the
+  parent index of Algorithm 19's activation (derived from ``feat_parents``, never saved;
+  `link_children` adds new features). Feature p's children lie in one contiguous block of
+  ``children`` rows (child, its other parent), so walking them reads memory in order.
 - The activation cache (``centry`` rows, ``cpool`` ring) maps an initial active set to its
   sparsified φ̇ together with the feature count it was computed at.
 """
@@ -47,9 +49,9 @@ I_RANDOM_WORD = 10
 I_SPARSIFY = 11
 I_CACHE_WRITTEN = 12
 I_LINKED = 13
-I_EPOCH = 14
+I_CHILDREN_USED = 14
 #: the counters of the activation cache and the child lists: rebuilt on load, never saved
-TRANSIENT_INTS = slice(I_CACHE_WRITTEN, I_EPOCH + 1)
+TRANSIENT_INTS = slice(I_CACHE_WRITTEN, I_CHILDREN_USED + 1)
 NUM_INTS = 16
 # floats layout
 F_THRESHOLD = 0
@@ -63,14 +65,12 @@ SELECT_THRESHOLD = 0
 SELECT_RATE_RELEVANCE = 1
 SELECT_RATE_RANDOM = 2
 
-# columns of the parent index ``links``
-L_HEAD = 0
+# columns of the parent index ``links``: where a feature's block of children starts in
+# ``children``, how many it holds and how many rows the block has
+L_START = 0
 L_COUNT = 1
-L_STAMP = 2
-L_POS = 3
-L_NEXT = 4
-L_PARENT = 6
-NUM_L = 8
+L_CAPACITY = 2
+NUM_L = 3
 # activation cache row columns
 C_KEY = 0
 C_START = 1
@@ -310,7 +310,8 @@ def discover(active, td_error, words, pool, feat_start, feat_len, feat_parents, 
                 node = ints[I_NUM_NODES]
                 ints[I_NUM_NODES] = node + 1
                 start = ints[I_POOL_USED]
-                pool[start : start + m] = buf[:m]
+                for t in range(m):  # (loops, not slice assignments: see the module notes)
+                    pool[start + t] = buf[t]
                 ints[I_POOL_USED] = start + m
                 node_key[node] = key
                 node_start[node] = start
@@ -391,28 +392,22 @@ def _pair_slot(a, b, mask):
 
 
 @njit(cache=True)
-def link_children(feat_len, feat_parents, links, pair_table, ints):
+def link_children(feat_len, feat_parents, links, children, pair_table, ints):
     """Index the features discovered since the last call by their parents.
 
-    ``links[p, L_HEAD]`` starts p's child list: link ``2 f + side`` is feature f in the list
-    of its parent ``feat_parents[f, side]``, followed by ``links[f, L_NEXT + side]`` (-1
-    ends); ``links[p, L_COUNT]`` counts p's children. ``pair_table`` (open addressing) finds
-    the feature whose parents are a given pair. Features of one initial feature (ARiFDD's
-    split tiles) have no parents to index.
+    Feature f = g ∪ h is a row (f, h) in g's block of ``children`` and (f, g) in h's.
+    ``pair_table`` (open addressing) finds the feature whose parents are a given pair.
+    Features of one initial feature (ARiFDD's split tiles) have no parents to index.
     """
     n = ints[I_NUM_FEATURES]
     mask = pair_table.shape[0] - 1
     for f in range(ints[I_LINKED], n):
         if feat_len[f] < 2:
             continue
-        for side in range(2):
-            parent = feat_parents[f, side]
-            links[f, L_PARENT + side] = parent
-            links[f, L_NEXT + side] = links[parent, L_HEAD]
-            links[parent, L_HEAD] = 2 * f + side
-            links[parent, L_COUNT] += 1
         a = min(feat_parents[f, 0], feat_parents[f, 1])
         b = max(feat_parents[f, 0], feat_parents[f, 1])
+        _add_child(a, f, b, links, children, ints)
+        _add_child(b, f, a, links, children, ints)
         slot = _pair_slot(a, b, mask)
         while pair_table[slot, 0] != -1:
             slot = (slot + 1) & mask
@@ -420,6 +415,58 @@ def link_children(feat_len, feat_parents, links, pair_table, ints):
         pair_table[slot, 1] = a
         pair_table[slot, 2] = b
     ints[I_LINKED] = n
+
+
+@njit(cache=True, inline="always")
+def _add_child(parent, child, other, links, children, ints):
+    """Append the row (child, other) to parent's block, moving a full block to the end."""
+    count = links[parent, L_COUNT]
+    if count == links[parent, L_CAPACITY]:
+        _move_block(parent, max(4, 2 * count), links, children, ints)
+    row = links[parent, L_START] + count
+    children[row, 0] = child
+    children[row, 1] = other
+    links[parent, L_COUNT] = count + 1
+
+
+@njit(cache=True)
+def _move_block(parent, capacity, links, children, ints):
+    """Give parent's block ``capacity`` rows at the end of ``children`` (compacting if full).
+
+    The old rows become garbage until `_compact`. ``children`` holds 4 C + 8 rows for C
+    features: the live rows are two per feature (at most 2 C) and a block at most doubles
+    (at most 2 C more), so after compaction the block always fits.
+    """
+    if ints[I_CHILDREN_USED] + capacity > children.shape[0]:
+        _compact(links, children, ints)
+    start = ints[I_CHILDREN_USED]
+    old = links[parent, L_START]
+    for t in range(links[parent, L_COUNT]):
+        children[start + t, 0] = children[old + t, 0]
+        children[start + t, 1] = children[old + t, 1]
+    links[parent, L_START] = start
+    links[parent, L_CAPACITY] = capacity
+    ints[I_CHILDREN_USED] = start + capacity
+
+
+@njit(cache=True)
+def _compact(links, children, ints):
+    """Pack every block to its live rows, in feature order, dropping the garbage."""
+    live = np.empty((ints[I_CHILDREN_USED], 2), dtype=np.int64)
+    used = 0
+    for p in range(links.shape[0]):
+        old = links[p, L_START]
+        count = links[p, L_COUNT]
+        for t in range(count):
+            live[used + t, 0] = children[old + t, 0]
+            live[used + t, 1] = children[old + t, 1]
+        links[p, L_START] = used
+        links[p, L_CAPACITY] = count
+        used += count
+    for r in range(used):
+        children[r, 0] = live[r, 0]
+        children[r, 1] = live[r, 1]
+    ints[I_CHILDREN_USED] = used
 
 
 @njit(cache=True, inline="always")
@@ -437,69 +484,114 @@ def _pair_child(a, b, pair_table):
 
 
 @njit(cache=True)
-def _features_within(initial, links, pair_table, ints):
+def _features_within(initial, links, children, pair_table):
     """Every feature whose initial set lies within ``initial``, found from the parent index.
 
     A discovered feature f = g ∪ h lies within the set exactly when both parents do, so it is
-    found when the later found of its parents, at position x of the found list, is expanded:
-    either by walking that parent's children (keeping those whose other parent carries this
-    call's stamp) or by looking up its pairs with the x features found before it, whichever
-    is shorter. The cost is at most Θ(m²) for the m features found and never depends on n_t.
+    found when the first of its parents to be expanded, at position x of the found list, is
+    expanded with the other already found: either by walking that parent's block of children
+    (keeping those whose other parent is found) or by looking up its pairs with the x
+    features found before it, whichever is shorter. The cost is at most Θ(m²) for the m
+    features found and never depends on n_t; which features are found is looked up in a
+    small hash table local to the call (``slots``), so a walk reads ``children`` in order
+    and touches no per-feature memory.
 
     Returns the found features (the initial ones first) and their initial sets as bit sets
     over the positions in ``initial`` (row i is found[i]'s; ``words`` uint64 words a row).
     """
-    epoch = ints[I_EPOCH] + 1
-    ints[I_EPOCH] = epoch
     k = initial.shape[0]
     words = (k + 63) // 64
     capacity = max(16 * k, 64)
     found = np.empty(capacity, dtype=np.int64)
     sets = np.zeros((capacity, words), dtype=np.uint64)
+    slots = _empty_table(capacity)
     for i in range(k):
         found[i] = initial[i]
         sets[i, i // 64] = np.uint64(1) << np.uint64(i % 64)
-        links[initial[i], L_STAMP] = epoch
-        links[initial[i], L_POS] = i
+        _insert(slots, initial[i], i)
     m = k
     x = 0
     while x < m:
         parent = found[x]
-        if links[parent, L_COUNT] <= x:
-            link = links[parent, L_HEAD]
-            while link >= 0:
-                child = link >> 1
-                side = link & 1
-                other = links[child, L_PARENT + 1 - side]
-                if links[child, L_STAMP] != epoch and links[other, L_STAMP] == epoch:
-                    found, sets, m = _append(found, sets, m, child, x, links[other, L_POS],
-                                             links, epoch)  # fmt: skip
-                link = links[child, L_NEXT + side]
+        count = links[parent, L_COUNT]
+        if count <= x:
+            block = links[parent, L_START]
+            for row in range(block, block + count):
+                y = _position(slots, found, children[row, 1])
+                if y >= 0 and _position(slots, found, children[row, 0]) < 0:
+                    found, sets, slots, m = _append(found, sets, slots, m, children[row, 0],
+                                                    x, y)  # fmt: skip
         else:
             for y in range(x):
                 child = _pair_child(parent, found[y], pair_table)
-                if child >= 0 and links[child, L_STAMP] != epoch:
-                    found, sets, m = _append(found, sets, m, child, x, y, links, epoch)
+                if child >= 0 and _position(slots, found, child) < 0:
+                    found, sets, slots, m = _append(found, sets, slots, m, child, x, y)
         x += 1
     return found[:m], sets[:m]
 
 
 @njit(cache=True, inline="always")
-def _append(found, sets, m, feature, a, b, links, epoch):
+def _empty_table(capacity):
+    """An empty table for a found list of ``capacity``: a power of two, at most 1/4 full."""
+    size = 1
+    while size < 4 * capacity:
+        size *= 2
+    return np.full(size, -1, dtype=np.int64)
+
+
+@njit(cache=True, inline="always")
+def _slot(slots, feature):
+    """The first probe of ``feature`` in the found list's table (Fibonacci hashing)."""
+    z = np.uint64(feature) * np.uint64(0x9E3779B97F4A7C15)
+    return np.int64((z >> np.uint64(32)) & np.uint64(slots.shape[0] - 1))
+
+
+@njit(cache=True, inline="always")
+def _position(slots, found, feature):
+    """The position of ``feature`` in the found list, or -1 (linear probing)."""
+    mask = slots.shape[0] - 1
+    slot = _slot(slots, feature)
+    while slots[slot] >= 0:
+        if found[slots[slot]] == feature:
+            return slots[slot]
+        slot = (slot + 1) & mask
+    return -1
+
+
+@njit(cache=True, inline="always")
+def _insert(slots, feature, position):
+    """Record that ``feature`` is at ``position`` of the found list."""
+    mask = slots.shape[0] - 1
+    slot = _slot(slots, feature)
+    while slots[slot] >= 0:
+        slot = (slot + 1) & mask
+    slots[slot] = position
+
+
+@njit(cache=True, inline="always")
+def _append(found, sets, slots, m, feature, a, b):
     """Add ``feature``, the union of found[a] and found[b], at position m of the found list."""
     if m == found.shape[0]:
-        grown = np.empty(2 * m, dtype=np.int64)
-        grown[:m] = found
-        found = grown
-        grown_sets = np.zeros((2 * m, sets.shape[1]), dtype=np.uint64)
-        grown_sets[:m] = sets
-        sets = grown_sets
+        found, sets, slots = _grown(found, sets, m)
     found[m] = feature
     for w in range(sets.shape[1]):
         sets[m, w] = sets[a, w] | sets[b, w]
-    links[feature, L_STAMP] = epoch
-    links[feature, L_POS] = m
-    return found, sets, m + 1
+    _insert(slots, feature, m)
+    return found, sets, slots, m + 1
+
+
+@njit(cache=True)
+def _grown(found, sets, m):
+    """The found list, its bit sets and its table (at most half full) with twice the room."""
+    grown = np.empty(2 * m, dtype=np.int64)
+    grown_sets = np.zeros((2 * m, sets.shape[1]), dtype=np.uint64)
+    slots = _empty_table(2 * m)
+    for r in range(m):
+        grown[r] = found[r]
+        for w in range(sets.shape[1]):
+            grown_sets[r, w] = sets[r, w]
+        _insert(slots, found[r], r)
+    return grown, grown_sets, slots
 
 
 @njit(cache=True)
@@ -538,9 +630,9 @@ def _cover(k, found, sets, feat_len):
 
 
 @njit(cache=True)
-def _compute(initial, feat_len, feat_parents, links, pair_table, ints):
-    link_children(feat_len, feat_parents, links, pair_table, ints)
-    found, sets = _features_within(initial, links, pair_table, ints)
+def _compute(initial, feat_len, feat_parents, links, children, pair_table, ints):
+    link_children(feat_len, feat_parents, links, children, pair_table, ints)
+    found, sets = _features_within(initial, links, children, pair_table)
     if ints[I_SPARSIFY] == 0:
         return np.sort(found)
     return _cover(initial.shape[0], found, sets, feat_len)
@@ -602,8 +694,8 @@ def _remember(initial, key, n, phi, centry, cpool, ints):
 
 
 @njit(cache=True)
-def activate(initial, words, pool, feat_start, feat_len, feat_parents, links, pair_table, ints,
-             centry, cpool):  # fmt: skip
+def activate(initial, words, pool, feat_start, feat_len, feat_parents, links, children,
+             pair_table, ints, centry, cpool):  # fmt: skip
     """φ̇(s) from the sorted initial active features φ⁰(s) (Algorithm 19), cached per set.
 
     The cache is direct-mapped (row = key of φ⁰ modulo the rows) over a ring of cells: a
@@ -618,6 +710,6 @@ def activate(initial, words, pool, feat_start, feat_len, feat_parents, links, pa
     phi = _cached(initial, key, n, pool, feat_start, feat_len, centry, cpool, ints)
     if phi.shape[0]:
         return phi
-    phi = _compute(initial, feat_len, feat_parents, links, pair_table, ints)
+    phi = _compute(initial, feat_len, feat_parents, links, children, pair_table, ints)
     _remember(initial, key, n, phi, centry, cpool, ints)
     return phi

@@ -250,14 +250,14 @@ class OnlineIFDD(Representation):
         a = arrays
         capacity = a["feat_start"].shape[0]
         # the parent index, derived from feat_parents (filled lazily by the kernel)
-        links = np.full((capacity, _k.NUM_L), -1, dtype=np.int64)
-        links[:, _k.L_COUNT] = 0
-        links[:, _k.L_STAMP] = 0
+        links = np.zeros((capacity, _k.NUM_L), dtype=np.int64)
+        children = np.empty((4 * capacity + 8, 2), dtype=np.int64)
         pair_table = np.full((1 << int(2 * capacity - 1).bit_length(), 3), -1, dtype=np.int64)
         self._ints[_k.I_LINKED] = 0
+        self._ints[_k.I_CHILDREN_USED] = 0
         self._activate_args = (
             a["words"], a["pool"], a["feat_start"], a["feat_len"], a["feat_parents"], links,
-            pair_table, a["ints"], self._centry, self._cpool,
+            children, pair_table, a["ints"], self._centry, self._cpool,
         )  # fmt: skip
         self._discover_args = (
             a["words"], a["pool"], a["feat_start"], a["feat_len"], a["feat_parents"],
