@@ -487,47 +487,86 @@ def _pair_child(a, b, pair_table):
 def _features_within(initial, links, children, pair_table):
     """Every feature whose initial set lies within ``initial``, found from the parent index.
 
+    Returns the found features (the initial ones first) and their initial sets as bit sets
+    over the positions in ``initial`` (row i is found[i]'s; ``words`` uint64 words a row).
+    The found list starts with room for 16 k features and doubles (starting again) if full.
+    """
+    k = initial.shape[0]
+    words = (k + 63) // 64
+    capacity = max(16 * k, 64)
+    while True:
+        found = np.empty(capacity, dtype=np.int64)
+        sets = np.zeros((capacity, words), dtype=np.uint64)
+        slots = _empty_table(capacity)
+        m = _expand(initial, links, children, pair_table, found, sets, slots)
+        if m >= 0:
+            return found[:m], sets[:m]
+        capacity *= 2
+
+
+@njit(cache=True)
+def _expand(initial, links, children, pair_table, found, sets, slots):
+    """Fill the found list from ``initial``; return its length, or -1 if it does not fit.
+
     A discovered feature f = g ∪ h lies within the set exactly when both parents do, so it is
     found when the first of its parents to be expanded, at position x of the found list, is
     expanded with the other already found: either by walking that parent's block of children
     (keeping those whose other parent is found) or by looking up its pairs with the x
     features found before it, whichever is shorter. The cost is at most Θ(m²) for the m
-    features found and never depends on n_t; which features are found is looked up in a
-    small hash table local to the call (``slots``), so a walk reads ``children`` in order
+    features found and never depends on n_t; which features are found is looked up in
+    ``slots``, a small hash table local to the call, so a walk reads ``children`` in order
     and touches no per-feature memory.
 
-    Returns the found features (the initial ones first) and their initial sets as bit sets
-    over the positions in ``initial`` (row i is found[i]'s; ``words`` uint64 words a row).
+    Choice: the probes of ``slots`` are written out here rather than called: this is the
+    activation's hot loop, and a call that passes arrays costs more than the probe itself.
     """
     k = initial.shape[0]
-    words = (k + 63) // 64
-    capacity = max(16 * k, 64)
-    found = np.empty(capacity, dtype=np.int64)
-    sets = np.zeros((capacity, words), dtype=np.uint64)
-    slots = _empty_table(capacity)
+    mask = slots.shape[0] - 1
     for i in range(k):
         found[i] = initial[i]
         sets[i, i // 64] = np.uint64(1) << np.uint64(i % 64)
-        _insert(slots, initial[i], i)
+        slot = _slot(initial[i], mask)
+        while slots[slot] >= 0:
+            slot = (slot + 1) & mask
+        slots[slot] = i
     m = k
     x = 0
     while x < m:
         parent = found[x]
         count = links[parent, L_COUNT]
-        if count <= x:
-            block = links[parent, L_START]
-            for row in range(block, block + count):
-                y = _position(slots, found, children[row, 1])
-                if y >= 0 and _position(slots, found, children[row, 0]) < 0:
-                    found, sets, slots, m = _append(found, sets, slots, m, children[row, 0],
-                                                    x, y)  # fmt: skip
-        else:
-            for y in range(x):
+        block = links[parent, L_START]
+        walk = count <= x  # else look up the pairs with found[:x]
+        for i in range(count if walk else x):
+            if walk:  # y: the position of the other parent, if found
+                child, other = children[block + i, 0], children[block + i, 1]
+                y = -1
+                slot = _slot(other, mask)
+                while slots[slot] >= 0:
+                    if found[slots[slot]] == other:
+                        y = slots[slot]
+                        break
+                    slot = (slot + 1) & mask
+                if y < 0:
+                    continue
+            else:
+                y = i
                 child = _pair_child(parent, found[y], pair_table)
-                if child >= 0 and _position(slots, found, child) < 0:
-                    found, sets, slots, m = _append(found, sets, slots, m, child, x, y)
+                if child < 0:
+                    continue
+            slot = _slot(child, mask)  # found already (through its other parent)?
+            while slots[slot] >= 0 and found[slots[slot]] != child:
+                slot = (slot + 1) & mask
+            if slots[slot] >= 0:
+                continue
+            if m == found.shape[0]:
+                return -1
+            found[m] = child
+            for w in range(sets.shape[1]):
+                sets[m, w] = sets[x, w] | sets[y, w]
+            slots[slot] = m  # the free slot the probe stopped at
+            m += 1
         x += 1
-    return found[:m], sets[:m]
+    return m
 
 
 @njit(cache=True, inline="always")
@@ -540,58 +579,10 @@ def _empty_table(capacity):
 
 
 @njit(cache=True, inline="always")
-def _slot(slots, feature):
+def _slot(feature, mask):
     """The first probe of ``feature`` in the found list's table (Fibonacci hashing)."""
     z = np.uint64(feature) * np.uint64(0x9E3779B97F4A7C15)
-    return np.int64((z >> np.uint64(32)) & np.uint64(slots.shape[0] - 1))
-
-
-@njit(cache=True, inline="always")
-def _position(slots, found, feature):
-    """The position of ``feature`` in the found list, or -1 (linear probing)."""
-    mask = slots.shape[0] - 1
-    slot = _slot(slots, feature)
-    while slots[slot] >= 0:
-        if found[slots[slot]] == feature:
-            return slots[slot]
-        slot = (slot + 1) & mask
-    return -1
-
-
-@njit(cache=True, inline="always")
-def _insert(slots, feature, position):
-    """Record that ``feature`` is at ``position`` of the found list."""
-    mask = slots.shape[0] - 1
-    slot = _slot(slots, feature)
-    while slots[slot] >= 0:
-        slot = (slot + 1) & mask
-    slots[slot] = position
-
-
-@njit(cache=True, inline="always")
-def _append(found, sets, slots, m, feature, a, b):
-    """Add ``feature``, the union of found[a] and found[b], at position m of the found list."""
-    if m == found.shape[0]:
-        found, sets, slots = _grown(found, sets, m)
-    found[m] = feature
-    for w in range(sets.shape[1]):
-        sets[m, w] = sets[a, w] | sets[b, w]
-    _insert(slots, feature, m)
-    return found, sets, slots, m + 1
-
-
-@njit(cache=True)
-def _grown(found, sets, m):
-    """The found list, its bit sets and its table (at most half full) with twice the room."""
-    grown = np.empty(2 * m, dtype=np.int64)
-    grown_sets = np.zeros((2 * m, sets.shape[1]), dtype=np.uint64)
-    slots = _empty_table(2 * m)
-    for r in range(m):
-        grown[r] = found[r]
-        for w in range(sets.shape[1]):
-            grown_sets[r, w] = sets[r, w]
-        _insert(slots, found[r], r)
-    return grown, grown_sets, slots
+    return np.int64((z >> np.uint64(32)) & np.uint64(mask))
 
 
 @njit(cache=True)
