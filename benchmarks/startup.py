@@ -9,6 +9,8 @@ seconds and CPU seconds (user + system: less sensitive to other processes on the
 
 - ``conjure --help`` (``python -m conjure.cli --help``; target under 0.5 s, issue 11);
 - ``import conjure`` (which must load no pandas, matplotlib or scipy.stats);
+- numba alone, importing it and compiling one trivial function: the floor under any run that
+  calls a compiled kernel (LLVM's own memory);
 - one BlocksWorld run of the ``ifdd_plus`` agent of ``examples/blocksworld.yaml`` (seed 100,
   its 100,000 steps and policy checks; target at most RLPy's peak, about 175 MiB) as a
   ``conjure run`` worker does it: the config is resolved here and the child runs
@@ -49,6 +51,11 @@ RESOLVE = (
 COMMANDS = {
     "conjure --help": [sys.executable, "-m", "conjure.cli", "--help"],
     "import conjure": [sys.executable, "-c", "import conjure"],
+    "numba alone: import, compile one x + 1": [
+        sys.executable,
+        "-c",
+        "import numba\nassert numba.njit(lambda x: x + 1)(1) == 2",
+    ],
     "BlocksWorld iFDD+ run (1e5 steps)": [sys.executable, "-c", ONE_RUN],
 }
 
