@@ -71,8 +71,12 @@ from conjure.representations import (
 
 __all__ = ["Combination", "pack_combination"]
 
-_INT_EMPTY = np.zeros((0, 0), dtype=np.int64)
-_FLOAT_EMPTY = np.zeros((0, 0))
+#: Empty stand-ins for the kernels' unused array arguments: numba types an array by its dtype
+#: and dimensions, so one compilation serves every combination.
+EMPTY_INTS = np.zeros(0, dtype=np.int64)
+EMPTY_INT_TABLE = np.zeros((0, 0), dtype=np.int64)
+EMPTY_FLOATS = np.zeros(0)
+EMPTY_FLOAT_TABLE = np.zeros((0, 0))
 
 
 @dataclass
@@ -120,7 +124,7 @@ def _pendulum(domain: InvertedPendulum) -> tuple:
     def write(d: InvertedPendulum, state: np.ndarray) -> None:
         d._theta, d._theta_dot = float(state[0]), float(state[1])
 
-    return k.PENDULUM, (dparams, _INT_EMPTY, _FLOAT_EMPTY), read, write
+    return k.PENDULUM, (dparams, EMPTY_INT_TABLE, EMPTY_FLOAT_TABLE), read, write
 
 
 def _gridworld(domain: GridWorld) -> tuple:
@@ -158,7 +162,7 @@ def _chain(domain: ChainMDP) -> tuple:
     def write(d: ChainMDP, state: np.ndarray) -> None:
         d._state = int(state[0])
 
-    return k.CHAIN, (dparams, _INT_EMPTY, _FLOAT_EMPTY), read, write
+    return k.CHAIN, (dparams, EMPTY_INT_TABLE, EMPTY_FLOAT_TABLE), read, write
 
 
 def _blocks(domain: BlocksWorld) -> tuple:
@@ -173,7 +177,7 @@ def _blocks(domain: BlocksWorld) -> tuple:
         d._on = [int(x) for x in state[n * n : n * n + n]]
         d._above = [int(x) for x in state[n * n + n :]]
 
-    return ak.BLOCKS, (dparams, _INT_EMPTY, _FLOAT_EMPTY), read, write
+    return ak.BLOCKS, (dparams, EMPTY_INT_TABLE, EMPTY_FLOAT_TABLE), read, write
 
 
 def _persistent_surveillance(domain: PersistentSurveillance) -> tuple:
@@ -186,7 +190,7 @@ def _persistent_surveillance(domain: PersistentSurveillance) -> tuple:
         d._state[:] = state
         pst_fill_legal_mask(d._state, d._n, d._mask)
 
-    return ak.PERSISTENT_SURVEILLANCE, (dparams, _INT_EMPTY, _FLOAT_EMPTY), read, write
+    return ak.PERSISTENT_SURVEILLANCE, (dparams, EMPTY_INT_TABLE, EMPTY_FLOAT_TABLE), read, write
 
 
 def _rescue(domain: RescueMission) -> tuple:
@@ -242,32 +246,34 @@ _CONSTRAINED = (ak.BLOCKS, ak.PERSISTENT_SURVEILLANCE, ak.RESCUE, ak.UAV_MISSION
 # Representations
 
 
+def _tables(
+    dims: np.ndarray = EMPTY_FLOAT_TABLE,
+    layout: np.ndarray = EMPTY_INT_TABLE,
+    groups: np.ndarray = EMPTY_INT_TABLE,
+    vector: np.ndarray = EMPTY_INTS,
+    hash_table: np.ndarray = EMPTY_INT_TABLE,
+    hash_counts: np.ndarray = EMPTY_INTS,
+    rbf: tuple[np.ndarray, np.ndarray] | None = None,
+) -> tuple:
+    """The representation tuple `conjure.compiled._kernels.encode` reads; unused parts empty."""
+    return (dims, layout, groups, vector, hash_table, hash_counts, rbf)
+
+
 def _representation(rep: Any) -> tuple[int, int, int, tuple[np.ndarray, ...]] | None:
     """(code, number of tilings, most active features, arrays), or None if not compiled."""
-    empty_vec = np.zeros(0, dtype=np.int64)
     kind = type(rep)
     if kind is TileCoding:
-        if rep._is_hashed:
-            code, htable, hcounts = k.HASHED_TILES, rep._hash_table, rep._hash_counts
-        else:
-            code, htable, hcounts = k.TILES, _INT_EMPTY, empty_vec
-        arrays = (rep._dims, rep._layout, rep._group_table, empty_vec, htable, hcounts, None)
+        code = k.HASHED_TILES if rep._is_hashed else k.TILES
+        hashed = (rep._hash_table, rep._hash_counts) if rep._is_hashed else ()
+        arrays = _tables(rep._dims, rep._layout, rep._group_table, EMPTY_INTS, *hashed)
         return code, rep._num_tilings, rep.num_active_, arrays
     if kind is Tabular:
-        return (
-            k.TABULAR,
-            0,
-            1,
-            (rep._dims, _INT_EMPTY, _INT_EMPTY, rep._strides, _INT_EMPTY, empty_vec, None),
-        )
+        return k.TABULAR, 0, 1, _tables(rep._dims, vector=rep._strides)
     if kind is IndependentDiscretization:
-        arrays = (rep._dims, _INT_EMPTY, _INT_EMPTY, rep.offsets_, _INT_EMPTY, empty_vec, None)
-        return k.INDEPENDENT, 0, rep.offsets_.shape[0], arrays
+        return k.INDEPENDENT, 0, rep.offsets_.shape[0], _tables(rep._dims, vector=rep.offsets_)
     if kind is RBF:  # φ(s) lists every feature (a writable copy of `encode`'s indices)
         rbf = (rep._affine, rep._scaled_centers)
-        indices = rep._indices.copy()
-        arrays = (_FLOAT_EMPTY, _INT_EMPTY, _INT_EMPTY, indices, _INT_EMPTY, empty_vec, rbf)
-        return k.RBF, 0, rep.num_features_, arrays
+        return k.RBF, 0, rep.num_features_, _tables(vector=rep._indices.copy(), rbf=rbf)
     return None
 
 
@@ -281,9 +287,7 @@ def _adaptive_representation(
     is_ifdd = type(rep) is OnlineIFDD
     base = rep.base_ if is_ifdd else rep
     if is_constrained and type(base) is BinaryIndicators:
-        empty_vec = np.zeros(0, dtype=np.int64)
-        arrays = (_FLOAT_EMPTY, _INT_EMPTY, _INT_EMPTY, empty_vec, _INT_EMPTY, empty_vec, None)
-        return ak.INDICATORS, 0, 0, arrays
+        return ak.INDICATORS, 0, 0, _tables()
     if is_constrained and type(base) is not IndependentDiscretization:
         return None
     return _representation(base) if is_ifdd or is_constrained else None

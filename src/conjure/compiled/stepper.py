@@ -43,7 +43,14 @@ from numba.core import types
 
 from conjure.compiled import _adaptive_kernel as ak
 from conjure.compiled import _kernels as k
-from conjure.compiled.combination import Combination, pack_combination
+from conjure.compiled.combination import (
+    EMPTY_FLOAT_TABLE,
+    EMPTY_FLOATS,
+    EMPTY_INT_TABLE,
+    EMPTY_INTS,
+    Combination,
+    pack_combination,
+)
 from conjure.core.errors import DivergenceError, InvalidParameterError
 from conjure.core.interfaces import Agent, Domain
 from conjure.representations._ifdd_kernels import I_NUM_FEATURES
@@ -58,12 +65,9 @@ __all__ = [
     "warm_up",
 ]
 
-_EMPTY_SLOTS = np.zeros((0, 0), dtype=np.int64)
-_EMPTY_INTS = np.zeros(0, dtype=np.int64)
-_EMPTY_FLOATS = np.zeros(0)
 #: Stand-ins of `OnlineIFDD`'s `activate` and `discover` argument tuples (same types) for
 #: the indicators alone, so both run in one compilation of the adaptive kernel.
-_I1, _I2, _F1, _F2 = (np.zeros((0,) * d, t) for t in (np.int64, np.float64) for d in (1, 2))
+_I1, _I2, _F1, _F2 = EMPTY_INTS, EMPTY_INT_TABLE, EMPTY_FLOATS, EMPTY_FLOAT_TABLE
 _NO_ACTIVATE = (_I1, _I1, _I1, _I1, _I2, _I2, _I2, _I2, _I1, _I2, _I1)
 _NO_DISCOVER = (_I1, _I1, _I1, _I1, _I2, _I1, _I1, _I1, _I1, _I2, _F2, _I1, _I1, _I1, _I1, _F1)
 #: The first call's seconds (compile or cache load) of each kernel, by `_kernel_name`.
@@ -209,7 +213,7 @@ def _call_kernel(
     """One call of the combination's kernel with the agent's current arrays (they may grow)."""
     if combo.is_adaptive:
         kernel, buffers, middle = ak.adaptive_kernel, *_adaptive_arguments(combo, agent)
-        states = (_EMPTY_INTS, dstate) if dstate.dtype == np.float64 else (dstate, _EMPTY_FLOATS)
+        states = (EMPTY_INTS, dstate) if dstate.dtype == np.float64 else (dstate, EMPTY_FLOATS)
         middle = (*combo.domain_arrays, *states, domain.np_random, *middle)
     else:
         kernel, buffers, middle = k.advance_kernel, None, _fixed_arguments(combo, agent)
@@ -264,7 +268,7 @@ def _actor(combo: Combination, agent: Agent) -> np.ndarray:
 def _traces(combo: Combination, agent: Agent, slots: np.ndarray | None = None) -> tuple:
     """The sparse trace arguments (``slots`` replaces ``trace_slots_``), or stand-ins."""
     if combo.ints[k.I_TRACES] == k.NO_TRACES:
-        return (_EMPTY_SLOTS, _EMPTY_INTS, _EMPTY_INTS, _EMPTY_FLOATS, _EMPTY_INTS)
+        return (EMPTY_INT_TABLE, EMPTY_INTS, EMPTY_INTS, EMPTY_FLOATS, EMPTY_INTS)
     return (
         agent.trace_slots_ if slots is None else slots,
         agent.trace_features_,
@@ -289,8 +293,8 @@ def _adaptive_arguments(combo: Combination, agent: Agent) -> tuple:
     weights = _row_buffer(agent.weights_, capacity)
     actor = _actor(combo, agent)
     actor = weights if actor is agent.weights_ else _row_buffer(actor, capacity)
-    traces = _traces(combo, agent)
-    slots = None if traces[0] is _EMPTY_SLOTS else _row_buffer(traces[0], capacity)
+    has_traces = combo.ints[k.I_TRACES] != k.NO_TRACES
+    slots = _row_buffer(agent.trace_slots_, capacity) if has_traces else None
     traces = _traces(combo, agent, slots)
     tables = (rep._activate_args, rep._discover_args, weights, actor, *traces)
     return (weights, actor, slots), (base, *tables)
