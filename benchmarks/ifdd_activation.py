@@ -1,0 +1,108 @@
+"""Where online iFDD's activation spends its time as features grow (Algorithm 19).
+
+Usage: ``python benchmarks/ifdd_activation.py [--states N]``
+
+On Persistent Surveillance with one indicator per state value (k_0 = 12 active), SARSA +
+OnlineIFDD is run to 100 and to 10,000 discovered features by ``ifdd_speed.py``'s `loop_at`
+(ξ = 0, ``max_features`` caps the count, 2,000 more steps), then:
+
+- ``live``: N more learning steps with every ``activate`` call timed (``perf_counter_ns``),
+  split into cache hits and misses (a miss writes the activation cache);
+- ``recorded``: the N initial active sets those steps saw, each passed again to
+  ``_features_within`` (the search a miss runs), reporting µs per call, the median number m
+  of features found within a set, and the child rows a miss walks (a parent's block is
+  walked when it holds at most x rows, x its position in the found list; else x pairs are
+  looked up).
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import time
+
+import numpy as np
+from ifdd_speed import loop_at  # this folder: the growth benchmark's loops
+from rich.console import Console
+from rich.table import Table
+
+from conjure.domains import PersistentSurveillance
+from conjure.experiments.loop import LearningLoop
+from conjure.representations import IndependentDiscretization
+from conjure.representations import _ifdd_kernels as kernels
+
+
+def live(loop: LearningLoop, steps: int) -> tuple[list[np.ndarray], dict[str, list[float]]]:
+    """The initial sets of ``steps`` learning steps, and their activations' µs by hit/miss."""
+    rep = loop.agent.representation_
+    ints = rep._ints
+    encode, activate = rep._encode_base, kernels.activate
+    sets: list[np.ndarray] = []
+    times: dict[str, list[float]] = {"hit": [], "miss": []}
+
+    def recorded(state: np.ndarray) -> np.ndarray:
+        sets.append(encode(state).copy())
+        return sets[-1]
+
+    def timed(*args):
+        written = int(ints[kernels.I_CACHE_WRITTEN])
+        start = time.perf_counter_ns()
+        phi = activate(*args)
+        elapsed = (time.perf_counter_ns() - start) / 1e3
+        times["miss" if ints[kernels.I_CACHE_WRITTEN] != written else "hit"].append(elapsed)
+        return phi
+
+    rep._encode_base, kernels.activate = recorded, timed
+    try:
+        loop.advance(steps)
+    finally:
+        rep._encode_base, kernels.activate = encode, activate
+    return sets, times
+
+
+def rows_walked(found: np.ndarray, links: np.ndarray) -> int:
+    """Child rows the search walks for one found list (its pair lookups are not counted)."""
+    counts = links[found, kernels.L_COUNT]
+    return int(counts[counts <= np.arange(found.shape[0])].sum())
+
+
+def recorded(loop: LearningLoop, sets: list[np.ndarray]) -> tuple[float, float, float]:
+    """(µs per `_features_within` call, median m, median child rows walked) over ``sets``."""
+    args = loop.agent.representation_._activate_args
+    links, children, pair_table = args[5], args[6], args[7]
+    found = [kernels._features_within(s, links, children, pair_table)[0] for s in sets]
+    start = time.process_time()
+    for s in sets:
+        kernels._features_within(s, links, children, pair_table)
+    seconds = time.process_time() - start
+    walked = [rows_walked(f, links) for f in found]
+    sizes = [f.shape[0] for f in found]
+    return seconds / len(sets) * 1e6, statistics.median(sizes), statistics.median(walked)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--states", type=int, default=3_000)
+    args = parser.parse_args()
+    table = Table(title="OnlineIFDD activation on PersistentSurveillance (k_0 = 12)")
+    for name in ("discovered", "hits", "µs/hit", "misses", "µs/miss", "m", "rows", "µs/search"):
+        table.add_column(name, justify="right")
+    for num in (100, 10_000):
+        loop, _ = loop_at(PersistentSurveillance, IndependentDiscretization(), num)
+        sets, times = live(loop, args.states)
+        search, size, walked = recorded(loop, sets)
+        table.add_row(
+            f"{num:,}",
+            f"{len(times['hit']):,}",
+            f"{statistics.median(times['hit']):.2f}",
+            f"{len(times['miss']):,}",
+            f"{statistics.median(times['miss']):.2f}",
+            f"{size:.0f}",
+            f"{walked:.0f}",
+            f"{search:.2f}",
+        )
+    Console().print(table)
+
+
+if __name__ == "__main__":
+    main()
