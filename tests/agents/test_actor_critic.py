@@ -3,6 +3,7 @@ import pytest
 
 from conjure.agents import ActorCritic
 from conjure.core import Transition
+from conjure.core.errors import IncompatibleComponentsError
 from conjure.domains import ChainMDP, InvertedPendulum
 from conjure.policies import Gibbs
 from conjure.representations import RBF, IndependentDiscretization, Tabular
@@ -20,6 +21,41 @@ def test_one_update_moves_critic_and_actor_by_alpha_delta():
     assert agent.q_values(s)[0] == pytest.approx(0.5)  # θ += α δ φ(s, a), line 8
     assert agent.preferences(s)[0] == pytest.approx(0.25)  # ω += α δ ψ(s, a), line 9
     assert agent.preferences(s)[1] == 0.0
+
+
+def test_the_state_value_critic_moves_v_and_the_actor_by_the_advantage():
+    # critic "v" (Sutton & Barto 1998, Section 6.6): δ = r + γV(s') − V(s); θ_s += αδ and
+    # ρ(s, a) += α'δ for the action taken only.
+    domain = ChainMDP(num_states=4, num_actions=2)
+    agent = ActorCritic(representation=Tabular(), step_size=0.5, actor_step_size=0.25, critic="v")
+    agent.setup(domain.domain_spec, seed=0)
+    agent.begin_episode()
+    s, s_next = np.array([1.0]), np.array([2.0])
+    agent.weights_[2, 0] = 2.0  # V(s') = 2
+    delta = agent.learn(Transition(s, 1, 1.0, s_next, 0, False))
+    gamma = domain.domain_spec.discount
+    assert delta == pytest.approx(1.0 + gamma * 2.0)
+    assert agent.weights_.shape == (4, 1)
+    assert agent.weights_[1, 0] == pytest.approx(0.5 * delta)
+    assert agent.preferences(s).tolist() == pytest.approx([0.0, 0.25 * delta])
+    # The next visit sees V(s) already raised: δ shrinks (an advantage, not a value).
+    second = agent.learn(Transition(s, 1, 1.0, s_next, 0, False))
+    assert second == pytest.approx(delta * 0.5)
+    with pytest.raises(IncompatibleComponentsError, match="critic='v'"):
+        agent.q_values(s)
+
+
+def test_the_state_value_actor_critic_saves_restores_and_learns_the_chain(tmp_path):
+    domain = ChainMDP(num_states=4, num_actions=2)
+    agent = ActorCritic(representation=Tabular(), step_size=0.2, critic="v")
+    agent.setup(domain.domain_spec, seed=1)
+    _rollout(domain, agent, 3000, seed=1)
+    for s in range(3):
+        assert agent.act(np.array([float(s)]), greedy=True) == 0  # moving right pays
+    agent.save(tmp_path / "agent")
+    restored = ActorCritic.restore(tmp_path / "agent")
+    np.testing.assert_array_equal(restored.weights_, agent.weights_)
+    np.testing.assert_array_equal(restored.actor_weights_, agent.actor_weights_)
 
 
 def test_actor_learns_to_prefer_moving_right():

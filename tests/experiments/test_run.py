@@ -191,6 +191,10 @@ def test_safety_metrics_failures_failure_rate_and_optimality():
     # Greedy return -(6 - start) for starts 0..2, scaled between worst -15 and best -4.
     np.testing.assert_allclose(curve["optimality"], (curve["return"] + 15.0) / 11.0)
     assert curve["optimality"].between(9 / 11, 1.0).all()
+    assert curve["value_ratio"].isna().all()  # V* = −4 ≤ 0: no fraction of the optimum
+
+    above = fake_run(num_policy_checks=4, domain_params={"wall_cost": True, "bounds": (-15, 8)})
+    np.testing.assert_allclose(above.curve["value_ratio"], above.curve["return"] / 8.0)
 
     lefty = fake_run(eval_episodes=3, agent_params={"greedy_action": 0}, domain_params=walls)
     assert lefty.curve["failure_rate"].eq(1.0).all()
@@ -199,6 +203,7 @@ def test_safety_metrics_failures_failure_rate_and_optimality():
 
 def test_optimality_is_nan_without_value_bounds_and_bad_bounds_are_refused():
     assert fake_run().curve["optimality"].isna().all()
+    assert fake_run().curve["value_ratio"].isna().all()
     assert fake_run().curve["learning_failures"].eq(0).all()
     with pytest.raises(InvalidParameterError, match="value_bounds"):
         fake_run(domain_params={"bounds": (1.0, 1.0)})

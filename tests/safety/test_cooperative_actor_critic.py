@@ -13,7 +13,7 @@ START = cell(0, 0)  # the 4x5 map's start; the planner heads down (1)
 PLANNER_ACTION = 1
 
 
-def icca(risk_value=0.0, bias=100.0, seed=0):
+def icca(risk_value=0.0, bias=100.0, seed=0, bias_half_life=None):
     domain = GridWorld(map_name="4x5", noise=0.0)
     agent = CooperativeActorCritic(
         learner=ActorCritic(representation=Tabular()),
@@ -21,6 +21,7 @@ def icca(risk_value=0.0, bias=100.0, seed=0):
         risk=FixedRiskAnalyzer(value=risk_value),
         model=gridworld_model(),
         bias=bias,
+        bias_half_life=bias_half_life,
     )
     return agent.setup(domain.domain_spec, seed=seed)
 
@@ -32,7 +33,19 @@ def test_the_planners_action_is_biased_by_lambda_on_the_first_visit_only():
     assert agent.learner_.preferences(START).tolist() == [0.0, 100.0, 0.0, 0.0]
     agent.act(START)
     assert agent.learner_.preferences(START).tolist() == [0.0, 100.0, 0.0, 0.0]
-    assert agent.visited_.sum() == 1
+    assert np.count_nonzero(agent.visits_) == 1
+
+
+def test_a_fading_bias_leaves_lambda_nb_over_nb_plus_n_after_n_visits():
+    agent = icca(bias=10.0, bias_half_life=4.0)
+    for n in range(1, 30):
+        agent.act(START)
+        # b(n − 1) after the n-th visit: λ on the first, then λ·N_b/(N_b + n − 1).
+        expected = 10.0 * 4.0 / (4.0 + n - 1)
+        assert agent.learner_.preferences(START)[PLANNER_ACTION] == pytest.approx(expected)
+        assert agent.planner_bias(n - 1) == pytest.approx(expected)
+    assert agent.visits_.max() == 29
+    assert agent.learner_.preferences(START)[[0, 2, 3]].tolist() == [0.0, 0.0, 0.0]
 
 
 def test_an_unsafe_learner_action_is_replaced_and_penalised_by_lambda():
@@ -53,7 +66,7 @@ def test_an_unsafe_learner_action_is_replaced_and_penalised_by_lambda():
 def test_greedy_acting_treats_unvisited_states_as_biased_and_replaces_unsafe_actions():
     agent = icca(bias=100.0)
     assert agent.act(START, greedy=True) == PLANNER_ACTION
-    assert agent.visited_.sum() == 0  # nothing recorded
+    assert agent.visits_.sum() == 0  # nothing recorded
     agent.learner_.shift_preference(START, 3, 1000.0)  # the actor now prefers right
     assert agent.act(START, greedy=True) == 3
     unsafe = icca(risk_value=1.0)
@@ -153,7 +166,7 @@ def test_the_tabular_actor_is_the_critic_plus_the_bias_so_lambda_100_never_yield
         np.array([r, c], dtype=float)
         for r in range(10)
         for c in range(7)
-        if agent.visited_[agent.state_row(np.array([r, c], dtype=float), store=False)]
+        if agent.visits_[agent.state_row(np.array([r, c], dtype=float), store=False)]
     ]
     assert len(visited) > 20
     for state in visited:

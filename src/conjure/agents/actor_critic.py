@@ -6,6 +6,7 @@ import numpy as np
 
 from conjure.agents import _kernels, persistence
 from conjure.agents.linear_td import STEP_SIZE, LinearTDAgent, make_schedule
+from conjure.core.errors import IncompatibleComponentsError
 from conjure.core.interfaces import (
     DomainSpec,
     Expansion,
@@ -15,7 +16,7 @@ from conjure.core.interfaces import (
     Transition,
     check_is_set_up,
 )
-from conjure.core.params import InstanceOf
+from conjure.core.params import InstanceOf, Options
 from conjure.core.schedules import StepSizeSchedule
 from conjure.policies import Gibbs, greedy_action
 from conjure.representations.weights import grow_weights
@@ -24,7 +25,7 @@ __all__ = ["ActorCritic"]
 
 
 class ActorCritic(LinearTDAgent):
-    """A Gibbs actor over preferences ρ = ωᵀψ(s, a) with a SARSA-style critic (Algorithm 12).
+    """A Gibbs actor over preferences ρ = ωᵀψ(s, a) with a TD critic (Algorithm 12).
 
     Parameters
     ----------
@@ -41,10 +42,16 @@ class ActorCritic(LinearTDAgent):
         The actor's α (line 9); ``None`` means the same schedule as the critic.
     initial_weight : float, default 0.0
         The initial value of both θ and ω.
+    critic : {"q", "v"}, default "q"
+        What the critic estimates. ``"q"``: Q(s, a) = θᵀφ(s, a) with Algorithm 12's on-policy
+        TD error δ = r + γQ(s', a') − Q(s, a) (lines 6-7). ``"v"``: V(s) = θᵀφ(s) with
+        δ = r + γV(s') − V(s), the actor-critic of Sutton & Barto (1998, Section 6.6), whose δ
+        estimates the advantage of the action taken. The actor's update, ω += αδψ(s, a)
+        (line 9), is the same for both.
 
     Attributes
     ----------
-    weights_ : ndarray of shape (n_features, n_actions)
+    weights_ : ndarray of shape (n_features, n_actions), or (n_features, 1) for critic "v"
         The critic's θ.
     actor_weights_ : ndarray of shape (m_features, n_actions)
         The actor's ω.
@@ -60,6 +67,12 @@ class ActorCritic(LinearTDAgent):
     - Choice: the greedy action for policy checks maximises the actor's preferences, as the
       thesis evaluated actor-critic learners (Section 5.3.5).
     - Choice: with an adaptive critic representation only the critic discovers features.
+    - With ``critic="q"``, a tabular actor sharing the critic's features and step size stays
+      equal to the critic plus its initial preferences (both get αδ on the same (s, a)), so
+      the actor is a softmax over Q. With ``critic="v"`` the actor accumulates the TD errors
+      of each action against V(s), so an action's preference grows only if it did better than
+      the state's average: what lets a biased actor leave a suboptimal prior policy
+      (`conjure.safety.CooperativeActorCritic`).
 
     Complexity
     ----------
@@ -82,6 +95,7 @@ class ActorCritic(LinearTDAgent):
             (Representation, type(None)), "a Representation or None"
         ),
         "actor_step_size": STEP_SIZE | InstanceOf(type(None)),
+        "critic": Options(("q", "v")),
     }
     default_policy = Gibbs
     expected_check_failures = {
@@ -98,6 +112,7 @@ class ActorCritic(LinearTDAgent):
         step_size: float | StepSizeSchedule = 0.1,
         actor_step_size: float | StepSizeSchedule | None = None,
         initial_weight: float = 0.0,
+        critic: str = "q",
     ):
         self.representation = representation
         self.actor_representation = actor_representation
@@ -105,10 +120,14 @@ class ActorCritic(LinearTDAgent):
         self.step_size = step_size
         self.actor_step_size = actor_step_size
         self.initial_weight = initial_weight
+        self.critic = critic
 
     def setup(self, spec: DomainSpec, seed: int | np.random.SeedSequence) -> ActorCritic:
-        """Set up the critic as `LinearTDAgent.setup`, then the actor's features and ω."""
+        """Set up the critic as `LinearTDAgent.setup` (one column for V), then the actor's ω."""
         super().setup(spec, seed)
+        self._is_state_value = self.critic == "v"
+        if self._is_state_value:
+            self.weights_ = self.weights_[:, :1].copy()
         self._is_shared = self.actor_representation is None
         if self._is_shared:
             self.actor_representation_ = self.representation_
@@ -137,6 +156,16 @@ class ActorCritic(LinearTDAgent):
         self._remember(state, psi, None)
         return int(self.policy_.select(preferences, self.rng_, legal))
 
+    def q_values(self, state: np.ndarray) -> np.ndarray:
+        """Return the critic's Q(s, ·); critic "v" has none (its V(s) is ``weights_`` · φ(s))."""
+        check_is_set_up(self, "q_values")
+        if self._is_state_value:
+            raise IncompatibleComponentsError(
+                "ActorCritic(critic='v') learns V(s), not Q(s, ·); its actor's values are "
+                "preferences(s)."
+            )
+        return super().q_values(state)
+
     def preferences(self, state: np.ndarray) -> np.ndarray:
         """Return ρ(s, ·) = ωᵀψ(s, ·) (Eq. 2.33)."""
         check_is_set_up(self, "preferences")
@@ -163,7 +192,8 @@ class ActorCritic(LinearTDAgent):
         if not transition.terminated:
             target += self.discount_ * self._bootstrap(transition)  # line 6: Q⁺(s, a)
         step_size = self._step_size(self.schedule_, phi)
-        delta = self._update(phi, transition.action, target, step_size)  # lines 7-8
+        column = 0 if self._is_state_value else transition.action
+        delta = self._update(phi, column, target, step_size)  # lines 7-8
         if np.isfinite(delta):
             actor_step = self._step_size(self.actor_schedule_, psi)
             _kernels.add(self.actor_weights_, psi[0], psi[1], transition.action, actor_step * delta)
@@ -177,7 +207,7 @@ class ActorCritic(LinearTDAgent):
             else self._encode(transition.next_state)
         )
         q_next = _kernels.q_values(self.weights_, next_phi[0], next_phi[1])
-        return float(q_next[transition.next_action])
+        return float(q_next[0 if self._is_state_value else transition.next_action])
 
     def _actor_features(self, state: np.ndarray) -> SparseFeatures:
         """ψ(s), from the act cache when possible."""

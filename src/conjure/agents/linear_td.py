@@ -261,7 +261,7 @@ class LinearTDAgent(Agent):
         self.rng_ = rng_from_state(state["rng"])
         self._encode = self.representation_.encode
         self.weights_ = saved.array(
-            "weights", (self.representation_.num_features_, self.spec_.num_actions)
+            "weights", (self.representation_.num_features_, self.weights_.shape[1])
         )
         self._forget_cache()
 

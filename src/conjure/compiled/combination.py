@@ -326,7 +326,7 @@ def _agent(agent: Agent) -> tuple[int, int, float, float, tuple | None] | None:
         return k.SARSA, traces, agent._trace_factor, float(agent.min_trace), None
     if kind is QLearning:
         return k.Q_LEARNING, k.NO_TRACES, 0.0, 0.0, None
-    if kind is ActorCritic and agent._is_shared:
+    if kind is ActorCritic and agent._is_shared and agent.critic == "q":
         actor = _schedule(agent.actor_schedule_)
         return None if actor is None else (k.ACTOR_CRITIC, k.NO_TRACES, 0.0, 0.0, actor)
     return None

@@ -75,6 +75,7 @@ CURVE_COLUMNS = (
     "episode_length",
     "failure_rate",
     "optimality",
+    "value_ratio",
     "num_features",
     "wall_time_s",
     "steps_per_second",

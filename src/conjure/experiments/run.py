@@ -22,7 +22,11 @@ Notes
   counts the failures of all learning steps so far; ``failure_rate`` is the fraction of the
   greedy evaluation episodes with a failure; ``optimality`` is
   (mean return − worst) / (best − worst) with (worst, best) = ``domain.value_bounds()`` (the
-  undiscounted return, as Figures 5-6b and 5-9 scale it), NaN when the domain has no bounds.
+  undiscounted return, as Figures 5-6b and 5-9 scale it), NaN when the domain has no bounds;
+  ``value_ratio`` is mean return / best (V/V*, the plain fraction of the optimum), NaN without
+  bounds or when best ≤ 0. Both are reported because the worst policy can be far below every
+  policy of interest (UAV 7-2: a crash costs −Σ rewards), which squeezes ``optimality`` toward
+  1, while V/V* reads as "the fraction of the optimum obtained".
 """
 
 from __future__ import annotations
@@ -170,6 +174,7 @@ def _evaluate(
         "optimality": math.nan
         if bounds is None
         else (mean_return - bounds[0]) / (bounds[1] - bounds[0]),
+        "value_ratio": math.nan if bounds is None or bounds[1] <= 0 else mean_return / bounds[1],
     }
 
 

@@ -50,6 +50,7 @@ METRIC_LABELS = {
     "episode_length": "Greedy episode length (steps)",
     "failure_rate": "Greedy failure rate (episodes with a failure)",
     "optimality": "Optimality (return scaled between worst and best)",
+    "value_ratio": "Fraction of the optimum (return / V*)",
     "num_features": "Number of features",
     "steps_per_second": "Learning steps per second",
     "wall_time_s": "Learning wall time (s)",

@@ -166,7 +166,11 @@ def _rate(value: float) -> str:
 
 
 #: The safety columns of the final table (Section 5.4), shown when they have a finite value.
-SAFETY_COLUMNS = {"failure_rate": "failure rate", "optimality": "optimality"}
+SAFETY_COLUMNS = {
+    "failure_rate": "failure rate",
+    "optimality": "optimality",
+    "value_ratio": "V/V*",
+}
 
 
 def _mean_interval(values: pd.Series) -> str:

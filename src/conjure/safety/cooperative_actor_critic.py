@@ -44,11 +44,15 @@ class CooperativeActorCritic(CooperativeAgent):
         ``HashedTabular()`` on state spaces of more than a million cells (UAV missions).
     bias : float, default 100.0
         λ ≥ 0, the planner bias and the unsafe-action penalty (Section 5.3.5: 100).
+    bias_half_life : float or None, default None
+        N_b > 0: the planner bias fades with the state's visits n(s) as
+        b(n) = λ·N_b/(N_b + n), halving after N_b visits, so that the actor can leave π^p
+        where it has learned; ``None``: the bias stays λ (Algorithm 23 as printed).
 
     Attributes
     ----------
-    visited_ : ndarray of bool, shape (index features,)
-        Whether the bias has been applied to the state.
+    visits_ : ndarray of int64, shape (index features,)
+        n(s): how often the actor acted in the state while learning (0: never biased).
     learner_, planner_, risk_, model_, index_
         The set-up parts.
 
@@ -59,6 +63,8 @@ class CooperativeActorCritic(CooperativeAgent):
     ======  ===========  ===============================================
     ρ(s,a)  preferences  the actor's preferences, ωᵀψ(s, a)
     λ       bias         planner bias and penalty for unsafe proposals
+    N_b     bias_half_   visits after which the bias is halved
+            life
     π^p     planner      the cooperative planner's policy
     ======  ===========  ===============================================
 
@@ -72,6 +78,18 @@ class CooperativeActorCritic(CooperativeAgent):
     - Choice: greedy acting (policy checks) takes argmax ρ and replaces an unsafe action by
       π^p(s): "For iCCA, unsafe moves again were replaced by the cooperative planner's
       solution" (Section 5.3.5).
+    - As printed (``bias_half_life=None``) with the thesis's Q critic (`ActorCritic`
+      ``critic="q"``), a tabular actor stays the critic plus the bias, ρ(s, a) = Q(s, a) +
+      λ·𝟙[a = π^p(s)]: with λ = 100 ≫ |Q| the actor never leaves π^p and iCCA *is* the
+      planner (docs/reproduction.md, chapter 5). The variant that improves on the planner, as
+      the thesis's Figures 5-5 to 5-7 show, is ``critic="v"`` (an actor driven by the TD error
+      of V, an advantage estimate) with a fading bias (``bias_half_life``): the actor starts
+      at π^p, learns which actions beat the state's average, and takes them once the bias has
+      faded below their advantage. Both are kept; which runs is named by these parameters.
+    - Choice: the fading bias is stored in ρ like the printed one. On the visit of s that
+      finds n(s) = n earlier visits, ρ(s, π^p(s)) is moved to hold b(n) before the actor
+      acts: the first visit adds b(0) = λ, a later one b(n) − b(n − 1) < 0. Greedy acting
+      (argmax ρ) therefore needs no other table; unvisited states count as biased by λ.
 
     Complexity
     ----------
@@ -97,6 +115,7 @@ class CooperativeActorCritic(CooperativeAgent):
         **CooperativeAgent.parameter_constraints,
         "learner": InstanceOf(ActorCritic, "an ActorCritic (Algorithm 12)"),
         "bias": Interval(float, 0.0, None),
+        "bias_half_life": Interval(float, 0.0, None, closed="neither") | InstanceOf(type(None)),
     }
 
     def __init__(
@@ -108,6 +127,7 @@ class CooperativeActorCritic(CooperativeAgent):
         model: ApproximateModel,
         index: Representation | None = None,
         bias: float = 100.0,
+        bias_half_life: float | None = None,
     ):
         self.learner = learner
         self.planner = planner
@@ -115,12 +135,19 @@ class CooperativeActorCritic(CooperativeAgent):
         self.model = model
         self.index = index
         self.bias = bias
+        self.bias_half_life = bias_half_life
 
     def _build_tables(self, num_states: int, num_actions: int) -> None:
-        self.visited_ = np.zeros(num_states, dtype=bool)
+        self.visits_ = np.zeros(num_states, dtype=np.int64)
 
     def _table_arrays(self) -> dict[str, np.ndarray]:
-        return {"visited": self.visited_}
+        return {"visits": self.visits_}
+
+    def planner_bias(self, visits: int) -> float:
+        """b(n): the bias ρ(s, π^p(s)) holds after n visits (λ, or λ·N_b/(N_b + n))."""
+        if self.bias_half_life is None:
+            return self.bias
+        return self.bias * self.bias_half_life / (self.bias_half_life + visits)
 
     def act(
         self, state: np.ndarray, greedy: bool = False, legal_actions: np.ndarray | None = None
@@ -132,15 +159,19 @@ class CooperativeActorCritic(CooperativeAgent):
         row = self.state_row(state, store=not greedy)
         if greedy:
             preferences = learner.preferences(state)
-            if row < 0 or not self.visited_[row]:  # −1: never seen
+            if row < 0 or self.visits_[row] == 0:  # −1: never seen
                 preferences[planner_action] += self.bias
             learner_action = int(greedy_action(preferences, self._actions(legal_actions)))
             if self.risk_.is_safe(state, learner_action, self.eval_rng_):
                 return learner_action
             return planner_action
-        if not self.visited_[row]:  # Section 5.3.2: bias ρ toward π^p on the first visit
-            self.visited_[row] = True
+        visits = int(self.visits_[row])
+        self.visits_[row] = visits + 1
+        if visits == 0:  # Section 5.3.2: bias ρ toward π^p on the first visit
             learner.shift_preference(state, planner_action, self.bias)
+        elif self.bias_half_life is not None:  # the bias fades from b(n − 1) to b(n)
+            fade = self.planner_bias(visits) - self.planner_bias(visits - 1)
+            learner.shift_preference(state, planner_action, fade)
         learner_action = learner.act(state, False, legal_actions)  # line 2
         if self.risk_.is_safe(state, learner_action):  # line 4
             return learner_action  # line 3
