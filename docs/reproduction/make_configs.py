@@ -5,6 +5,7 @@ Chapters 3-4: ``fig_3_*``/``fig_4_*``; chapter 5 (safe exploration, iCCA): ``fig
 python docs/reproduction/make_configs.py
 """
 
+import csv
 from pathlib import Path
 
 import yaml
@@ -371,6 +372,14 @@ UAV_INDEX = {"kind": "HashedTabular", "params": {"capacity": 200000}}
 GRID_INDEX = {"kind": "Tabular", "params": {}}
 GRID_1 = {"map_name": "gridworld1", "step_reward": -0.001, "noise": 0.3}
 GRID_2 = {"map_name": "gridworld2", "step_reward": -0.01, "noise": 0.2}
+# iCCA that learns past its planner (CooperativeActorCritic): an actor-critic with a V critic
+# (critic "v") and a planner bias that fades with the state's visits, lambda N_b / (N_b + n);
+# lambda and N_b are searched with alpha_0 x N_0. Algorithm 23 as printed is `icca_printed`.
+BIAS = [3.0, 10.0, 30.0]
+HALF_LIFE = [2.0, 5.0, 20.0]
+# Each figure's base settings are the ones its grid search selected (chapter5/FIG_selection.csv),
+# so `conjure sweep CONFIG --set 'grid={}'` runs the chosen settings.
+SELECTIONS = Path(__file__).resolve().parent / "chapter5"
 
 
 def episodic(alpha_0=0.1, n_0=1000):
@@ -390,14 +399,15 @@ def ch5_sarsa(index):
     }
 
 
-def actor_critic(index):
-    """Tabular Actor-Critic with a Gibbs actor at tau = 1 (Algorithm 12, Section 5.3.2)."""
+def actor_critic(index, critic="q"):
+    """Tabular Actor-Critic with a Gibbs actor at tau = 1 (Algorithm 12: critic "q")."""
     return {
         "kind": "ActorCritic",
         "params": {
             "representation": index,
             "policy": {"kind": "Gibbs", "params": {"temperature": 1.0}},
             "step_size": episodic(),
+            "critic": critic,
         },
     }
 
@@ -425,19 +435,33 @@ def monte_carlo():
     return {"kind": "MonteCarloRiskAnalyzer", "params": {"num_rollouts": 5, "risk_tolerance": 0.2}}
 
 
-def icca(index, planner, risk, approx, bias=100.0):
-    """Algorithm 23 (iCCA with Actor-Critic)."""
+def icca(index, planner, risk, approx, critic="v", bias=BIAS[1], half_life=HALF_LIFE[1]):
+    """An actor-critic inside iCCA (Algorithm 23 as printed: critic "q", bias 100, no fading)."""
     return {
         "kind": "CooperativeActorCritic",
         "params": {
-            "learner": actor_critic(index),
+            "learner": actor_critic(index, critic),
             "planner": planner,
             "risk": risk,
             "model": approx,
             "index": index,
             "bias": bias,
+            "bias_half_life": half_life,
         },
     }
+
+
+def icca_printed(index, planner, risk, approx):
+    """Algorithm 23 as printed: Algorithm 12's Q critic, a permanent bias lambda = 100."""
+    return icca(index, planner, risk, approx, critic="q", bias=100.0, half_life=None)
+
+
+def icca_grid(label):
+    """alpha_0 x N_0 x lambda x N_b for a fading-bias iCCA."""
+    grid = step_grid([label], "params.learner.params.step_size")
+    grid[f"agents.{label}.params.bias"] = BIAS
+    grid[f"agents.{label}.params.bias_half_life"] = HALF_LIFE
+    return grid
 
 
 def cooperative(kind, index, planner, risk, approx, **extra):
@@ -472,12 +496,35 @@ def step_grid(labels, path="params.step_size", known=()):
     return grid
 
 
+def with_selection(name, agents):
+    """``agents`` with the settings FIG's stored grid selection chose as their base values.
+
+    A setting such as ``learner.step_size.alpha_0=1.0`` is the path of parameter names below
+    the agent, each inside a component's ``params``.
+    """
+    path = SELECTIONS / f"{name}_selection.csv"
+    if not path.is_file():
+        return agents
+    with path.open() as handle:
+        for row in csv.DictReader(handle):
+            if row["label"] not in agents or not row["setting"]:
+                continue
+            for assignment in row["setting"].split(", "):
+                key, value = assignment.split("=", 1)
+                node = agents[row["label"]]["params"]
+                *parents, last = key.split(".")
+                for parent in parents:
+                    node = node[parent]["params"]
+                node[last] = yaml.safe_load(value)
+    return agents
+
+
 def ch5_config(name, domain, agents, grid, budget, eval_episodes, seeds, fresh):
     """A chapter-5 sweep: grid selection by AUC of the return on ``seeds``, then ``fresh``."""
     return {
         "name": name,
         "domain": domain,
-        "agents": agents,
+        "agents": with_selection(name, agents),
         "grid": grid,
         "budget_steps": budget,
         "num_policy_checks": 10,
@@ -497,23 +544,33 @@ def fig_5_5_and_5_8():
     nominal = {"kind": "NominalRiskAnalyzer"}
     agents = {
         "actor_critic": actor_critic(GRID_INDEX),
+        "actor_critic_advantage": actor_critic(GRID_INDEX, "v"),
         "icca": icca(GRID_INDEX, value_iteration, nominal, calm),
-        # lambda on the scale of GridWorld-1's returns (|Q| <= ~1.5); see docs/reproduction.md
-        "icca_small_bias": icca(GRID_INDEX, value_iteration, nominal, calm, bias=0.1),
+        "icca_printed": icca_printed(GRID_INDEX, value_iteration, nominal, calm),
+        # the two halves of the variant alone: a fading bias with Algorithm 12's Q critic, and
+        # the V critic under Algorithm 23's permanent bias
+        "icca_q_critic": icca(GRID_INDEX, value_iteration, nominal, calm, critic="q"),
+        "icca_permanent_bias": icca(
+            GRID_INDEX, value_iteration, nominal, calm, bias=100.0, half_life=None
+        ),
         "vi_planner": planner_agent(value_iteration, calm),
         "optimal": planner_agent(value_iteration, windy),
     }
-    grid = step_grid(["actor_critic"])
-    grid.update(step_grid(["icca", "icca_small_bias"], "params.learner.params.step_size"))
-    grid["agents.icca_small_bias.params.bias"] = [0.01, 0.1, 1.0]
+    grid = step_grid(["actor_critic", "actor_critic_advantage"])
+    grid.update(icca_grid("icca"))
+    grid.update(icca_grid("icca_q_critic"))
+    fixed_bias = ["icca_printed", "icca_permanent_bias"]
+    grid.update(step_grid(fixed_bias, "params.learner.params.step_size"))
     header = (
-        "# Geramifard 2012, Fig. 5-5 (Section 5.3.5): GridWorld-1, Actor-Critic vs iCCA\n"
-        "# (Algorithm 23, lambda = 100, value iteration on the noise-free model, nominal risk) vs\n"
-        "# the planner alone vs the optimal policy (value iteration on the true model), 1e4 steps.\n"
-        "# alpha_0 x N_0 (and for icca_small_bias lambda) selected by AUC on seeds 0-2, reported on\n"
-        "# 30 fresh seeds. Generated by docs/reproduction/make_configs.py.\n"
+        "# Geramifard 2012, Fig. 5-5 (Section 5.3.5): GridWorld-1, Actor-Critic (Algorithm 12;\n"
+        "# `actor_critic_advantage`: with a V critic) vs iCCA (V critic, planner bias fading with\n"
+        "# visits; `icca_printed`: Algorithm 23 as printed, lambda = 100) with value iteration on\n"
+        "# the noise-free model and the nominal risk rule, vs the planner alone vs the optimal\n"
+        "# policy (value iteration on the true model), 1e4 steps. alpha_0 x N_0 (and lambda, N_b)\n"
+        "# selected by AUC on seeds 0-4, reported on 60 fresh seeds; base settings = selected.\n"
+        "# Generated by docs/reproduction/make_configs.py.\n"
     )
-    write("fig_5_5", header, ch5_config("fig_5_5", world, agents, grid, 10000, 100, 3, 30))
+    write("fig_5_5", header, ch5_config("fig_5_5", world, agents, grid, 10000, 100, 5, 60))
     agents = {
         "sarsa": ch5_sarsa(GRID_INDEX),
         "csarsa": cooperative("CooperativeLearner", GRID_INDEX, value_iteration, nominal, calm),
@@ -523,10 +580,11 @@ def fig_5_5_and_5_8():
     grid = step_grid(["sarsa"])
     grid.update(step_grid(["csarsa"], "params.learner.params.step_size", known=["csarsa"]))
     header = (
-        "# Geramifard 2012, Fig. 5-8 (Section 5.4.1): GridWorld-1, SARSA vs CSARSA (Algorithm 24\n"
-        "# with SARSA, value iteration on the noise-free model, nominal risk) vs the planner vs the\n"
-        "# optimal policy, 1e4 steps. alpha_0 x N_0 (and K for CSARSA) selected by AUC on seeds\n"
-        "# 0-2, reported on 30 fresh seeds. Generated by docs/reproduction/make_configs.py.\n"
+        "# Geramifard 2012, Fig. 5-8 (Section 5.4.1): GridWorld-1, SARSA vs CSARSA\n"
+        "# (Algorithm 24 with SARSA, value iteration on the noise-free model, nominal risk) vs\n"
+        "# the planner vs the optimal policy, 1e4 steps. alpha_0 x N_0 (and K for CSARSA)\n"
+        "# selected by AUC on seeds 0-2, reported on 30 fresh seeds.\n"
+        "# Generated by docs/reproduction/make_configs.py.\n"
     )
     write("fig_5_8", header, ch5_config("fig_5_8", world, agents, grid, 10000, 100, 3, 30))
 
@@ -540,6 +598,7 @@ def fig_5_6_and_5_7():
         agents = {
             "actor_critic": actor_critic(UAV_INDEX),
             "icca": icca(UAV_INDEX, cbba("aggressive"), fuel, approx),
+            "icca_printed": icca_printed(UAV_INDEX, cbba("aggressive"), fuel, approx),
             "cbba": planner_agent(cbba("aggressive"), approx),
         }
         grid = step_grid(["actor_critic"])
@@ -547,7 +606,8 @@ def fig_5_6_and_5_7():
         header = (
             f"# Geramifard 2012, Fig. {figure[4:].replace('_', '-')} (Section 5.3.5): {scenario} "
             "without noise, Actor-Critic vs\n"
-            "# iCCA (Algorithm 23, lambda = 100, CBBA with all fuel, the fuel rule) vs CBBA alone,\n"
+            "# iCCA (Algorithm 23, lambda = 100, CBBA with all fuel, the fuel rule) vs CBBA\n"
+            "# alone,"
             "# 1e5 steps. alpha_0 x N_0 selected by AUC on seeds 0-1, reported on fresh seeds.\n"
             "# Generated by docs/reproduction/make_configs.py.\n"
         )
@@ -594,9 +654,10 @@ def fig_5_9_and_5_13():
         "# Geramifard 2012, Figs. 5-9 (Section 5.4.1) and 5-13 (Section 5.5.2): UAV 7-2 with 5%\n"
         "# edge-traverse failures unknown to the planners. SARSA; aggressive CBBA (the planner of\n"
         "# Fig. 5-9) and conservative CBBA (Algorithm 27); CSARSA (Algorithm 24, aggressive CBBA,\n"
-        "# the fuel rule); iCCA (Algorithm 24, conservative CBBA, Monte-Carlo risk at a static 40%\n"
-        "# noise); AM-iCCA (Algorithm 26, conservative -> aggressive CBBA below 25%). 1e5 steps;\n"
-        "# alpha_0 x N_0 (and K) selected by AUC on seeds 0-1, reported on 20 fresh seeds.\n"
+        "# the fuel rule); iCCA (Algorithm 24, conservative CBBA, Monte-Carlo risk at a static\n"
+        "# 40% noise); AM-iCCA (Algorithm 26, conservative -> aggressive CBBA below 25%).\n"
+        "# 1e5 steps; alpha_0 x N_0 (and K) selected by AUC on seeds 0-1, reported on 20 fresh\n"
+        "# seeds.\n"
         "# Generated by docs/reproduction/make_configs.py.\n"
     )
     config = ch5_config("fig_5_9_13", world, agents, grid, 100000, 100, 2, 20)
@@ -643,13 +704,16 @@ def fig_5_12_and_gridworld_3():
         grid = step_grid(["sarsa"])
         grid.update(step_grid(learners, "params.learner.params.step_size"))
         header = (
-            "# Geramifard 2012, Fig. 5-12 (Section 5.5.2): GridWorld-2, SARSA vs iCCA (Algorithm 24,\n"
-            "# conservative policy, Monte-Carlo risk at a static 40% noise) vs AM-iCCA (Algorithm 26,\n"
-            "# conservative -> aggressive policy below 25%) vs the two static policies; K = 10.\n"
+            "# Geramifard 2012, Fig. 5-12 (Section 5.5.2): GridWorld-2, SARSA vs iCCA\n"
+            "# (Algorithm 24, conservative policy, Monte-Carlo risk at a static 40% noise) vs\n"
+            "# AM-iCCA (Algorithm 26, conservative -> aggressive policy below 25%) vs the two\n"
+            "# static policies; K = 10.\n"
             if not extension
-            else "# Geramifard 2012, Section 5.5.3 (Fig. 5-14): GridWorld-3 (noise only in the windy\n"
-            "# cells), AM-iCCA with a uniform-noise model, with and without the safety check switched\n"
-            "# off in known pairs (trusted_knownness = 1), vs SARSA and the two static policies.\n"
+            else "# Geramifard 2012, Section 5.5.3 (Fig. 5-14): GridWorld-3 (noise only in the\n"
+            "# windy cells), AM-iCCA with a uniform-noise model, with and without the safety\n"
+            "# check"
+            " switched off in known pairs (trusted_knownness = 1), vs SARSA and the two static\n"
+            "# policies.\n"
         ) + (
             "# 3e4 steps; alpha_0 x N_0 selected by AUC on seeds 0-2, reported on 30 fresh seeds.\n"
             "# Generated by docs/reproduction/make_configs.py.\n"
