@@ -28,7 +28,7 @@ ENVIRONMENTS: tuple[tuple[str, str, int, dict[str, Any]], ...] = (
     ("conjure/GridWorld-v0", "conjure.domains.gridworld:GridWorld", 1000, {}),
     ("conjure/GridWorld1-v0", "conjure.domains.gridworld:GridWorld", 1000, {"map_name": "gridworld1", "step_reward": -0.001, "noise": 0.3}),  # noqa: E501
     ("conjure/GridWorld2-v0", "conjure.domains.gridworld:GridWorld", 1000, {"map_name": "gridworld2", "step_reward": -0.01, "noise": 0.2}),  # noqa: E501
-    ("conjure/GridWorld3-v0", "conjure.domains.gridworld:GridWorld", 1000, {"map_name": "gridworld2", "step_reward": -0.01, "noise": 0.2, "noise_cells": "windy"}),  # noqa: E501
+    ("conjure/GridWorld3-v0", "conjure.domains.gridworld:GridWorld", 1000, {"map_name": "gridworld3", "step_reward": -0.01, "noise": 0.55, "noise_cells": "windy"}),  # noqa: E501
     ("conjure/ChainMDP-v0", "conjure.domains.chain:ChainMDP", 100, {}),
     ("conjure/BlocksWorld-v0", "conjure.domains.blocksworld:BlocksWorld", 1000, {}),
     ("conjure/PersistentSurveillance-v0", "conjure.domains.persistent_surveillance:PersistentSurveillance", 1000, {}),  # noqa: E501

@@ -1,3 +1,4 @@
+import dataclasses
 import warnings
 
 import gymnasium as gym
@@ -9,6 +10,9 @@ import conjure.domains  # noqa: F401  (registers the Gymnasium ids)
 from conjure.core.errors import InvalidParameterError
 from conjure.domains import GridWorld
 from conjure.domains.gridworld import load_map, shipped_maps
+from conjure.models.approximate_model import ApproximateModel
+from conjure.planners import ShortestPathPlanner, ValueIteration
+from conjure.planners._kernels import evaluate_policy
 
 UP, DOWN, LEFT, RIGHT = 0, 1, 2, 3
 
@@ -63,7 +67,7 @@ def test_registered_variants_have_thesis_settings():
 
 
 def test_shipped_maps_parse():
-    assert set(shipped_maps()) >= {"gridworld1", "gridworld2", "4x5"}
+    assert set(shipped_maps()) >= {"gridworld1", "gridworld2", "gridworld3", "4x5"}
     one = GridWorld.gridworld_1()
     assert one.grid_.shape == (10, 7)
     assert one.start_ == (0, 0)
@@ -223,3 +227,100 @@ def test_transitions_are_linear_in_the_noise(make):
     for a in range(4):
         expected = 0.7 * calm.transitions[a] + 0.3 * windy.transitions[a]
         assert abs(mixed.transitions[a] - expected).max() < 1e-12
+
+
+# ------------------------------------------------------------------ GridWorld-3 (Section 5.5.3)
+
+
+def planner_policy(make, domain, model):
+    """π^p of a hand-coded GridWorld-2 policy at each state of ``model``."""
+    approx = ApproximateModel(domain=domain).setup(domain.domain_spec, seed=0)
+    planner = make().setup(approx, seed=0)
+    return np.array([planner.action(s) for s in model.states])
+
+
+def with_rewards(model, rewards):
+    """``model`` earning ``rewards`` (|S| x |A|) instead, nothing after a terminal state."""
+    return dataclasses.replace(model, rewards=np.where(model.is_terminal[:, None], 0.0, rewards))
+
+
+def pit_entries(model, domain):
+    """``model`` earning P(the next state is a pit): its policy values are failure probabilities."""
+    is_pit = np.array([domain.is_constrained(s) for s in model.states], dtype=float)
+    return with_rewards(model, np.stack([p @ is_pit for p in model.transitions], axis=1))
+
+
+def test_gridworld3_is_gridworld2_with_wind_everywhere_but_past_the_danger_cell():
+    # Figure 5-14: "identical to GridWorld-2, yet the noise is only applied in windy grid
+    # cells"; [R] the calm cells are the corridor from beside the danger cell (1, 17) to the
+    # right goal (GridWorld's Notes).
+    two, three = load_map("gridworld2"), load_map("gridworld3")
+    assert np.array_equal(np.where(three == 5, 0, three), np.where(two == 5, 0, two))
+    calm = {(int(r), int(c)) for r, c in np.argwhere(three == 0)}
+    assert calm == {(2, 16), (2, 17), (2, 18), (2, 19), (2, 20), (2, 21), (1, 21)}
+    assert (
+        GridWorld.gridworld_3().get_params()
+        == GridWorld(
+            map_name="gridworld3", step_reward=-0.01, noise=0.55, noise_cells="windy"
+        ).get_params()
+    )
+
+
+def test_gridworld3_makes_the_uniform_model_filter_a_safe_optimal_route():
+    # What Section 5.5.3's figure needs, exactly from the models (γ = 1, Eq. 2.8):
+    # 1. under the true wind the aggressive route never enters the pit, is (nearly) optimal
+    #    and far better than the conservative one;
+    true = GridWorld.gridworld_3()
+    model = true.model()
+    start = model.state_index(np.array(true.start_, dtype=float))
+    conservative = planner_policy(ShortestPathPlanner.conservative, true, model)
+    aggressive = planner_policy(ShortestPathPlanner.aggressive, true, model)
+    assert evaluate_policy(pit_entries(model, true), aggressive)[start] == 0.0
+    value_of = {
+        name: evaluate_policy(model, policy)[start]
+        for name, policy in (("conservative", conservative), ("aggressive", aggressive))
+    }
+    assert value_of == pytest.approx({"conservative": 0.3292, "aggressive": 0.7830}, abs=1e-4)
+    assert ValueIteration().plan(model).start_value() == pytest.approx(0.7862, abs=1e-4)
+    # 2. following the conservative policy, the uniform model's count (every move) finds
+    #    27.2% of the moves unintended: η̂ stays above the 25% switch (Section 5.5.2), so
+    #    AM-iCCA's planner stays conservative while the agent learns on the windy side;
+    live = ~model.is_terminal
+    nominal = [
+        model.state_index(true.nominal_next_state(s, a))
+        for s, a in zip(model.states[live], conservative[live], strict=True)
+    ]
+    unintended = np.zeros(model.num_states)
+    unintended[live] = [
+        1.0 - model.transitions[a][s, n]
+        for s, a, n in zip(np.flatnonzero(live), conservative[live], nominal, strict=True)
+    ]
+    per_move = np.repeat(unintended[:, None], 4, axis=1)
+    num_unintended = evaluate_policy(with_rewards(model, per_move), conservative)[start]
+    num_moves = evaluate_policy(with_rewards(model, np.ones_like(per_move)), conservative)[start]
+    noise_estimate = num_unintended / num_moves
+    assert noise_estimate == pytest.approx(0.2724, abs=1e-4)
+    # 3. at that η̂ the uniform model (GridWorld-2's form) makes Algorithm 25 (𝓜 = 5, ε = 0.2:
+    #    safe iff no rollout fails; rollouts follow the conservative π^p) block each step from
+    #    beside the danger cell to the right goal often, and the whole route almost always:
+    #    P(safe) = (1 − p)^5 with p the exact failure probability of one rollout (𝓗 → ∞).
+    uniform = GridWorld.gridworld_2(noise=noise_estimate)
+    believed = uniform.model()
+    pits = pit_entries(believed, uniform)
+    risk = pits.q_values(
+        evaluate_policy(pits, planner_policy(ShortestPathPlanner.conservative, uniform, believed))
+    )
+    route = [
+        ((2, 16), RIGHT),
+        ((2, 17), RIGHT),
+        ((2, 18), RIGHT),
+        ((2, 19), RIGHT),
+        ((2, 20), RIGHT),
+        ((2, 21), UP),
+        ((1, 21), UP),
+    ]
+    passes = np.array(
+        [(1.0 - risk[believed.state_index(np.array(c, dtype=float)), a]) ** 5 for c, a in route]
+    )
+    assert passes[:-1].max() < 0.7  # each step but the last one is vetoed at least 30% of times
+    assert passes.prod() == pytest.approx(0.050, abs=1e-3)

@@ -1,15 +1,24 @@
+import numpy as np
 import pytest
 from safety_fakes import FakeLearner, FixedRiskAnalyzer, cell, gridworld_model
 
-from conjure.agents import SARSA
+from conjure.agents import SARSA, ActorCritic, QLearning
 from conjure.core.errors import InvalidParameterError
+from conjure.core.interfaces import Transition
+from conjure.core.schedules import EpisodicDecay
 from conjure.domains import GridWorld
 from conjure.experiments import run
 from conjure.experiments.loop import LearningLoop
+from conjure.models.approximate_model import ApproximateModel
 from conjure.planners import ModelPlanner, ShortestPathPlanner
 from conjure.policies import EpsilonGreedy
 from conjure.representations import Tabular
-from conjure.safety import CooperativeLearner, NominalRiskAnalyzer, PlannerAgent
+from conjure.safety import (
+    CooperativeLearner,
+    MonteCarloRiskAnalyzer,
+    NominalRiskAnalyzer,
+    PlannerAgent,
+)
 
 START = cell(0, 0)  # the 4x5 map's start; the planner heads down (1)
 PLANNER_ACTION = 1
@@ -145,3 +154,135 @@ def test_greedy_acting_keeps_the_planner_among_the_learners_ties():
 def test_a_knownness_threshold_below_one_is_refused_naming_the_value(visits):
     with pytest.raises(InvalidParameterError, match=rf"num_known_visits.*{visits}"):
         csarsa(num_known_visits=visits)
+
+
+RIGHT = 3  # the learner's proposal below; the planner heads down (1) from START
+
+
+def vetoing_agent(learner, **params):
+    """Every proposal but the planner's is unsafe; ⟨START, down⟩ is already known (K = 1)."""
+    agent = csarsa(learner=learner, risk=FixedRiskAnalyzer(value=1.0), num_known_visits=1, **params)
+    agent.act(START)  # the planner acts unconsulted: count 1, known
+    return agent
+
+
+def greedy_sarsa(**params):
+    return SARSA(
+        representation=Tabular(), policy=EpsilonGreedy(epsilon=0.0), step_size=0.5, **params
+    )
+
+
+@pytest.mark.parametrize(
+    "make",
+    [
+        greedy_sarsa,
+        lambda: QLearning(
+            representation=Tabular(), policy=EpsilonGreedy(epsilon=0.0), step_size=0.5
+        ),
+    ],
+)
+def test_a_vetoed_proposal_is_learned_as_a_terminal_step_earning_the_veto_reward(make):
+    # Q(START, right) = 0.4 makes "right" the greedy proposal; the analyser vetoes it, so the
+    # learner learns ⟨START, right⟩ → failure: a terminal target of −2, step size 0.5:
+    # Q ← 0.4 + 0.5·(−2 − 0.4) = −0.8. Nothing else changes and no learning step is counted.
+    agent = vetoing_agent(make(), veto_reward=-2.0)
+    learner = agent.learner_
+    row = learner.representation_.active_features(START)[0]
+    learner.weights_[row, RIGHT] = 0.4
+    expected = learner.weights_.copy()
+    expected[row, RIGHT] = -0.8
+    assert agent.act(START) == PLANNER_ACTION
+    np.testing.assert_allclose(learner.weights_, expected, rtol=0, atol=1e-15)
+    assert learner.num_learning_steps_ == 0
+    assert agent.act(START, greedy=True) == PLANNER_ACTION  # greedy acting learns nothing
+    np.testing.assert_allclose(learner.weights_, expected, rtol=0, atol=1e-15)
+
+
+def test_the_printed_algorithm_leaves_the_learner_unchanged_by_a_veto():
+    agent = vetoing_agent(greedy_sarsa(), veto_reward=None)
+    row = agent.learner_.representation_.active_features(START)[0]
+    agent.learner_.weights_[row, RIGHT] = 0.4
+    before = agent.learner_.weights_.copy()
+    assert agent.act(START) == PLANNER_ACTION
+    np.testing.assert_array_equal(agent.learner_.weights_, before)
+
+
+def test_a_veto_leaves_the_eligibility_traces_of_the_episode_alone():
+    # SARSA(λ): the imagined failure is a one-step episode of its own, so the real episode's
+    # traces are neither decayed, extended nor cleared, and only θ(START, right) moves.
+    agent = vetoing_agent(greedy_sarsa(trace_decay=0.9), veto_reward=-1.0)
+    learner = agent.learner_
+    learner.learn(Transition(cell(1, 0), 0, -0.001, START, PLANNER_ACTION, False))
+    traces = [
+        learner.trace_count_.copy(),
+        learner.trace_values_.copy(),
+        learner.trace_slots_.copy(),
+    ]
+    row = learner.representation_.active_features(START)[0]
+    learner.weights_[row, RIGHT] = 0.4
+    expected = learner.weights_.copy()
+    expected[row, RIGHT] = 0.4 + 0.5 * (-1.0 - 0.4)
+    assert agent.act(START) == PLANNER_ACTION
+    np.testing.assert_allclose(learner.weights_, expected, rtol=0, atol=1e-15)
+    for before, after in zip(
+        traces, [learner.trace_count_, learner.trace_values_, learner.trace_slots_], strict=True
+    ):
+        np.testing.assert_array_equal(after, before)
+
+
+def test_a_veto_lowers_an_actor_critics_preference_through_its_own_update():
+    # Actor-Critic (Algorithm 12): δ = −1 − Q(START, right) = −1 moves the critic's Q and the
+    # actor's ρ(START, right) by αδ = −0.5 each (no λ needed: the learner's own update).
+    actor_critic = ActorCritic(representation=Tabular(), step_size=0.5)
+    agent = vetoing_agent(actor_critic, veto_reward=-1.0)
+    learner = agent.learner_
+    learner.shift_preference(START, RIGHT, 50.0)  # the Gibbs actor proposes "right" for sure
+    preferences = learner.preferences(START)
+    assert agent.act(START) == PLANNER_ACTION
+    preferences[RIGHT] -= 0.5
+    np.testing.assert_allclose(learner.preferences(START), preferences, rtol=0, atol=1e-12)
+    assert learner.q_values(START)[RIGHT] == pytest.approx(-0.5)
+
+
+@pytest.mark.parametrize("reward", [float("inf"), float("nan"), "high", True])
+def test_a_veto_reward_that_is_not_a_finite_float_is_refused(reward):
+    with pytest.raises(InvalidParameterError, match=r"veto_reward.*finite float or None"):
+        csarsa(veto_reward=reward)
+
+
+@pytest.mark.slow
+def test_static_model_icca_on_gridworld2_ends_at_the_conservative_policy():
+    # Fig. 5-12's "iCCA": Algorithm 24 with the conservative policy and Algorithm 25 at a
+    # static 40% noise, SARSA at the configs' base step size (α₀ = 0.1, N₀ = 1000). With the
+    # veto rule (the default) the learner stops proposing the moves toward the right goal the
+    # analyser blocks and the greedy policy ends on the conservative route (V = 0.624, spec
+    # 4.3); as printed, learner and planner pull the agent back and forth and the greedy
+    # policy cycles until the episode cap, with many more pit entries while learning.
+    finals, failures = {}, {}
+    for veto_reward in (-1.0, None):
+        for seed in range(3):
+            agent = CooperativeLearner(
+                learner=SARSA(
+                    representation=Tabular(),
+                    policy=EpsilonGreedy(epsilon=0.1),
+                    step_size=EpisodicDecay(alpha_0=0.1, n_0=1000),
+                ),
+                planner=ShortestPathPlanner.conservative(),
+                risk=MonteCarloRiskAnalyzer(),
+                model=ApproximateModel(domain=GridWorld.gridworld_2(), initial_noise=0.4),
+                veto_reward=veto_reward,
+            )
+            result = run(
+                domain=GridWorld.gridworld_2(),
+                agent=agent,
+                budget_steps=30_000,
+                seed=seed,
+                num_policy_checks=1,
+                eval_episodes=100,
+            )
+            last = result.curve.iloc[-1]
+            finals.setdefault(veto_reward, []).append(last["return"])
+            failures.setdefault(veto_reward, []).append(last["learning_failures"])
+    assert min(finals[-1.0]) >= 0.6  # the conservative route on every seed
+    assert np.mean(finals[None]) < 0.0  # as printed: cycling until the cap
+    assert sum(failures[-1.0]) * 5 < sum(failures[None])

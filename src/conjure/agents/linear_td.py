@@ -13,6 +13,11 @@ Notes
   by value, about 0.1 µs), never on the array object: a wrapper that reuses one observation
   buffer, or a cooperative learner that calls ``act`` on some states and ``learn`` on others,
   can never make ``learn`` use the features of another state. A miss just encodes again.
+- Choice: an imagined transition (`Transition.is_imagined`, e.g. a cooperative learner's
+  vetoed proposal) is learned as a one-step episode of its own: θ ← θ + αδφ(s, a) with the
+  episode's α, whatever the learner's traces (a fresh episode's trace is φ(s, a), cleared at
+  its end); it counts no learning step. ``learn`` marks the weights changed, so the Q(s', ·)
+  cached by ``act`` is recomputed for the next real update.
 """
 
 from __future__ import annotations
@@ -148,7 +153,12 @@ class LinearTDAgent(Agent):
         if not transition.terminated:
             target += self.discount_ * self._bootstrap(transition)  # line 5: Q⁺(s, a)
         step_size = self._step_size(self.schedule_, phi)
-        delta = self._update(phi, transition.action, target, step_size)  # lines 6-7
+        if transition.is_imagined:  # a one-step episode of its own: e = φ(s, a), no live trace
+            delta = _kernels.td_step(
+                self.weights_, phi[0], phi[1], transition.action, target, step_size
+            )
+        else:
+            delta = self._update(phi, transition.action, target, step_size)  # lines 6-7
         self._after_update(transition, phi, delta)
         return delta
 
@@ -160,7 +170,8 @@ class LinearTDAgent(Agent):
         return _kernels.td_step(self.weights_, phi[0], phi[1], action, target, step_size)
 
     def _after_update(self, transition: Transition, phi: SparseFeatures, delta: float) -> None:
-        self.num_learning_steps_ += 1
+        if not transition.is_imagined:
+            self.num_learning_steps_ += 1
         self._weights_version += 1
         if not math.isfinite(delta):
             raise DivergenceError(

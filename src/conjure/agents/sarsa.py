@@ -177,7 +177,7 @@ class SARSA(LinearTDAgent):
 
     def _after_update(self, transition: Transition, phi: SparseFeatures, delta: float) -> None:
         super()._after_update(transition, phi, delta)
-        if self._has_traces and transition.terminated:
+        if self._has_traces and transition.terminated and not transition.is_imagined:
             self._clear_traces()
 
     def _grow(self, expansion: Expansion) -> None:

@@ -116,7 +116,11 @@ class Transition(NamedTuple):
 
     ``next_action`` is the action the agent chose for ``next_state`` (SARSA's a'); Q-Learning
     ignores it. ``next_legal_actions`` lists the legal actions of s' when the domain constrains
-    them (``None`` means every action).
+    them (``None`` means every action). ``is_imagined`` marks a transition the agent did not
+    experience (a cooperative learner's vetoed proposal learned as a failure, Algorithm 24):
+    online learners update on it as on a one-step episode of its own, so the episode in
+    progress is untouched (SARSA(λ)'s eligibility traces are neither used, decayed nor
+    cleared) and it counts no learning step; batch learners store it as any other sample.
     """
 
     state: np.ndarray
@@ -126,6 +130,7 @@ class Transition(NamedTuple):
     next_action: int
     terminated: bool
     next_legal_actions: np.ndarray | None = None
+    is_imagined: bool = False
 
 
 class SparseFeatures(NamedTuple):

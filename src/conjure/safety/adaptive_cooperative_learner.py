@@ -40,8 +40,8 @@ class AdaptiveCooperativeLearner(CooperativeLearner):
 
     Parameters
     ----------
-    learner, planner, risk, index, num_known_visits
-        As in `CooperativeLearner`.
+    learner, planner, risk, index, num_known_visits, veto_reward
+        As in `CooperativeLearner` (a vetoed proposal is learned as a failure by default).
     model : ApproximateModel
         T̂; give it ``is_adaptive=True`` (Section 5.5.2: ``initial_noise=0.4``,
         ``prior_weight=100``), otherwise nothing adapts.
@@ -50,7 +50,13 @@ class AdaptiveCooperativeLearner(CooperativeLearner):
     trusted_knownness : float or None, default None
         Section 5.5.3's extension: from this knownness in [0, 1] on, the learner's action is
         executed without a safety check (line 5 skipped), so that a wrong model cannot filter
-        the learner forever (GridWorld-3). ``None``: always check (Algorithm 26 as printed).
+        the learner forever. ``None``: always check (Algorithm 26 as printed). Knownness moves
+        in steps of 1/𝒦 and the learner is consulted from 1/𝒦 on, so a value ≤ 1/𝒦 never
+        checks a consulted learner. On GridWorld-3 (`GridWorld.gridworld_3`, 3·10⁴ steps, 20
+        fresh seeds) AM-iCCA ends at −1.43 ± 1.38, stuck at the filter; with 0.1 (chosen by
+        AUC on search seeds among 0.1, 0.3, 0.5, 1) at 0.730 ± 0.022, with 0.5 at
+        0.686 ± 0.053, with 1 at −0.23 ± 0.28 (not yet past the filter). The price is
+        SARSA's pit entries while learning: 12.6 per run with 0.1, 4.1 with 1, 0.1 without.
 
     Attributes
     ----------
@@ -106,6 +112,7 @@ class AdaptiveCooperativeLearner(CooperativeLearner):
         model: ApproximateModel,
         index: Representation | None = None,
         num_known_visits: int = 10,
+        veto_reward: float | None = -1.0,
         replan_threshold: float = 0.0,
         trusted_knownness: float | None = None,
     ):
@@ -116,6 +123,7 @@ class AdaptiveCooperativeLearner(CooperativeLearner):
             model=model,
             index=index,
             num_known_visits=num_known_visits,
+            veto_reward=veto_reward,
         )
         self.replan_threshold = replan_threshold
         self.trusted_knownness = trusted_knownness
