@@ -20,6 +20,7 @@ Notes
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -28,7 +29,7 @@ import numpy as np
 
 from conjure.core.errors import InvalidParameterError
 
-__all__ = ["MissionGraph", "uav_7_2", "uav_10_2"]
+__all__ = ["MissionGraph", "uav_7_2", "uav_7_2_spec", "uav_10_2", "uav_10_2_spec"]
 
 UNREACHABLE = np.iinfo(np.int64).max // 4
 
@@ -154,15 +155,18 @@ class MissionGraph:
         return np.flatnonzero(self.rewards > 0)
 
     def state_action_count(self) -> int:
-        """|S × A| counted as N^n (F+1)^n 2^N H N^n with F the largest initial fuel (spec 2.2).
+        """|S × A| counted as N^n Π_i (F_i + 1) 2^N H N^n, F_i the initial fuels (spec 2.2).
+
+        Spec 2.2 writes (F + 1)^n for n UAVs with the same fuel F.
 
         Examples
         --------
-        >>> uav_7_2().state_action_count()
+        >>> uav_7_2_spec().state_action_count()  # 49 · 7² · 128 · 8 · 49
         120472576
         """
         n, nodes = self.num_uavs, self.num_nodes
-        return nodes**n * (max(self.fuel) + 1) ** n * 2**nodes * self.horizon * nodes**n
+        fuel_levels = math.prod(f + 1 for f in self.fuel)
+        return nodes**n * fuel_levels * 2**nodes * self.horizon * nodes**n
 
     # ------------------------------------------------------------------ the state layout
 
@@ -289,7 +293,7 @@ class MissionGraph:
         }
 
 
-def uav_7_2() -> MissionGraph:
+def uav_7_2_spec() -> MissionGraph:
     """[R] UAV 7-2 (Figure 5-4a): 7 nodes, 2 UAVs with fuel 6, horizon 8, Σ rewards 750."""
     return MissionGraph.from_dict(
         {
@@ -308,7 +312,7 @@ def uav_7_2() -> MissionGraph:
     )
 
 
-def uav_10_2() -> MissionGraph:
+def uav_10_2_spec() -> MissionGraph:
     """[R] UAV 10-2 (Figure 5-4b): 10 nodes, 2 UAVs with fuel 8, horizon 11, Σ rewards 1400."""
     return MissionGraph.from_dict(
         {
@@ -341,6 +345,16 @@ def uav_10_2() -> MissionGraph:
             },
         }
     )
+
+
+def uav_7_2() -> MissionGraph:
+    """[R] UAV 7-2 (Figure 5-4a), to be calibrated (issue 19); spec 2.2's graph for now."""
+    return uav_7_2_spec()
+
+
+def uav_10_2() -> MissionGraph:
+    """[R] UAV 10-2 (Figure 5-4b), to be calibrated (issue 19); spec 2.2's graph for now."""
+    return uav_10_2_spec()
 
 
 # ---------------------------------------------------------------------------------------------
