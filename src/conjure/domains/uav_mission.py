@@ -158,12 +158,12 @@ class UAVMission(ActionMasking, NoisyDomain):
     >>> domain = UAVMission()
     >>> obs, info = domain.reset(seed=0)
     >>> obs.tolist()  # l_1, f_1, l_2, f_2, v_0..v_6, t
-    [0.0, 6.0, 0.0, 6.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]
+    [0.0, 6.0, 0.0, 7.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]
     >>> domain.legal_actions(obs).size  # each UAV: stay, or fly to node 1 or 2
     9
     >>> obs, reward, terminated, truncated, info = domain.step(domain.graph_.encode_action([1, 0]))
-    >>> obs[:4].tolist(), reward, info["cost"]
-    ([1.0, 5.0, 0.0, 6.0], -1.0, 0.0)
+    >>> obs[:4].tolist(), obs[5], reward, info["cost"]  # node 1's 600 obtained, 1 fuel burnt
+    ([1.0, 5.0, 0.0, 7.0], np.float64(1.0), 599.0, 0.0)
     """
 
     noise_parameter: ClassVar[str] = "traverse_failure"
@@ -404,7 +404,7 @@ class UAVMission(ActionMasking, NoisyDomain):
         return int(num_failed), int(num_tried)
 
     def state_action_count(self) -> int:
-        """|S × A| as the thesis counts it (≈1.2e8 for UAV 7-2, ≈9.1e9 for 10-2; spec 2.2)."""
+        """|S × A| as the thesis counts it (spec 2.2): UAV 7-2 1.4e8 (-spec 1.2e8), 10-2 9.0e9."""
         return self.graph_.state_action_count()
 
     # ------------------------------------------------------------------ exact solution
@@ -415,7 +415,7 @@ class UAVMission(ActionMasking, NoisyDomain):
         Section 5.3.5 ("the optimal solutions were obtained using dynamic programming"; about a
         day for UAV 7-2 in the thesis, footnote 4). Solutions are cached per graph and η.
         Feasible while one time layer, 2^m Π_i (F_i + 1) N^n keys (m targets), stays within
-        2·10⁷: UAV 7-2 has 7.7e4 and UAV 10-2 1.0e6.
+        2·10⁷: UAV 7-2 has 1.8e5 (its -spec graph 7.7e4) and UAV 10-2 1.0e6.
         """
         graph = self.graph_
         cache_key = (json.dumps(graph.to_dict(), sort_keys=True), self._eta)
@@ -517,8 +517,8 @@ class UAVMission(ActionMasking, NoisyDomain):
                 f"move each UAV along an edge with fuel left."
             ) from None
         return PolicyEvaluation(
-            value=value,
-            crash_probability=crash,
+            value=float(value),
+            crash_probability=float(crash),
             states=states.astype(np.float64),
             reach_probabilities=reach,
             actions=actions,

@@ -176,10 +176,13 @@ class CBBAPlanner(CooperativePlanner):
     >>> model = SimpleNamespace(domain_=SimpleNamespace(graph_=graph))
     >>> planner = CBBAPlanner(variant="aggressive").setup(model, seed=0)
     >>> plan = planner.plan(graph.initial_state())
-    >>> [p.tolist() for p in plan.paths]
-    [[3, 5], [2, 4, 6]]
+    >>> [p.tolist() for p in plan.paths]  # one UAV per target: node 1 gets one
+    [[1, 3, 4, 2], [6, 5]]
     >>> plan.destinations.tolist()
     [1, 2]
+    >>> conservative = CBBAPlanner().setup(model, seed=0).plan(graph.initial_state())
+    >>> [p.tolist() for p in conservative.paths], conservative.fuel.tolist()  # fuel − 3
+    ([[1, 2], [3]], [3.0, 4.0])
     """
 
     parameter_constraints = {
