@@ -9,6 +9,10 @@ keyword arguments)``.
 
 Notes
 -----
+- The UAV missions' v0 ids keep spec 2.2's first reconstructions ("uav-7-2-spec",
+  "uav-10-2-spec"); v1 ids are the calibrated graphs of issue 19, the defaults since.
+  Gymnasium warns that a v0 id "is out of date" when made: the v1 graph is the one to use
+  unless reproducing results of the first reconstruction.
 - Choice: registration skips ids already registered, so importing or calling it again is
   harmless (Gymnasium warns when an id is registered twice).
 """
@@ -33,8 +37,10 @@ ENVIRONMENTS: tuple[tuple[str, str, int, dict[str, Any]], ...] = (
     ("conjure/BlocksWorld-v0", "conjure.domains.blocksworld:BlocksWorld", 1000, {}),
     ("conjure/PersistentSurveillance-v0", "conjure.domains.persistent_surveillance:PersistentSurveillance", 1000, {}),  # noqa: E501
     ("conjure/RescueMission-v0", "conjure.domains.rescue_mission:RescueMission", 10, {}),
-    ("conjure/UAV-7-2-v0", "conjure.domains.uav_mission:UAVMission", 8, {"scenario": "uav-7-2"}),
-    ("conjure/UAV-10-2-v0", "conjure.domains.uav_mission:UAVMission", 11, {"scenario": "uav-10-2"}),
+    ("conjure/UAV-7-2-v0", "conjure.domains.uav_mission:UAVMission", 8, {"scenario": "uav-7-2-spec"}),  # noqa: E501
+    ("conjure/UAV-10-2-v0", "conjure.domains.uav_mission:UAVMission", 11, {"scenario": "uav-10-2-spec"}),  # noqa: E501
+    ("conjure/UAV-7-2-v1", "conjure.domains.uav_mission:UAVMission", 8, {"scenario": "uav-7-2"}),
+    ("conjure/UAV-10-2-v1", "conjure.domains.uav_mission:UAVMission", 11, {"scenario": "uav-10-2"}),
 )
 # fmt: on
 

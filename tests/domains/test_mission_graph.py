@@ -2,13 +2,22 @@ import numpy as np
 import pytest
 
 from conjure.core.errors import InvalidParameterError
-from conjure.domains.mission_graph import MissionGraph, uav_7_2, uav_10_2
+from conjure.domains.mission_graph import (
+    MissionGraph,
+    uav_7_2,
+    uav_7_2_spec,
+    uav_10_2,
+    uav_10_2_spec,
+)
 
 
 def test_floyd_warshall_hop_distances_from_the_base_match_the_reconstruction():
-    # spec 2.2: d(2) = d(3) = 1, d(4) = d(5) = 2, d(6) = d(7) = 3 (thesis numbering)
-    assert uav_7_2().distances[0].tolist() == [0, 1, 1, 2, 2, 3, 3]
-    assert uav_10_2().distances[0].tolist() == [0, 1, 1, 2, 2, 3, 3, 4, 4, 4]
+    # spec 2.2: d(2) = d(3) = 1, d(4) = d(5) = 2, d(6) = d(7) = 3 (thesis numbering); the
+    # calibrated graphs keep the edges
+    for make in (uav_7_2, uav_7_2_spec):
+        assert make().distances[0].tolist() == [0, 1, 1, 2, 2, 3, 3]
+    for make in (uav_10_2, uav_10_2_spec):
+        assert make().distances[0].tolist() == [0, 1, 1, 2, 2, 3, 3, 4, 4, 4]
 
 
 def test_distances_are_symmetric_shortest_paths():
@@ -22,20 +31,25 @@ def test_distances_are_symmetric_shortest_paths():
 
 
 def test_state_action_counts_match_the_thesis_orders_of_magnitude():
-    assert uav_7_2().state_action_count() == 49 * 49 * 128 * 8 * 49
-    assert uav_10_2().state_action_count() == 100 * 81 * 1024 * 11 * 100
+    assert uav_7_2_spec().state_action_count() == 49 * 49 * 128 * 8 * 49
+    assert uav_10_2_spec().state_action_count() == 100 * 81 * 1024 * 11 * 100
+    # fuel 6 and 7, 9 and 7: each UAV's fuel levels multiply
+    assert uav_7_2().state_action_count() == 49 * (7 * 8) * 128 * 8 * 49
+    assert uav_10_2().state_action_count() == 100 * (10 * 8) * 1024 * 11 * 100
 
 
 def test_crash_penalty_is_minus_the_sum_of_rewards():
-    assert uav_7_2().crash_penalty == -750.0
-    assert uav_10_2().crash_penalty == -1400.0
+    assert uav_7_2_spec().crash_penalty == -750.0
+    assert uav_10_2_spec().crash_penalty == -1400.0
+    assert uav_7_2().crash_penalty == -1750.0
+    assert uav_10_2().crash_penalty == -2700.0
 
 
 def test_state_layout_and_joint_actions_round_trip():
     g = uav_7_2()
     s = g.initial_state()
     assert g.locations(s).tolist() == [0, 0]
-    assert g.fuels(s).tolist() == [6, 6]
+    assert g.fuels(s).tolist() == [6, 7]
     assert not g.visited(s).any() and g.time(s) == 0
     for destinations in ([0, 0], [3, 5], [6, 1]):
         assert g.decode_action(g.encode_action(destinations)).tolist() == destinations
@@ -46,7 +60,8 @@ def test_config_round_trip():
     g = uav_7_2()
     again = MissionGraph.from_dict(g.to_dict())
     assert again.to_dict() == g.to_dict()
-    assert again.windows[3].tolist() == [2, 4]
+    assert again.windows[1].tolist() == [1, 1] and again.windows[2].tolist() == [0, 8]
+    assert again.fuel == (6, 7) and again.probabilities[4] == 0.3
 
 
 def test_target_keys_may_be_digit_strings_as_json_writes_them():

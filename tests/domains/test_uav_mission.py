@@ -55,11 +55,20 @@ def rollout(domain, policy, num_episodes, seed):
 # ---------------------------------------------------------------------------------- interface
 
 
+@pytest.mark.filterwarnings("ignore:.*is out of date:DeprecationWarning")  # v0 beside v1
 @pytest.mark.parametrize(
     ("env_id", "dims", "actions", "horizon"),
-    [("conjure/UAV-7-2-v0", 12, 49, 8), ("conjure/UAV-10-2-v0", 15, 100, 11)],
+    [
+        ("conjure/UAV-7-2-v0", 12, 49, 8),
+        ("conjure/UAV-10-2-v0", 15, 100, 11),
+        ("conjure/UAV-7-2-v1", 12, 49, 8),
+        ("conjure/UAV-10-2-v1", 15, 100, 11),
+    ],
 )
 def test_gymnasium_ids_and_spec(env_id, dims, actions, horizon):
+    # v0 keeps spec 2.2's first reconstruction, v1 the calibrated default (issue 19)
+    scenario = env_id.split("/")[1].lower().rsplit("-", 1)[0] + ("-spec" if "v0" in env_id else "")
+    assert gym.spec(env_id).kwargs == {"scenario": scenario}
     env = gym.make(env_id)
     obs, _ = env.reset(seed=0)
     spec = env.unwrapped.domain_spec
@@ -70,7 +79,7 @@ def test_gymnasium_ids_and_spec(env_id, dims, actions, horizon):
         horizon,
     )
     assert spec.has_action_constraints and spec.is_discrete.all()
-    assert obs[-1] == 0 and obs[1] == obs[3] == spec.high[1]  # full tanks, t = 0
+    assert obs[-1] == 0 and obs[1] == spec.high[1] and obs[3] == spec.high[3]  # full, t = 0
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         check_env(env.unwrapped, skip_render_check=True)
@@ -79,8 +88,10 @@ def test_gymnasium_ids_and_spec(env_id, dims, actions, horizon):
 def test_graph_attribute_and_state_action_counts():
     small, large = UAVMission(), UAVMission(scenario="uav-10-2")
     assert small.graph_.num_nodes == 7 and large.graph_.num_nodes == 10
-    assert small.state_action_count() == 120_472_576  # "more than 100 million" (T:3113)
-    assert large.state_action_count() == pytest.approx(9.1e9, rel=0.01)  # "about 9 billion"
+    assert small.state_action_count() == 137_682_944  # "more than 100 million" (T:3113)
+    assert large.state_action_count() == pytest.approx(9.0e9, rel=0.01)  # "about 9 billion"
+    spec = UAVMission(scenario="uav-7-2-spec")
+    assert spec.state_action_count() == 120_472_576
     assert UAVMission(graph=line([3], 4)).graph_.num_nodes == 2
 
 
@@ -109,7 +120,7 @@ def test_legal_actions_stay_or_move_to_a_neighbour_with_fuel():
 
 
 def test_fuel_burn_and_free_loitering_at_the_base():
-    domain = UAVMission()
+    domain = UAVMission(scenario="uav-7-2-spec")
     domain.reset(seed=0)
     encode = domain.graph_.encode_action
     obs, reward, terminated, _, info = domain.step(encode([1, 0]))  # node 1 has no value
@@ -286,6 +297,56 @@ def test_simulated_optimal_and_worst_policies_earn_their_values(traverse_failure
     start = domain.graph_.initial_state()
     assert solution.value(start) == solution.optimal_return
     assert solution.layer_sizes[0] == 1 and solution.num_states == solution.layer_sizes.sum()
+
+
+@pytest.mark.parametrize("scenario", ["uav-7-2", "uav-7-2-spec"])
+@pytest.mark.parametrize("traverse_failure", [0.0, 0.05])
+def test_exact_evaluation_of_the_optimal_and_worst_policies(scenario, traverse_failure):
+    domain = UAVMission(scenario=scenario, traverse_failure=traverse_failure)
+    solution = domain.exact_solution()
+    best = domain.evaluate_policy(solution.action)
+    worst = domain.evaluate_policy(solution.worst_action)
+    assert best.value == pytest.approx(solution.optimal_return, abs=1e-9)
+    assert worst.value == pytest.approx(solution.worst_return, abs=1e-9)
+    assert worst.crash_probability > 0.99  # the worst policy always crashes
+    assert best.reach_probabilities[0] == 1.0 and best.states[0].tolist() == (
+        domain.graph_.initial_state().tolist()
+    )
+    times = best.states[:, -1]
+    running = [best.reach_probabilities[times == t].sum() for t in range(domain.graph_.horizon)]
+    assert np.all(np.diff(running) <= 1e-12)  # missions only end
+    assert running[-1] >= 1.0 - best.crash_probability - 1e-12  # the rest come home
+    for state_, action in zip(best.states[:50], best.actions[:50], strict=True):
+        actions, q = solution.q_values(state_)
+        assert q.max() == pytest.approx(solution.value(state_), abs=1e-9)
+        assert action == actions[np.argmax(q)]  # ties: lowest action, as in the DP
+
+
+def test_exact_evaluation_of_a_hand_solved_policy():
+    # line([3], 4) with η = 0.5: fly to the target once, then home. The first traversal (-1)
+    # fails (1/2: stay home, free) or arrives (a draw: +10 w.p. 1/2) and turns back (-1): home
+    # (1/2), or stuck at the target with 1 fuel, where the draw repeats if it failed
+    # (1/4 · 10), and then home (-1, 1/2) or a crash (-10 replacing the step's reward, 1/2).
+    domain = UAVMission(graph=line([3], 4), traverse_failure=0.5)
+
+    def out_and_back(obs):
+        at_base, fuel = obs[0] == 0, obs[1]
+        return 1 if at_base and fuel == 3 else 0
+
+    result = domain.evaluate_policy(out_and_back)
+    stuck = 0.25 * 10 + 0.5 * -1 + 0.5 * -10
+    assert result.crash_probability == pytest.approx(0.5 * 0.5 * 0.5)
+    assert result.value == pytest.approx(-1 + 0.5 * (0.5 * 10 - 1 + 0.5 * stuck))
+    returns = rollout(domain, lambda d, obs, rng: out_and_back(obs), 4000, seed=2)
+    assert returns.mean() == pytest.approx(result.value, abs=4 * returns.std() / np.sqrt(4000))
+
+
+def test_evaluate_policy_refuses_illegal_actions_and_non_callables():
+    domain = UAVMission()
+    with pytest.raises(InvalidParameterError, match="illegal in state"):
+        domain.evaluate_policy(lambda obs: domain.graph_.encode_action([6, 0]))
+    with pytest.raises(InvalidParameterError, match="policy must map"):
+        domain.evaluate_policy(3)
 
 
 def test_solution_lookups_of_terminal_and_unreachable_states():

@@ -8,7 +8,14 @@ import numpy as np
 import pytest
 
 from conjure.core.errors import IncompatibleComponentsError, InvalidParameterError, NotSetUpError
-from conjure.domains.mission_graph import MissionGraph, uav_7_2, uav_10_2
+from conjure.domains.mission_graph import (
+    MissionGraph,
+    uav_7_2,
+    uav_7_2_spec,
+    uav_10_2,
+    uav_10_2_spec,
+)
+from conjure.domains.uav_mission import UAVMission
 from conjure.planners.cbba_planner import CBBAPlanner
 
 
@@ -60,12 +67,12 @@ def is_fuel_safe(graph: MissionGraph, s: np.ndarray) -> bool:
 
 
 def test_aggressive_plan_of_uav_7_2():
-    # UAV 7-2 (nodes 0-based, base 0): targets 2 (40 = 50·0.8), 3 (90, window [2, 4]),
-    # 4 (50), 5 (180, window [3, 5]), 6 (140); hops from the base 1, 2, 2, 3, 3; fuel 6 each.
-    # UAV 0 bids on 5 first (180 - 3 hops = 177), then adds 3 (0 -> 3 at t = 2 -> 5 at 3 ->
-    # home at 6: all 6 fuel); nothing else fits. UAV 0 wins every tie, so UAV 1 takes 6
+    # UAV 7-2 of spec 2.2 (nodes 0-based, base 0): targets 2 (40 = 50·0.8), 3 (90, window
+    # [2, 4]), 4 (50), 5 (180, window [3, 5]), 6 (140); hops from the base 1, 2, 2, 3, 3; fuel
+    # 6 each. UAV 0 bids on 5 first (180 - 3 hops = 177), then adds 3 (0 -> 3 at t = 2 -> 5 at
+    # 3 -> home at 6: all 6 fuel); nothing else fits. UAV 0 wins every tie, so UAV 1 takes 6
     # (137), then 4 and 2 in front of it: 0 -> 2 (t 1) -> 4 (2) -> 6 (3) -> home at 6.
-    graph = uav_7_2()
+    graph = uav_7_2_spec()
     plan = planner(graph, variant="aggressive").plan(graph.initial_state())
     assert [p.tolist() for p in plan.paths] == [[3, 5], [2, 4, 6]]
     assert [a.tolist() for a in plan.arrivals] == [[2.0, 3.0], [1.0, 2.0, 3.0]]
@@ -77,30 +84,113 @@ def test_aggressive_plan_of_uav_7_2():
     assert plan.action == graph.encode_action([1, 2])
 
 
-def test_conservative_plan_of_uav_7_2():
-    # Algorithm 27 plans with 6 - 3 = 3 fuel: UAV 0 takes target 2 (round trip 2); nothing
-    # else is within a round trip of 3, so UAV 1 has an empty plan and gets a 4th unit, with
-    # which it takes target 3 (at t = 2, home at 4; 3 then 4 would need 5). Both have plans.
-    graph = uav_7_2()
-    plan = planner(graph, variant="conservative").plan(graph.initial_state())
-    assert [p.tolist() for p in plan.paths] == [[2], [3]]
-    assert plan.fuel.tolist() == [3.0, 4.0] and plan.cbba_runs == 2
-    assert plan.destinations.tolist() == [2, 1]
+@pytest.mark.parametrize(
+    ("refuel", "paths", "fuel", "runs", "destinations"),
+    [
+        # Algorithm 27 plans with 6 - 3 = 3 fuel: UAV 0 takes target 2 (round trip 2); nothing
+        # else is within a round trip of 3. UAV 1 has no target but is home: it is ok and
+        # stays, keeping its reserve.
+        ("home", [[2], []], [3.0, 3.0], 1, [2, 0]),
+        # The printed test Plan[u] = ∅ alone gives UAV 1 a 4th unit, with which it takes
+        # target 3 (at t = 2, home at 4; 3 then 4 would need 5).
+        ("empty_plan", [[2], [3]], [3.0, 4.0], 2, [2, 1]),
+    ],
+)
+def test_conservative_plan_of_uav_7_2(refuel, paths, fuel, runs, destinations):
+    graph = uav_7_2_spec()
+    plan = planner(graph, variant="conservative", refuel=refuel).plan(graph.initial_state())
+    assert [p.tolist() for p in plan.paths] == paths
+    assert plan.fuel.tolist() == fuel and plan.cbba_runs == runs
+    assert plan.destinations.tolist() == destinations
 
 
-def test_conservative_fuel_comes_back_one_unit_at_a_time_capped_at_the_real_fuel():
-    # fuel 2 each: plan with 0 (nothing), then 1 (nothing: every target needs a round trip of
-    # at least 2), then 2: UAV 0 takes target 2; UAV 1 is still empty but at its real fuel.
-    graph = uav_7_2()
-    plan = planner(graph).plan(state(graph, [0, 0], [2, 2]))
-    assert plan.cbba_runs == 3
-    assert plan.fuel.tolist() == [2.0, 2.0]
-    assert [p.tolist() for p in plan.paths] == [[2], []]
-    assert plan.destinations.tolist() == [2, 0]
+def test_conservative_fuel_comes_back_one_unit_at_a_time_until_the_uav_can_get_home():
+    # UAV 0 stands on target 3 (2 hops from the base, window [2, 4]) at t = 2 with 4 fuel;
+    # UAV 1 is home and empty. Planned with 4 - 3 = 1, UAV 0 cannot reach the base: a 2nd unit
+    # brings it home (no target fits in 2), and that is all it gets back.
+    graph = uav_7_2_spec()
+    s = state(graph, [3, 0], [4, 0], time=2)
+    plan = planner(graph).plan(s)
+    assert plan.cbba_runs == 2 and plan.fuel.tolist() == [2.0, 0.0]
+    assert [p.tolist() for p in plan.paths] == [[], []]
+    assert plan.destinations.tolist() == [1, 0]
+    # The printed test alone hands back the whole reserve: UAV 0 loiters to retry target 3.
+    spent = planner(graph, refuel="empty_plan").plan(s)
+    assert spent.cbba_runs == 3 and spent.fuel.tolist() == [3.0, 0.0]
+    assert [p.tolist() for p in spent.paths] == [[3], []]
+    assert spent.destinations.tolist() == [3, 0]
+
+
+def test_conservative_fuel_is_capped_at_the_real_fuel():
+    # fuel 2 each at the base, empty plans: home is reachable, so nothing is added; with the
+    # printed test alone fuel comes back 0 -> 1 -> 2 and stops at the real fuel.
+    graph = uav_7_2_spec()
+    s = state(graph, [0, 0], [2, 2])
+    assert planner(graph).plan(s).fuel.tolist() == [0.0, 0.0]
+    spent = planner(graph, refuel="empty_plan").plan(s)
+    assert spent.cbba_runs == 3 and spent.fuel.tolist() == [2.0, 2.0]
+    assert [p.tolist() for p in spent.paths] == [[2], []]
+    assert spent.destinations.tolist() == [2, 0]
+
+
+#: One UAV on a line 0 - 1 - 2 with a sure target of 100 at node 2 and 4 fuel: a round trip
+#: to the target takes all of it.
+LINE = {
+    "num_nodes": 3,
+    "edges": [[0, 1], [1, 2]],
+    "fuel": [4],
+    "horizon": 6,
+    "targets": {2: {"reward": 100.0}},
+}
+
+
+def test_the_reserve_holds_under_replanning_and_the_printed_test_spends_it():
+    # Mid-mission, UAV at node 1 (one hop from home) with 3 fuel at t = 1. fuel - 3 = 0 does
+    # not reach the base, so it gets one unit, with which no target fits: it flies home with
+    # 2 units to spare. The printed test alone gives back all 3 and sends it to node 2, where
+    # it has 2 fuel for the 2 hops home: no reserve left.
+    domain = UAVMission(graph=LINE)
+    graph = domain.graph_
+    s = np.array([1.0, 3.0, 0.0, 0.0, 0.0, 1.0])
+    kept = planner(graph).plan(s)
+    assert kept.destinations.tolist() == [0] and kept.fuel.tolist() == [1.0]
+    assert kept.cbba_runs == 2
+    spent = planner(graph, refuel="empty_plan").plan(s)
+    assert spent.destinations.tolist() == [2] and spent.fuel.tolist() == [3.0]
+    after = domain.nominal_next_state(s, spent.action)
+    assert graph.fuels(after)[0] == graph.distances[2, 0] == 2
+
+
+def test_the_printed_test_crashes_where_the_reserve_stays_home():
+    # Exact evaluation with 5% traverse failures, replanning at every step. With the reserve
+    # held, fuel 4 - 3 = 1 reaches no target from the base, so the UAV stays: nothing gained,
+    # nothing lost. The printed test spends the reserve on the round trip: it reaches node 2
+    # (0.95²), then either return move fails (1 - 0.95²) and it lands one unit short; a UAV
+    # that failed 1 -> 2 turns home with 2 fuel and still crashes after two more failures.
+    eta = 0.05
+    domain = UAVMission(graph=LINE, traverse_failure=eta)
+    kept = domain.evaluate_policy(planner(domain.graph_).action)
+    assert kept.value == 0.0 and kept.crash_probability == 0.0
+    spent = domain.evaluate_policy(planner(domain.graph_, refuel="empty_plan").action)
+    crash = (1 - eta) ** 2 * (1 - (1 - eta) ** 2) + (1 - eta) * eta**3
+    assert spent.crash_probability == pytest.approx(crash, rel=1e-12)
+    assert spent.crash_probability > 0.08
+
+
+@pytest.mark.parametrize("refuel", ["home", "empty_plan"])
+def test_conservative_crash_rates_on_the_spec_graph(refuel):
+    # Spec 2.2's UAV 7-2 at 5% traverse failures, evaluated exactly: the printed test erodes
+    # the reserve (issue 19 measured 17.5% crashes by simulation); the held reserve does not.
+    domain = UAVMission(scenario="uav-7-2-spec", traverse_failure=0.05)
+    result = domain.evaluate_policy(planner(domain.graph_, refuel=refuel).action)
+    if refuel == "home":
+        assert result.crash_probability < 0.01
+    else:
+        assert 0.15 < result.crash_probability < 0.2
 
 
 def test_conservative_keeps_the_reserve_when_every_uav_has_a_plan():
-    graph = uav_7_2()
+    graph = uav_7_2_spec()
     plan = planner(graph, fuel_reserve=0).plan(graph.initial_state())
     aggressive = planner(graph, variant="aggressive").plan(graph.initial_state())
     assert plan.cbba_runs == 1
@@ -108,9 +198,9 @@ def test_conservative_keeps_the_reserve_when_every_uav_has_a_plan():
 
 
 def test_a_uav_at_the_base_waits_there_when_it_is_early():
-    # UAV 10-2: UAV 0's path ends at target 9 (window [5, 8]); leaving at once would reach 9
-    # at 4 and wait there, burning 9 fuel; leaving at t = 1 burns 8, all it has.
-    graph = uav_10_2()
+    # UAV 10-2 of spec 2.2: UAV 0's path ends at target 9 (window [5, 8]); leaving at once
+    # would reach 9 at 4 and wait there, burning 9 fuel; leaving at t = 1 burns 8, all it has.
+    graph = uav_10_2_spec()
     plan = planner(graph, variant="aggressive").plan(graph.initial_state())
     assert plan.paths[0].tolist()[-1] == 9
     assert plan.allocation.departures[0] == 1.0 and plan.allocation.returns[0] == 9.0
@@ -120,8 +210,9 @@ def test_a_uav_at_the_base_waits_there_when_it_is_early():
 
 
 def test_a_uav_on_an_unvisited_target_loiters_to_try_again():
-    # UAV 0 stands on target 4 at t = 2 (its draw failed); the others are visited
-    graph = uav_7_2()
+    # spec 2.2's UAV 7-2: UAV 0 stands on target 4 at t = 2 (its draw failed); the others
+    # are visited
+    graph = uav_7_2_spec()
     s = state(graph, [4, 0], [4, 0], time=2, visited=[2, 3, 5, 6])
     plan = planner(graph, variant="aggressive").plan(s)
     assert plan.paths[0].tolist() == [4] and plan.arrivals[0].tolist() == [3.0]
@@ -129,7 +220,7 @@ def test_a_uav_on_an_unvisited_target_loiters_to_try_again():
 
 
 def test_visited_targets_are_not_planned():
-    graph = uav_7_2()
+    graph = uav_7_2_spec()
     plan = planner(graph, variant="aggressive").plan(
         state(graph, [0, 0], [6, 6], visited=[2, 3, 4, 5, 6])
     )
@@ -137,7 +228,7 @@ def test_visited_targets_are_not_planned():
 
 
 def test_without_fuel_everyone_goes_home():
-    graph = uav_10_2()
+    graph = uav_10_2_spec()
     p = planner(graph, variant="aggressive")
     at_base = p.plan(state(graph, [0, 0], [0, 0]))
     assert at_base.destinations.tolist() == [0, 0]
@@ -284,7 +375,8 @@ def test_bad_states_are_rejected(bad):
 
 
 @pytest.mark.parametrize(
-    ("name", "value"), [("variant", "greedy"), ("fuel_reserve", -1), ("cache_size", 1.5)]
+    ("name", "value"),
+    [("variant", "greedy"), ("fuel_reserve", -1), ("refuel", "always"), ("cache_size", 1.5)],
 )
 def test_bad_parameters(name, value):
     with pytest.raises(InvalidParameterError, match=name):

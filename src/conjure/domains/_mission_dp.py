@@ -9,9 +9,15 @@ pass with min gives the worst policy. States get an integer key within their lay
 
 where only nodes with a positive reward have a bit (the others never turn on). Each layer is
 held as a dense array over all keys, so a layer costs Θ(2^m Π(F_i + 1) N^n) memory.
+
+A fixed deterministic policy is evaluated exactly by the forward pass alone
+(`evaluate_policy`): the probability of reaching each state under it, layer by layer, gives
+V^π(s₀) = Σ_t Σ_s Pr(s_t = s) E[r | s, π(s)] and the probability of a crash.
 """
 
 from __future__ import annotations
+
+from collections.abc import Callable
 
 import numpy as np
 from numba import njit
@@ -24,12 +30,15 @@ from conjure.domains._mission_kernels import (
     collect_targets,
     crash_penalty,
     is_crashed,
+    is_legal,
     legal_actions,
     target_chances,
     traversals,
 )
 
-__all__ = ["layer_size", "solve_mission", "state_key"]
+__all__ = ["action_values", "evaluate_policy", "layer_size", "solve_mission", "state_key"]
+
+ENDED, CRASHED = -1, -2  # the key `_outcomes` gives a terminal outcome: t = H, or a crash
 
 
 def layer_size(num_nodes: int, fuel: tuple[int, ...], num_targets: int) -> int:
@@ -82,6 +91,17 @@ def _decode(
 
 
 @njit(cache=True)
+def _outcome_buffers(layout: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Room for the (probability, reward, key) of every outcome `_outcomes` may write (4^n)."""
+    max_outcomes = 1 << (2 * layout[NUM_UAVS])
+    return (
+        np.empty(max_outcomes, dtype=np.float64),
+        np.empty(max_outcomes, dtype=np.float64),
+        np.empty(max_outcomes, dtype=np.int64),
+    )
+
+
+@njit(cache=True)
 def _outcomes(
     state: np.ndarray,
     action: int,
@@ -94,7 +114,7 @@ def _outcomes(
     rewards: np.ndarray,
     keys: np.ndarray,
 ) -> int:
-    """Write every outcome of (s, a) as (probability, reward, key or −1 if terminal).
+    """Write every outcome of (s, a) as (probability, reward, key, `ENDED` or `CRASHED`).
 
     The outcomes are those of `mission_step`: each traversal fails with probability η, then
     (without a crash) each qualifying target is obtained with its chance.
@@ -122,7 +142,7 @@ def _outcomes(
         moved, burnt = advance(state, action, layout, failed)
         if is_crashed(moved, layout):
             probabilities[count], rewards[count] = p_move, crash_penalty(node_table)
-            keys[count] = -1
+            keys[count] = CRASHED
             count += 1
             continue
         nodes, chances = target_chances(moved, layout, node_table)
@@ -136,7 +156,7 @@ def _outcomes(
             after = moved.copy()
             gain = collect_targets(after, nodes, obtained, layout, node_table)
             probabilities[count], rewards[count] = p, gain - burnt
-            keys[count] = -1 if is_last else state_key(after, layout, fuel_caps, target_bit)
+            keys[count] = ENDED if is_last else state_key(after, layout, fuel_caps, target_bit)
             count += 1
     return count
 
@@ -160,10 +180,7 @@ def solve_mission(
     Ties go to the lowest action index.
     """
     horizon = layout[HORIZON]
-    max_outcomes = 1 << (2 * layout[NUM_UAVS])
-    probabilities = np.empty(max_outcomes, dtype=np.float64)
-    rewards = np.empty(max_outcomes, dtype=np.float64)
-    keys = np.empty(max_outcomes, dtype=np.int64)
+    probabilities, rewards, keys = _outcome_buffers(layout)
 
     # Forward: the reachable keys of every layer.
     layers = [np.array([state_key(start, layout, fuel_caps, target_bit)], dtype=np.int64)]
@@ -225,3 +242,92 @@ def solve_mission(
             best_actions[row], worst_actions[row] = high_action, low_action
         best_next, worst_next = best_here, worst_here
     return sizes, all_keys, best, worst, best_actions, worst_actions
+
+
+@njit(cache=True)
+def action_values(
+    state: np.ndarray,
+    layout: np.ndarray,
+    adjacency: np.ndarray,
+    node_table: np.ndarray,
+    traverse_failure: float,
+    fuel_caps: np.ndarray,
+    target_bit: np.ndarray,
+    solution_keys: np.ndarray,
+    values: np.ndarray,
+    num_keys: int,
+) -> tuple[np.ndarray, np.ndarray]:
+    """(legal actions, Q(s, a) = Σ_{s'} P^a_{ss'} (R + V(s'))) of a non-terminal ``state``.
+
+    ``solution_keys`` (t · num_keys + key, ascending) and ``values`` are the rows of
+    `solve_mission`; every non-terminal outcome of a legal action is among them.
+    """
+    probabilities, rewards, keys = _outcome_buffers(layout)
+    offset = (state[state.shape[0] - 1] + 1) * num_keys  # the next layer's keys
+    actions = legal_actions(state, layout, adjacency)
+    q = np.zeros(actions.shape[0], dtype=np.float64)
+    for k in range(actions.shape[0]):
+        count = _outcomes(
+            state, actions[k], layout, node_table, traverse_failure, fuel_caps, target_bit,
+            probabilities, rewards, keys,
+        )  # fmt: skip
+        for o in range(count):
+            q[k] += probabilities[o] * rewards[o]
+            if keys[o] >= 0:
+                row = np.searchsorted(solution_keys, offset + keys[o])
+                q[k] += probabilities[o] * values[row]
+    return actions, q
+
+
+def evaluate_policy(
+    start: np.ndarray,
+    policy: Callable[[np.ndarray], int],
+    layout: np.ndarray,
+    adjacency: np.ndarray,
+    node_table: np.ndarray,
+    traverse_failure: float,
+    fuel_caps: np.ndarray,
+    target_bit: np.ndarray,
+    target_nodes: np.ndarray,
+) -> tuple[float, float, np.ndarray, np.ndarray, np.ndarray]:
+    """Exact forward evaluation of a deterministic policy from ``start`` (t = 0, non-terminal).
+
+    ``policy`` maps an int64 state to a joint action; it is asked once per reached state.
+    Return (V^π(s₀), crash probability, reached non-terminal states (k, 2n + N + 1) int64 by
+    time and key, their probability of being reached, the policy's action in each). Raise
+    ValueError naming the state when the policy picks an illegal action.
+    """
+    probabilities, rewards, keys = _outcome_buffers(layout)
+    layer = {int(state_key(start, layout, fuel_caps, target_bit)): 1.0}
+    value, crash = 0.0, 0.0
+    states, reach, actions = [], [], []
+    for t in range(int(layout[HORIZON])):
+        next_layer: dict[int, float] = {}
+        for key in sorted(layer):
+            mass = layer[key]
+            state = _decode(key, t, layout, fuel_caps, target_nodes)
+            action = int(policy(state))
+            if not is_legal(state, action, layout, adjacency):
+                raise ValueError(f"action {action} is illegal in state {state.tolist()}")
+            count = _outcomes(
+                state, action, layout, node_table, traverse_failure, fuel_caps, target_bit,
+                probabilities, rewards, keys,
+            )  # fmt: skip
+            for o in range(count):
+                p = mass * probabilities[o]
+                value += p * rewards[o]
+                if keys[o] == CRASHED:
+                    crash += p
+                elif keys[o] >= 0:
+                    next_layer[int(keys[o])] = next_layer.get(int(keys[o]), 0.0) + p
+            states.append(state)
+            reach.append(mass)
+            actions.append(action)
+        layer = next_layer
+    return (
+        value,
+        crash,
+        np.array(states, dtype=np.int64),
+        np.array(reach, dtype=np.float64),
+        np.array(actions, dtype=np.int64),
+    )

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import json
 from collections import OrderedDict
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any, ClassVar
 
@@ -16,7 +16,13 @@ from conjure.core.errors import InvalidParameterError
 from conjure.core.interfaces import DomainSpec
 from conjure.core.params import Constraint, InstanceOf, Interval, Options, did_you_mean
 from conjure.domains._legal_space import LegalDiscrete
-from conjure.domains._mission_dp import layer_size, solve_mission, state_key
+from conjure.domains._mission_dp import (
+    action_values,
+    evaluate_policy,
+    layer_size,
+    solve_mission,
+    state_key,
+)
 from conjure.domains._mission_kernels import (
     ILLEGAL,
     checked_legal_actions,
@@ -30,11 +36,22 @@ from conjure.domains._mission_kernels import (
     state_from_observation,
 )
 from conjure.domains.action_masking import ActionMasking
-from conjure.domains.mission_graph import MissionGraph, uav_7_2, uav_10_2
+from conjure.domains.mission_graph import (
+    MissionGraph,
+    uav_7_2,
+    uav_7_2_spec,
+    uav_10_2,
+    uav_10_2_spec,
+)
 
-__all__ = ["MissionSolution", "UAVMission"]
+__all__ = ["MissionSolution", "PolicyEvaluation", "UAVMission"]
 
-SCENARIOS = {"uav-7-2": uav_7_2, "uav-10-2": uav_10_2}
+SCENARIOS = {
+    "uav-7-2": uav_7_2,
+    "uav-10-2": uav_10_2,
+    "uav-7-2-spec": uav_7_2_spec,
+    "uav-10-2-spec": uav_10_2_spec,
+}
 #: Largest joint action space N^n accepted (the legal-action sampler builds masks of this size).
 MAX_JOINT_ACTIONS = 1_000_000
 #: Largest time layer 2^m Π(F_i + 1) N^n `exact_solution` accepts (~33 bytes per key in memory).
@@ -61,9 +78,9 @@ class UAVMission(ActionMasking, NoisyDomain):
 
     Parameters
     ----------
-    scenario : {"uav-7-2", "uav-10-2"}, default="uav-7-2"
-        A shipped scenario of Figure 5-4 (`conjure.domains.mission_graph`); ignored when
-        ``graph`` is given.
+    scenario : {"uav-7-2", "uav-10-2", "uav-7-2-spec", "uav-10-2-spec"}, default="uav-7-2"
+        A shipped scenario of Figure 5-4 (`conjure.domains.mission_graph`): the calibrated
+        reconstructions, or spec 2.2's first ones (``-spec``); ignored when ``graph`` is given.
     graph : mapping or None, default=None
         Any mission graph, as a config mapping ``MissionGraph.from_dict`` reads (``num_nodes``,
         ``edges``, ``fuel``, ``horizon``, ``base``, ``targets``); it replaces ``scenario``. At
@@ -141,12 +158,12 @@ class UAVMission(ActionMasking, NoisyDomain):
     >>> domain = UAVMission()
     >>> obs, info = domain.reset(seed=0)
     >>> obs.tolist()  # l_1, f_1, l_2, f_2, v_0..v_6, t
-    [0.0, 6.0, 0.0, 6.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]
+    [0.0, 6.0, 0.0, 7.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]
     >>> domain.legal_actions(obs).size  # each UAV: stay, or fly to node 1 or 2
     9
     >>> obs, reward, terminated, truncated, info = domain.step(domain.graph_.encode_action([1, 0]))
-    >>> obs[:4].tolist(), reward, info["cost"]
-    ([1.0, 5.0, 0.0, 6.0], -1.0, 0.0)
+    >>> obs[:4].tolist(), obs[5], reward, info["cost"]  # node 1's 600 obtained, 1 fuel burnt
+    ([1.0, 5.0, 0.0, 7.0], np.float64(1.0), 599.0, 0.0)
     """
 
     noise_parameter: ClassVar[str] = "traverse_failure"
@@ -387,7 +404,7 @@ class UAVMission(ActionMasking, NoisyDomain):
         return int(num_failed), int(num_tried)
 
     def state_action_count(self) -> int:
-        """|S × A| as the thesis counts it (≈1.2e8 for UAV 7-2, ≈9.1e9 for 10-2; spec 2.2)."""
+        """|S × A| as the thesis counts it (spec 2.2): UAV 7-2 1.4e8 (-spec 1.2e8), 10-2 9.0e9."""
         return self.graph_.state_action_count()
 
     # ------------------------------------------------------------------ exact solution
@@ -398,7 +415,7 @@ class UAVMission(ActionMasking, NoisyDomain):
         Section 5.3.5 ("the optimal solutions were obtained using dynamic programming"; about a
         day for UAV 7-2 in the thesis, footnote 4). Solutions are cached per graph and η.
         Feasible while one time layer, 2^m Π_i (F_i + 1) N^n keys (m targets), stays within
-        2·10⁷: UAV 7-2 has 7.7e4 and UAV 10-2 1.0e6.
+        2·10⁷: UAV 7-2 has 1.8e5 (its -spec graph 7.7e4) and UAV 10-2 1.0e6.
         """
         graph = self.graph_
         cache_key = (json.dumps(graph.to_dict(), sort_keys=True), self._eta)
@@ -441,11 +458,71 @@ class UAVMission(ActionMasking, NoisyDomain):
             layout=self._layout,
             fuel_caps=fuel_caps,
             target_bit=target_bit,
+            adjacency=self._adjacency,
+            node_table=self._node_table,
+            traverse_failure=self._eta,
         )
         _SOLUTIONS[cache_key] = solution
         if len(_SOLUTIONS) > _CACHE_SIZE:
             _SOLUTIONS.popitem(last=False)
         return solution
+
+    def evaluate_policy(self, policy: Callable[[np.ndarray], int]) -> PolicyEvaluation:
+        """Evaluate a deterministic policy exactly at this η, by a forward pass from s₀.
+
+        Section 5.3.5 estimates a planner's quality "online for 10,000 episodes"; a policy
+        that is a fixed function of the state (CBBA replanned at every step, the DP optimum)
+        can instead be evaluated exactly over the states it reaches: each is asked for its
+        action once, and the probability of reaching it, times the expected reward of that
+        action, sums to V^π(s₀). The transitions are those of `exact_solution`.
+
+        Parameters
+        ----------
+        policy : callable
+            Maps a state (float64, the observation layout) to a legal joint action.
+
+        Returns
+        -------
+        PolicyEvaluation
+            V^π(s₀), the crash probability and the reached states with their probabilities.
+
+        Examples
+        --------
+        >>> domain = UAVMission(traverse_failure=0.05)
+        >>> solution = domain.exact_solution()
+        >>> result = domain.evaluate_policy(solution.action)
+        >>> bool(abs(result.value - solution.optimal_return) < 1e-9)
+        True
+        >>> domain.evaluate_policy(lambda state: 0).value  # everyone stays at the base
+        0.0
+        """
+        if not callable(policy):
+            raise InvalidParameterError(
+                f"UAVMission.evaluate_policy: policy must map a state to a joint action; got "
+                f"{policy!r}."
+            )
+        graph = self.graph_
+        target_bit = np.full(graph.num_nodes, -1, dtype=np.int64)
+        target_bit[graph.targets] = np.arange(graph.targets.size)
+        try:
+            value, crash, states, reach, actions = evaluate_policy(
+                graph.initial_state().astype(np.int64),
+                lambda state: policy(state.astype(np.float64)),
+                self._layout, self._adjacency, self._node_table, self._eta,
+                np.array(graph.fuel, dtype=np.int64), target_bit, graph.targets.astype(np.int64),
+            )  # fmt: skip
+        except ValueError as error:
+            raise InvalidParameterError(
+                f"UAVMission.evaluate_policy: the policy's {error}; a policy may only stay or "
+                f"move each UAV along an edge with fuel left."
+            ) from None
+        return PolicyEvaluation(
+            value=float(value),
+            crash_probability=float(crash),
+            states=states.astype(np.float64),
+            reach_probabilities=reach,
+            actions=actions,
+        )
 
     def value_bounds(self) -> tuple[float, float]:
         """(worst, best) expected return from s₀ at this η, between which optimality is scaled.
@@ -481,6 +558,10 @@ class MissionSolution:
     layout, fuel_caps, target_bit : ndarray of int64
         The state encoding: ``[n, N, base, H]``, each UAV's initial fuel, and each node's bit
         among the visited targets (−1 for a node without reward).
+    adjacency, node_table : ndarray
+        The mission's transition tables (`conjure.domains._mission_kernels`), for `q_values`.
+    traverse_failure : float
+        The η the mission was solved at.
     """
 
     optimal_return: float
@@ -495,6 +576,9 @@ class MissionSolution:
     layout: np.ndarray
     fuel_caps: np.ndarray
     target_bit: np.ndarray
+    adjacency: np.ndarray
+    node_table: np.ndarray
+    traverse_failure: float
 
     @property
     def num_states(self) -> int:
@@ -526,3 +610,44 @@ class MissionSolution:
     def worst_action(self, state: np.ndarray) -> int:
         """A joint action of the worst policy in a reachable non-terminal state."""
         return int(self.worst_actions[self._row(state)])
+
+    def q_values(self, state: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(legal joint actions, Q*(s, a) of each) of a reachable non-terminal state.
+
+        Q*(s, a) = Σ_{s'} P^a_{ss'} (R + V*(s')), the backup of `UAVMission.exact_solution`;
+        its maximum is V*(s).
+        """
+        self._row(state)  # refuses terminal and unreachable states
+        return action_values(
+            np.asarray(state, dtype=np.int64), self.layout, self.adjacency, self.node_table,
+            self.traverse_failure, self.fuel_caps, self.target_bit, self.keys, self.values,
+            self.num_layer_keys,
+        )  # fmt: skip
+
+
+@dataclass(frozen=True, eq=False)
+class PolicyEvaluation:
+    """The exact value and crash probability of a deterministic policy (Section 5.3.5).
+
+    Built by `UAVMission.evaluate_policy`.
+
+    Parameters
+    ----------
+    value : float
+        V^π(s₀), the policy's expected return (γ = 1).
+    crash_probability : float
+        The probability that the mission fails (Section 5.3.5's crash).
+    states : ndarray of float64, shape (k, 2n + N + 1)
+        The non-terminal states the policy reaches with positive probability, by time.
+    reach_probabilities : ndarray of float64, shape (k,)
+        The probability that the mission passes through each state; over the states of one
+        time step they sum to the probability that the mission is still running then.
+    actions : ndarray of int64, shape (k,)
+        The policy's joint action in each state.
+    """
+
+    value: float
+    crash_probability: float
+    states: np.ndarray
+    reach_probabilities: np.ndarray
+    actions: np.ndarray

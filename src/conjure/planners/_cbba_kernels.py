@@ -386,13 +386,15 @@ def is_mission_state(state, num_uavs, num_nodes):
 @njit(cache=True)
 def plan_mission(
     state, distances, next_hop, node_tasks, num_uavs, base, horizon, settings,
-    is_conservative, fuel_reserve, max_rounds,
+    is_conservative, fuel_reserve, is_refuel_to_plan, max_rounds,
 ):  # fmt: skip
     """Conservative (Algorithm 27) or aggressive CBBA on a mission state, and its first moves.
 
     ``node_tasks`` (N, 4) holds every node as a task (value r_j p_j); the unvisited ones with a
-    positive value whose window is still open become CBBA's tasks. Return (destinations,
-    task_nodes, assumed fuel, CBBA runs, and `run_cbba`'s outputs).
+    positive value whose window is still open become CBBA's tasks. A conservative UAV with an
+    empty path gets one more fuel unit (up to its real fuel) while it cannot fly home within
+    its planned fuel, or, with ``is_refuel_to_plan``, while its path is empty. Return
+    (destinations, task_nodes, assumed fuel, CBBA runs, and `run_cbba`'s outputs).
     """
     n, num_nodes = num_uavs, distances.shape[0]
     now = state[state.shape[0] - 1]
@@ -425,8 +427,11 @@ def plan_mission(
         bundle_len = result[1]
         grew = False
         for i in range(n):
-            if bundle_len[i] == 0 and agents[i, FUEL] < max_fuel[i]:  # line 8
-                agents[i, FUEL] = min(max_fuel[i], agents[i, FUEL] + 1.0)
+            if bundle_len[i] > 0 or agents[i, FUEL] >= max_fuel[i]:
+                continue
+            home = distances[int(agents[i, LOCATION]), base]
+            if is_refuel_to_plan or agents[i, FUEL] < home:  # line 7: Plan[u] = ∅, not ok
+                agents[i, FUEL] = min(max_fuel[i], agents[i, FUEL] + 1.0)  # line 8
                 grew = True
         if not grew:
             break

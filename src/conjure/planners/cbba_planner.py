@@ -94,8 +94,10 @@ class CBBAPlanner(CooperativePlanner):
       back to (or stays at) the base.
 
     Algorithm 27 (conservative CBBA): MaxFuel ← the UAVs' fuel; plan with fuel − reserve
-    (clamped at 0); while some UAV has an empty plan, give each such UAV one more unit of fuel,
-    up to MaxFuel, and run CBBA again. Aggressive CBBA is one CBBA run with the full fuel.
+    (clamped at 0); while some UAV has no feasible plan, give each such UAV one more unit of
+    fuel, up to MaxFuel, and run CBBA again. A UAV whose path is empty but which can fly home
+    within its reduced fuel has a feasible plan, going home (``refuel="home"``, see Notes).
+    Aggressive CBBA is one CBBA run with the full fuel.
 
     Parameters
     ----------
@@ -103,6 +105,11 @@ class CBBAPlanner(CooperativePlanner):
         Algorithm 27 or plain CBBA with all remaining fuel (Section 5.5.2).
     fuel_reserve : int, default 3
         >= 0, the fuel Algorithm 27 holds back at first (line 2).
+    refuel : {"home", "empty_plan"}, default "home"
+        When Algorithm 27 gives a UAV with an empty path one more fuel unit (line 8): while it
+        cannot fly home within its reduced fuel ("home": the reserve is released only to bring
+        it home), or while its path is empty ("empty_plan": the printed test Plan[u] = ∅ read
+        alone, spec 1.7, whose reserve erodes under per-step replanning; see Notes).
     fuel_weight : float, default 1.0
         ρ >= 0 (finite): CBBA's fuel penalty per hop from a UAV to a target (the ACL code's
         constant fuel cost; 1 is the mission's fuel cost per move).
@@ -125,8 +132,21 @@ class CBBAPlanner(CooperativePlanner):
     Notes
     -----
     - Choice: the loop condition of Algorithm 27, printed "while not ok or MaxFuel =
-      UAVs.fuel", runs until every UAV has a plan or every UAV without one already has its
-      full fuel, and returns the last plan (``domains-and-icca`` spec section 1.7, item 4).
+      UAVs.fuel", runs until every UAV is ok or every UAV that is not already has its full
+      fuel, and returns the last plan (``domains-and-icca`` spec section 1.7, item 4).
+    - Choice (``refuel="home"``, the default): which UAV is "ok". Section 5.5.2 explains the
+      loop: "If the resulting plan allows all UAVs to get back to the base safely, it will be
+      returned as the solution. Otherwise, UAVs with no feasible plan (i.e., Plan[u] = ∅) will
+      have their fuels incremented". A UAV with no target but enough reduced fuel to fly home
+      has a feasible plan, going home, and is ok; fuel comes back one unit at a time, capped
+      at the real fuel, only while a UAV cannot even reach the base within its reduced fuel.
+      The reserve is therefore never spent on targets. π^p is replanned at every step
+      (Section 5.5.2) from the current fuel, so under the printed test alone ("empty_plan")
+      a UAV without a plan regains the reserve and spends it on a target at the next replan,
+      and the reserve erodes to nothing: on spec 2.2's UAV 7-2 (``uav_7_2_spec``) at 5%
+      traverse failures that reading crashes 17.9% of missions for reserves 3, 4 and 5 alike
+      (exact evaluation, ``python docs/reproduction/uav_calibration.py --refuel``), where the
+      thesis reports "rare chances of crashing"; "home" crashes in under 0.1%.
     - Choice: the score is Σ r_j p_j minus ρ·(hops from the UAV to each of its targets); this
       fuel term is constant per UAV-target pair, so marginal gains still diminish and CBBA
       still equals sequential greedy (the ACL code's device). Equal bids go to the lower UAV.
@@ -156,15 +176,19 @@ class CBBAPlanner(CooperativePlanner):
     >>> model = SimpleNamespace(domain_=SimpleNamespace(graph_=graph))
     >>> planner = CBBAPlanner(variant="aggressive").setup(model, seed=0)
     >>> plan = planner.plan(graph.initial_state())
-    >>> [p.tolist() for p in plan.paths]
-    [[3, 5], [2, 4, 6]]
+    >>> [p.tolist() for p in plan.paths]  # one UAV per target: node 1 gets one
+    [[1, 3, 4, 2], [6, 5]]
     >>> plan.destinations.tolist()
     [1, 2]
+    >>> conservative = CBBAPlanner().setup(model, seed=0).plan(graph.initial_state())
+    >>> [p.tolist() for p in conservative.paths], conservative.fuel.tolist()  # fuel − 3
+    ([[1, 2], [3]], [3.0, 4.0])
     """
 
     parameter_constraints = {
         "variant": Options(("conservative", "aggressive")),
         "fuel_reserve": Interval(int, 0, None),
+        "refuel": Options(("home", "empty_plan")),
         "fuel_weight": Interval(float, 0.0, math.inf, closed="left"),
         "cache_size": Interval(int, 0, None),
     }
@@ -174,11 +198,13 @@ class CBBAPlanner(CooperativePlanner):
         *,
         variant: str = "conservative",
         fuel_reserve: int = 3,
+        refuel: str = "home",
         fuel_weight: float = 1.0,
         cache_size: int = 65536,
     ):
         self.variant = variant
         self.fuel_reserve = fuel_reserve
+        self.refuel = refuel
         self.fuel_weight = fuel_weight
         self.cache_size = cache_size
 
@@ -246,7 +272,7 @@ class CBBAPlanner(CooperativePlanner):
         out = plan_mission(
             state, self.distances_, self.next_hop_, self.node_tasks_, graph.num_uavs,
             graph.base, float(graph.horizon), self.settings_, self.is_conservative_,
-            float(self.fuel_reserve), self.max_rounds_,
+            float(self.fuel_reserve), self.refuel == "empty_plan", self.max_rounds_,
         )  # fmt: skip
         destinations = out[0]
         action = 0

@@ -67,7 +67,7 @@ class CooperativeLearner(CooperativeAgent):
     veto_reward : float or None, default -1.0
         The reward of the failure a vetoed proposal ⟨s, a′⟩ is learned as (the veto rule,
         Notes), any finite float: −1 is the grid worlds' pit reward; give a domain's own
-        failure reward elsewhere (a UAV crash costs −Σ rewards, −750 on UAV 7-2). ``None``:
+        failure reward elsewhere (a UAV crash costs −Σ rewards, −1750 on UAV 7-2). ``None``:
         Algorithm 24 as printed, a vetoed proposal changes nothing.
 
     Attributes

@@ -43,7 +43,7 @@ class FuelRiskAnalyzer(RiskAnalyzer):
     --------
     >>> from conjure.domains.mission_graph import uav_7_2
     >>> graph = uav_7_2()
-    >>> state = graph.initial_state()  # both UAVs at the base with 6 fuel, t = 0
+    >>> state = graph.initial_state()  # both UAVs at the base with full tanks, t = 0
     >>> FuelRiskAnalyzer.is_unsafe_outcome(graph, state)
     False
     >>> state[0], state[1] = 3, 1  # UAV 1 at node 3, two hops from the base, with 1 fuel
