@@ -102,3 +102,80 @@ def test_shift_preference_moves_exactly_one_preference(actor):
     before = agent.preferences(state).copy()
     agent.shift_preference(state, 2, 100.0)
     assert agent.preferences(state) - before == pytest.approx([0.0, 0.0, 100.0])
+
+
+def test_the_log_policy_actor_steps_along_the_gibbs_log_gradient():
+    # Bhatnagar et al.'s actor: ω_b += αδ(𝟙[b = a] − π(s, b)); here π = (1/2, 1/2), δ = 1.
+    domain = ChainMDP(num_states=4, num_actions=2)
+    agent = ActorCritic(
+        representation=Tabular(), step_size=0.5, critic="v", actor_update="log_policy"
+    ).setup(domain.domain_spec, seed=0)
+    agent.begin_episode()
+    s = np.array([2.0])
+    action = agent.act(s)
+    delta = agent.learn(Transition(s, action, 1.0, np.array([3.0]), 0, True))
+    assert delta == pytest.approx(1.0)
+    expected = np.full(2, -0.25)
+    expected[action] = 0.25
+    np.testing.assert_allclose(agent.preferences(s), expected)
+
+
+def test_the_log_policy_step_leaves_the_sum_of_the_preferences_unchanged():
+    # Σ_b (𝟙[b = a] − π(b)) = 0: the taken action's gain is paid by the others, which is why
+    # a constant error in δ cancels in expectation (the "features" actor's sum grows by αδ).
+    domain = ChainMDP(num_states=4, num_actions=2)
+    agent = ActorCritic(representation=Tabular(), step_size=0.5, actor_update="log_policy")
+    agent.setup(domain.domain_spec, seed=3)
+    s = np.array([1.0])
+    agent.act(s)
+    agent.learn(Transition(s, 1, 2.0, np.array([0.0]), 0, True))
+    assert agent.preferences(s).sum() == pytest.approx(0.0)
+
+
+def test_lambda_one_traces_carry_the_episode_return_back_to_the_first_state():
+    domain = ChainMDP(num_states=4, num_actions=2)
+    agent = ActorCritic(
+        representation=Tabular(), step_size=0.5, actor_step_size=0.25, critic="v", trace_decay=1.0
+    ).setup(domain.domain_spec, seed=0)
+    agent.begin_episode()
+    s0, s1, end = np.array([0.0]), np.array([1.0]), np.array([2.0])
+    gamma = domain.domain_spec.discount
+    agent.act(s0)
+    assert agent.learn(Transition(s0, 0, 0.0, s1, 0, False)) == 0.0  # V = 0 everywhere
+    agent.act(s1)
+    assert agent.learn(Transition(s1, 0, 1.0, end, 0, True)) == pytest.approx(1.0)
+    assert agent.weights_[1, 0] == pytest.approx(0.5)  # z(s1) = 1
+    assert agent.weights_[0, 0] == pytest.approx(0.5 * gamma)  # z(s0) = γλ·1
+    assert agent.preferences(s0)[0] == pytest.approx(0.25 * gamma)
+    agent.begin_episode()  # a new episode clears the traces
+    assert agent.critic_traces_.count[0] == agent.actor_traces_.count[0] == 0
+
+
+def test_the_traced_log_policy_actor_critic_restores_mid_episode_and_grows_with_ifdd():
+    from conjure.representations.online_ifdd import OnlineIFDD
+    from conjure.testing.checks import check_save_restore_continues
+
+    check_save_restore_continues(
+        ActorCritic(
+            representation=Tabular(), critic="v", actor_update="log_policy", trace_decay=0.9
+        )
+    )
+    domain = InvertedPendulum()
+    agent = ActorCritic(
+        representation=OnlineIFDD(base=IndependentDiscretization(), discovery_threshold=0.05),
+        step_size=0.1,
+        trace_decay=0.5,
+        actor_update="log_policy",
+    ).setup(domain.domain_spec, seed=0)
+    _rollout(domain, agent, 3000, seed=0)
+    n = agent.representation_.num_features_
+    assert n > agent.representation_.num_initial_features_
+    assert agent.critic_traces_.slot_of.shape[0] == agent.actor_traces_.slot_of.shape[0] == n
+
+
+def test_the_log_policy_actor_needs_a_gibbs_policy():
+    from conjure.policies import EpsilonGreedy
+
+    agent = ActorCritic(representation=Tabular(), policy=EpsilonGreedy(), actor_update="log_policy")
+    with pytest.raises(IncompatibleComponentsError, match="Gibbs"):
+        agent.setup(ChainMDP().domain_spec, seed=0)

@@ -75,6 +75,104 @@ def add(
 
 
 @njit(cache=True)
+def add_log_policy_gradient(
+    weights: np.ndarray,
+    indices: np.ndarray,
+    values: np.ndarray | None,
+    action: int,
+    probabilities: np.ndarray,
+    amount: float,
+) -> None:
+    """ω_b ← ω_b + amount · φ(s) (𝟙[b = a] − π(s, b)) for every action b: ∇_ω log π(s, a).
+
+    The gradient of a Gibbs policy over ρ(s, ·) = ωᵀψ(s, ·) at τ = 1 (Bhatnagar et al. 2009's
+    compatible features, ψ(s, a) − Σ_b π(s, b) ψ(s, b)).
+    """
+    for i in range(indices.shape[0]):
+        row = weights[indices[i]]
+        value = amount * _value(values, i)
+        for b in range(row.shape[0]):
+            row[b] -= value * probabilities[b]
+        row[action] += value
+
+
+@njit(cache=True)
+def decay_row_traces(
+    slot_of: np.ndarray,
+    rows: np.ndarray,
+    traces: np.ndarray,
+    count: np.ndarray,
+    factor: float,
+    min_trace: float,
+) -> None:
+    """Decay: z ← factor·z over the live rows; rows whose entries all fell below the minimum go.
+
+    The live traces are rows ``traces[:count[0]]`` of features ``rows[:count[0]]``;
+    ``slot_of[f]`` is feature f's row or −1.
+    """
+    kept = 0
+    for k in range(count[0]):
+        largest = 0.0
+        for b in range(traces.shape[1]):
+            traces[k, b] *= factor
+            largest = max(largest, abs(traces[k, b]))
+        feature = rows[k]
+        if largest < min_trace:
+            slot_of[feature] = -1
+            continue
+        if kept != k:
+            rows[kept] = feature
+            for b in range(traces.shape[1]):
+                traces[kept, b] = traces[k, b]
+        slot_of[feature] = kept
+        kept += 1
+    count[0] = kept
+
+
+@njit(cache=True)
+def add_row_traces(
+    slot_of: np.ndarray,
+    rows: np.ndarray,
+    traces: np.ndarray,
+    count: np.ndarray,
+    indices: np.ndarray,
+    values: np.ndarray | None,
+    vector: np.ndarray,
+) -> bool:
+    """z_f ← z_f + φ_f(s)·``vector`` for the listed features f (a new row starts at 0).
+
+    Returns False, changing nothing, when the rows could overflow (the caller grows them).
+    """
+    if count[0] + indices.shape[0] > rows.shape[0]:
+        return False
+    for i in range(indices.shape[0]):
+        feature = indices[i]
+        slot = slot_of[feature]
+        if slot < 0:
+            slot = count[0]
+            count[0] += 1
+            slot_of[feature] = slot
+            rows[slot] = feature
+            for b in range(traces.shape[1]):
+                traces[slot, b] = 0.0
+        value = _value(values, i)
+        for b in range(traces.shape[1]):
+            traces[slot, b] += value * vector[b]
+    return True
+
+
+@njit(cache=True)
+def apply_row_traces(
+    weights: np.ndarray, rows: np.ndarray, traces: np.ndarray, count: np.ndarray, amount: float
+) -> None:
+    """θ ← θ + amount·z over the live rows."""
+    for k in range(count[0]):
+        row = weights[rows[k]]
+        for b in range(traces.shape[1]):
+            row[b] += amount * traces[k, b]
+
+
+@njit(cache=True)
 def l1_norm(values: np.ndarray) -> float:
     """|φ(s)|₁ = Σ_i |φ_i(s)|: k_t, the number of active features, for binary φ."""
     total = 0.0

@@ -5,7 +5,8 @@ from __future__ import annotations
 import numpy as np
 
 from conjure.agents import _kernels, persistence
-from conjure.agents.linear_td import STEP_SIZE, LinearTDAgent, make_schedule
+from conjure.agents.linear_td import STEP_SIZE, LinearTDAgent, make_schedule, state_key
+from conjure.agents.row_traces import RowTraces
 from conjure.core.errors import IncompatibleComponentsError
 from conjure.core.interfaces import (
     DomainSpec,
@@ -16,7 +17,7 @@ from conjure.core.interfaces import (
     Transition,
     check_is_set_up,
 )
-from conjure.core.params import InstanceOf, Options
+from conjure.core.params import InstanceOf, Interval, Options
 from conjure.core.schedules import StepSizeSchedule
 from conjure.policies import Gibbs, greedy_action
 from conjure.representations.weights import grow_weights
@@ -46,8 +47,19 @@ class ActorCritic(LinearTDAgent):
         What the critic estimates. ``"q"``: Q(s, a) = θᵀφ(s, a) with Algorithm 12's on-policy
         TD error δ = r + γQ(s', a') − Q(s, a) (lines 6-7). ``"v"``: V(s) = θᵀφ(s) with
         δ = r + γV(s') − V(s), the actor-critic of Sutton & Barto (1998, Section 6.6), whose δ
-        estimates the advantage of the action taken. The actor's update, ω += αδψ(s, a)
-        (line 9), is the same for both.
+        estimates the advantage of the action taken.
+    actor_update : {"features", "log_policy"}, default "features"
+        The actor's update (line 9). ``"features"``: ω += αδψ(s, a), as printed.
+        ``"log_policy"``: ω += αδ∇_ω log π(s, a) = αδ(ψ(s, a) − Σ_b π(s, b)ψ(s, b))/τ, the
+        policy-gradient step of the actor-critic template the thesis follows (Bhatnagar et
+        al. 2007, 2009, whose ψ are the compatible features ∇ log π); needs a `Gibbs` policy
+        with τ > 0.
+    trace_decay : float, default 0.0
+        λ in [0, 1]; 0 is Algorithm 12 as written, > 0 gives both the critic and the actor
+        eligibility traces (the actor-critic with traces of Sutton & Barto 2018, §13.5):
+        z^θ ← γλz^θ + ∇_θ critic(s), z^ω ← γλz^ω + (the actor's step direction above),
+        θ += αδz^θ, ω += α'δz^ω. With λ = 1 on an episodic task δ's sum along the episode is
+        the return minus the critic's value (a Monte-Carlo advantage).
 
     Attributes
     ----------
@@ -73,6 +85,21 @@ class ActorCritic(LinearTDAgent):
       of each action against V(s), so an action's preference grows only if it did better than
       the state's average: what lets a biased actor leave a suboptimal prior policy
       (`conjure.safety.CooperativeActorCritic`).
+    - ``actor_update="features"`` adds αδ to the action taken only, so while the critic is
+      still below its values (δ > 0 on average, e.g. V starting at 0 on a mission worth
+      1,000) the action taken most gains a preference as large as the critic's own growth and
+      the Gibbs actor stops exploring. The log-policy step's expected change under π is zero
+      for any constant error in δ (Σ_a π(a)(𝟙[b = a] − π(b)) = 0), so only advantages move it.
+    - Choice: ``"log_policy"`` uses π(s, ·) as ``act`` drew it (over the legal actions it was
+      given), cached with ψ(s); if ``learn`` meets a state ``act`` did not see last, π(s, ·)
+      is recomputed over all actions.
+    - With ``trace_decay`` > 0 the critic's δ no longer judges an action by the value of the
+      next state alone: a state first reached by a new action has V = 0 (far below a mission
+      worth 1,000), which with λ = 0 makes every new action look bad, while with λ = 1 the
+      episode's actual return reaches the action. Choice: the traces accumulate, are cleared
+      at each episode's start, drop rows below `conjure.agents.row_traces.MIN_TRACE`, and
+      omit Sutton & Barto's γ^t factor (γ = 1 on the thesis's episodic domains); an imagined
+      transition (`Transition.is_imagined`) updates without them.
 
     Complexity
     ----------
@@ -96,6 +123,8 @@ class ActorCritic(LinearTDAgent):
         ),
         "actor_step_size": STEP_SIZE | InstanceOf(type(None)),
         "critic": Options(("q", "v")),
+        "actor_update": Options(("features", "log_policy")),
+        "trace_decay": Interval(float, 0, 1),
     }
     default_policy = Gibbs
     expected_check_failures = {
@@ -113,6 +142,8 @@ class ActorCritic(LinearTDAgent):
         actor_step_size: float | StepSizeSchedule | None = None,
         initial_weight: float = 0.0,
         critic: str = "q",
+        actor_update: str = "features",
+        trace_decay: float = 0.0,
     ):
         self.representation = representation
         self.actor_representation = actor_representation
@@ -121,6 +152,8 @@ class ActorCritic(LinearTDAgent):
         self.actor_step_size = actor_step_size
         self.initial_weight = initial_weight
         self.critic = critic
+        self.actor_update = actor_update
+        self.trace_decay = trace_decay
 
     def setup(self, spec: DomainSpec, seed: int | np.random.SeedSequence) -> ActorCritic:
         """Set up the critic as `LinearTDAgent.setup` (one column for V), then the actor's ω."""
@@ -141,7 +174,27 @@ class ActorCritic(LinearTDAgent):
             self.schedule_ if self.actor_step_size is None else make_schedule(self.actor_step_size)
         )
         self.actor_weights_ = np.full((actor.num_features_, spec.num_actions), self.initial_weight)
+        self._is_log_policy = self.actor_update == "log_policy"
+        if self._is_log_policy and not (
+            isinstance(self.policy_, Gibbs) and self.policy_.temperature > 0
+        ):
+            raise IncompatibleComponentsError(
+                f"ActorCritic(actor_update='log_policy') needs a Gibbs policy with temperature "
+                f"> 0 (its log-probability gradient); got {self.policy_!r}."
+            )
+        self._has_traces = self.trace_decay > 0
+        if self._has_traces:
+            self._trace_factor = self.discount_ * self.trace_decay
+            self.critic_traces_ = RowTraces(self.weights_.shape[0], self.weights_.shape[1])
+            self.actor_traces_ = RowTraces(actor.num_features_, spec.num_actions)
         return self
+
+    def begin_episode(self) -> None:
+        """Count a new episode and clear the eligibility traces."""
+        super().begin_episode()
+        if self._has_traces:
+            self.critic_traces_.clear()
+            self.actor_traces_.clear()
 
     def act(
         self, state: np.ndarray, greedy: bool = False, legal_actions: np.ndarray | None = None
@@ -153,7 +206,8 @@ class ActorCritic(LinearTDAgent):
         legal = self._all_actions if legal_actions is None else legal_actions
         if greedy:
             return int(greedy_action(preferences, legal))
-        self._remember(state, psi, None)
+        policy = self.policy_.probabilities(preferences, legal) if self._is_log_policy else None
+        self._remember(state, psi, policy)
         return int(self.policy_.select(preferences, self.rng_, legal))
 
     def q_values(self, state: np.ndarray) -> np.ndarray:
@@ -193,12 +247,63 @@ class ActorCritic(LinearTDAgent):
             target += self.discount_ * self._bootstrap(transition)  # line 6: Q⁺(s, a)
         step_size = self._step_size(self.schedule_, phi)
         column = 0 if self._is_state_value else transition.action
-        delta = self._update(phi, column, target, step_size)  # lines 7-8
-        if np.isfinite(delta):
-            actor_step = self._step_size(self.actor_schedule_, psi)
-            _kernels.add(self.actor_weights_, psi[0], psi[1], transition.action, actor_step * delta)
-        self._after_update(transition, phi, delta)  # line 9 done above
+        actor_step = self._step_size(self.actor_schedule_, psi)
+        if self._has_traces and not transition.is_imagined:
+            delta = self._learn_with_traces(transition, phi, psi, column, target)
+            self.critic_traces_.apply(self.weights_, step_size * delta)
+            self.actor_traces_.apply(self.actor_weights_, actor_step * delta)
+        else:
+            delta = self._update(phi, column, target, step_size)  # lines 7-8
+            if np.isfinite(delta):
+                self._actor_step(psi, transition, actor_step * delta)  # line 9
+        self._after_update(transition, phi, delta)
         return delta
+
+    def _actor_step(self, psi: SparseFeatures, transition: Transition, amount: float) -> None:
+        """ω += amount · (ψ(s, a), or ∇_ω log π(s, a) for ``actor_update="log_policy"``)."""
+        action = transition.action
+        if self._is_log_policy:
+            policy = self._policy_of(transition.state)
+            _kernels.add_log_policy_gradient(
+                self.actor_weights_,
+                psi[0],
+                psi[1],
+                action,
+                policy,
+                amount / self.policy_.temperature,
+            )
+        else:
+            _kernels.add(self.actor_weights_, psi[0], psi[1], action, amount)
+
+    def _learn_with_traces(
+        self,
+        transition: Transition,
+        phi: SparseFeatures,
+        psi: SparseFeatures,
+        column: int,
+        target: float,
+    ) -> float:
+        """δ, after z^θ ← γλz^θ + φ(s) ⊗ e_column and z^ω ← γλz^ω + ψ(s) ⊗ the actor's direction."""
+        delta = target - float(_kernels.q_values(self.weights_, phi[0], phi[1])[column])
+        critic = np.zeros(self.weights_.shape[1])
+        critic[column] = 1.0
+        self.critic_traces_.step(self._trace_factor, phi, critic)
+        if self._is_log_policy:
+            actor = -self._policy_of(transition.state) / self.policy_.temperature
+            actor[transition.action] += 1.0 / self.policy_.temperature
+        else:
+            actor = np.zeros(self.spec_.num_actions)
+            actor[transition.action] = 1.0
+        self.actor_traces_.step(self._trace_factor, psi, actor)
+        return delta
+
+    def _policy_of(self, state: np.ndarray) -> np.ndarray:
+        """π(s, ·) as ``act`` drew it (cached with ψ(s)), else over all actions now."""
+        key = state_key(state)
+        for cached_key, _, policy, _ in (self._before_last, self._last):
+            if key == cached_key and policy is not None:
+                return policy
+        return self.policy_.probabilities(self.preferences(state), self._all_actions)
 
     def _bootstrap(self, transition: Transition) -> float:
         next_phi = (
@@ -216,12 +321,19 @@ class ActorCritic(LinearTDAgent):
     def _grow(self, expansion: Expansion) -> None:
         """Grow θ, and ω too when the actor shares the critic's (adaptive) features."""
         super()._grow(expansion)
+        if self._has_traces:
+            self.critic_traces_.grow(expansion)
         if self._is_shared:
             self.actor_weights_ = grow_weights(self.actor_weights_, expansion)
+            if self._has_traces:
+                self.actor_traces_.grow(expansion)
 
     def _state_arrays(self) -> dict[str, np.ndarray]:
         arrays = super()._state_arrays()
         arrays["actor_weights"] = self.actor_weights_
+        if self._has_traces:
+            arrays.update(self.critic_traces_.state_arrays("critic_trace_"))
+            arrays.update(self.actor_traces_.state_arrays("actor_trace_"))
         if not self._is_shared:
             arrays.update(
                 persistence.prefixed(
@@ -236,3 +348,20 @@ class ActorCritic(LinearTDAgent):
             self.actor_representation_.load_state_arrays(saved.with_prefix("actor_representation."))
         shape = (self.actor_representation_.num_features_, self.spec_.num_actions)
         self.actor_weights_ = saved.array("actor_weights", shape)
+        if self._has_traces:
+            self.critic_traces_ = self._loaded_traces(saved, "critic_trace_", self.weights_)
+            self.actor_traces_ = self._loaded_traces(saved, "actor_trace_", self.actor_weights_)
+
+    @staticmethod
+    def _loaded_traces(
+        saved: persistence.SavedAgent, prefix: str, weights: np.ndarray
+    ) -> RowTraces:
+        """The live trace rows saved under ``prefix``, checked against ``weights``."""
+        n, width = weights.shape
+        rows = saved.indices(f"{prefix}rows", (None,), n)
+        values = saved.array(f"{prefix}values", (rows.shape[0], width))
+        if np.unique(rows).shape[0] != rows.shape[0]:
+            raise saved.damaged(persistence.ARRAYS_FILE, f"two {prefix}rows are the same feature")
+        traces = RowTraces(n, width)
+        traces.load(rows, values)
+        return traces

@@ -22,8 +22,9 @@ and, in `conjure.compiled._adaptive_kernel` (Sections 4.1.4 and 5.3.5, Algorithm
   of `OnlineIFDD` (any relevance, threshold or fixed-rate discovery);
 - `InvertedPendulum`, `GridWorld`, `ChainMDP` with `OnlineIFDD` over `TileCoding` (hashed or
   not), `Tabular` or `IndependentDiscretization`;
-- agents: `SARSA` (with or without traces), `QLearning`, `ActorCritic` (actor sharing the
-  critic's features); the policies and schedules above.
+- agents: `SARSA` (with or without traces), `QLearning`, `ActorCritic` (Algorithm 12 as
+  printed: a Q critic, ``actor_update="features"``, the actor sharing the critic's features);
+  the policies and schedules above.
 
 Notes
 -----
@@ -326,7 +327,8 @@ def _agent(agent: Agent) -> tuple[int, int, float, float, tuple | None] | None:
         return k.SARSA, traces, agent._trace_factor, float(agent.min_trace), None
     if kind is QLearning:
         return k.Q_LEARNING, k.NO_TRACES, 0.0, 0.0, None
-    if kind is ActorCritic and agent._is_shared and agent.critic == "q":
+    printed = agent.critic == "q" and agent.actor_update == "features"  # Algorithm 12
+    if kind is ActorCritic and agent._is_shared and printed:
         actor = _schedule(agent.actor_schedule_)
         return None if actor is None else (k.ACTOR_CRITIC, k.NO_TRACES, 0.0, 0.0, actor)
     return None

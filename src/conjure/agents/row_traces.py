@@ -1,0 +1,75 @@
+"""Sparse eligibility traces by feature row, for the actor-critic (Sutton & Barto 2018, §13.5).
+
+A trace z has the shape of the weights it updates (n_features × width): the critic's θ (width
+|A| for Q, 1 for V) or the actor's ω (width |A|). Only the rows of features active since the
+episode began are stored: ``rows[:count]`` with their ``traces[:count]``, and ``slot_of[f]``
+gives feature f's row (−1: none), so a step costs Θ(live rows × width), never Θ(n).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from conjure.agents import _kernels
+from conjure.core.interfaces import Expansion, SparseFeatures
+
+__all__ = ["MIN_TRACE", "RowTraces"]
+
+#: Rows whose every entry decays below this are forgotten (as SARSA's ``min_trace``).
+MIN_TRACE = 1e-3
+_INITIAL_ROWS = 64
+
+
+class RowTraces:
+    """The live rows of one eligibility trace z (n_features × ``width``), cleared per episode."""
+
+    def __init__(self, num_features: int, width: int):
+        self.slot_of = np.full(num_features, -1, dtype=np.int64)
+        self.rows = np.zeros(_INITIAL_ROWS, dtype=np.int64)
+        self.traces = np.zeros((_INITIAL_ROWS, width))
+        self.count = np.zeros(1, dtype=np.int64)
+
+    def step(self, factor: float, phi: SparseFeatures, vector: np.ndarray) -> None:
+        """One step: z ← factor·z + φ(s) ⊗ ``vector`` (``vector``: the per-column gradient)."""
+        _kernels.decay_row_traces(
+            self.slot_of, self.rows, self.traces, self.count, factor, MIN_TRACE
+        )
+        while not _kernels.add_row_traces(
+            self.slot_of, self.rows, self.traces, self.count, phi[0], phi[1], vector
+        ):
+            self._grow_rows()
+
+    def apply(self, weights: np.ndarray, amount: float) -> None:
+        """Update: weights ← weights + amount·z."""
+        _kernels.apply_row_traces(weights, self.rows, self.traces, self.count, amount)
+
+    def clear(self) -> None:
+        """Forget every live row (a new episode)."""
+        self.slot_of[self.rows[: self.count[0]]] = -1
+        self.count[0] = 0
+
+    def grow(self, expansion: Expansion) -> None:
+        """Make room for the features an adaptive representation added (their z is 0)."""
+        extra = np.full(expansion.num_new, -1, dtype=np.int64)
+        self.slot_of = np.concatenate([self.slot_of, extra])
+
+    def state_arrays(self, prefix: str) -> dict[str, np.ndarray]:
+        """The live rows, for saving mid-episode."""
+        count = int(self.count[0])
+        return {f"{prefix}rows": self.rows[:count], f"{prefix}values": self.traces[:count]}
+
+    def load(self, rows: np.ndarray, values: np.ndarray) -> None:
+        """Restore the live rows ``state_arrays`` saved (validated by the caller)."""
+        self.clear()
+        while self.rows.shape[0] < rows.shape[0]:
+            self._grow_rows()
+        count = rows.shape[0]
+        self.rows[:count] = rows
+        self.traces[:count] = values
+        self.slot_of[rows] = np.arange(count)
+        self.count[0] = count
+
+    def _grow_rows(self) -> None:
+        size, width = self.traces.shape
+        self.rows = np.concatenate([self.rows, np.zeros(size, dtype=np.int64)])
+        self.traces = np.concatenate([self.traces, np.zeros((size, width))])
