@@ -47,4 +47,5 @@ def test_each_config_starts_at_the_settings_its_search_selected(path):
             *parents, last = key.split(".")
             for parent in parents:
                 node = node[parent]["params"]
-            assert node[last] == yaml.safe_load(value), f"{figure}: {row['label']} {key}"
+            expected = None if value == "None" else yaml.safe_load(value)  # describe_setting
+            assert node[last] == expected, f"{figure}: {row['label']} {key}"

@@ -549,6 +549,11 @@ def step_grid(labels, path="params.step_size", known=()):
     return grid
 
 
+def setting_value(text):
+    """A grid value as `describe_setting` wrote it (Python's ``None`` for YAML's null)."""
+    return None if text == "None" else yaml.safe_load(text)
+
+
 def with_selection(name, agents):
     """``agents`` with the settings FIG's stored grid selection chose as their base values.
 
@@ -568,7 +573,7 @@ def with_selection(name, agents):
                 *parents, last = key.split(".")
                 for parent in parents:
                     node = node[parent]["params"]
-                node[last] = yaml.safe_load(value)
+                node[last] = setting_value(value)
     return agents
 
 

@@ -21,7 +21,17 @@ _INITIAL_ROWS = 64
 
 
 class RowTraces:
-    """The live rows of one eligibility trace z (n_features × ``width``), cleared per episode."""
+    """The live rows of one eligibility trace z (n_features × ``width``), cleared per episode.
+
+    Algorithm 12's actor-critic with λ > 0: z ← γλ·z + φ(s) ⊗ g each step and w ← w + αδ·z.
+
+    Parameters
+    ----------
+    num_features:
+        n, the rows z could ever hold (``grow`` adds more).
+    width:
+        Columns of the weights z updates: |A| for Q or the actor, 1 for V.
+    """
 
     def __init__(self, num_features: int, width: int):
         self.slot_of = np.full(num_features, -1, dtype=np.int64)
