@@ -2,6 +2,10 @@
 
 from __future__ import annotations
 
+import os
+import socket
+import subprocess
+import sys
 from pathlib import Path
 
 import pandas as pd
@@ -68,20 +72,36 @@ def test_experiment_curve_equals_a_single_run(fakes, tmp_path):
     )
 
 
+def dead_process_id() -> int:
+    """The id of a process that has ended."""
+    child = subprocess.Popen([sys.executable, "-c", "pass"])
+    child.wait()
+    return child.pid
+
+
 def test_resume_skips_finished_runs_and_reruns_missing_ones(fakes, tmp_path):
     config = fake_config()
     run_experiment(config, tmp_path, max_workers=1, progress=False)
     kept = path_of(tmp_path, config, "slow", 0)
     before = kept.stat().st_mtime_ns
     path_of(tmp_path, config, "fast", 1).unlink()
-    stale = kept.parent / ".x.json.tmp-host-999-abc"
-    stale.write_text("half a file")
+    host, dead_pid = socket.gethostname(), dead_process_id()
+    stale = kept.parent / f".x.json.tmp-{host}-{dead_pid}-abc"  # a killed writer's
+    old_foreign = kept.parent / ".y.json.tmp-elsewhere-7-abc"
+    in_progress = [  # another live driver's writes: here, and on another host, recently
+        kept.parent / f".z.json.tmp-{host}-{os.getppid()}-abc",
+        kept.parent / ".w.json.tmp-elsewhere-7-abc",
+    ]
+    for path in [stale, old_foreign, *in_progress]:
+        path.write_text("half a file")
+    os.utime(old_foreign, (0, 0))
 
     outcome = run_experiment(config, tmp_path, max_workers=1, progress=False)
     assert outcome.num_skipped == 3
     assert kept.stat().st_mtime_ns == before
     assert path_of(tmp_path, config, "fast", 1).is_file()
-    assert not stale.exists()
+    assert not stale.exists() and not old_foreign.exists()
+    assert all(path.exists() for path in in_progress)
     assert len(outcome.results) == 4 * 5
 
 
