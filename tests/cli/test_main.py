@@ -3,7 +3,11 @@
 from __future__ import annotations
 
 import os
+import signal
+import subprocess
+import sys
 import textwrap
+import time
 from pathlib import Path
 
 import pytest
@@ -270,3 +274,51 @@ def test_plot_draws_the_configured_metric_and_never_replaces_another_metrics_plo
     other = CliRunner().invoke(main, ["plot", str(out), "--metric", "return"])
     assert str(out / "learning_curve_return.png") in other.output
     assert drawn.read_bytes() == before  # the episode-length plot is still there, unchanged
+
+
+LONG_PENDULUM = textwrap.dedent(
+    """
+    name: long_pendulum
+    domain: {kind: InvertedPendulum}
+    agents:
+      sarsa:
+        kind: SARSA
+        params:
+          representation: {kind: IndependentDiscretization, params: {num_buckets: 20}}
+    budget_steps: 1000000000
+    num_policy_checks: 1
+    seeds: 1
+    """
+)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("workers", ["1", "2"])
+def test_ctrl_c_stops_a_run_inside_the_compiled_loop_and_says_what_is_saved(tmp_path, workers):
+    # Issue 20: in-process, SIGINT inside the kernel became the run's recorded failure and the
+    # sweep went on; with workers, click printed a bare "Aborted!" with status 1.
+    config = tmp_path / "long.yaml"
+    config.write_text(LONG_PENDULUM)
+    out = tmp_path / "out"
+    command = [sys.executable, "-m", "conjure.cli", "run", str(config), "--out", str(out)]
+    driver = subprocess.Popen(
+        [*command, "--max-workers", workers, "--quiet"],
+        env={**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[2] / "src")},
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        time.sleep(20.0)  # compiled (or loaded from the cache) and deep in 10⁹ steps
+        assert driver.poll() is None
+        driver.send_signal(signal.SIGINT)
+        interrupted = time.monotonic()
+        _, stderr = driver.communicate(timeout=30)
+        stopped_after = time.monotonic() - interrupted
+    finally:
+        driver.kill()
+    assert driver.returncode == 130, stderr
+    assert stopped_after < 5.0
+    assert f"Interrupted: 0 of 1 runs are saved in {out}" in stderr
+    assert "Traceback" not in stderr and "Aborted" not in stderr
+    assert not (out / "errors").exists()

@@ -11,6 +11,7 @@ from conjure.compiled import (
     for_combination,
     warm_up,
 )
+from conjure.compiled import stepper as stepper_module
 from conjure.core.errors import DivergenceError, InvalidParameterError
 from conjure.core.schedules import EpisodicDecay, FeatureNormalizedDecay
 from conjure.domains import ChainMDP, GridWorld, InvertedPendulum
@@ -271,3 +272,18 @@ def test_one_compilation_serves_every_binary_combination_and_one_every_rbf_one()
     # The representation tuple ends with None (binary φ) or RBF's arrays (real-valued φ).
     last = sorted(str(sig[8].types[-1]) for sig in _kernels.advance_kernel.overloads)
     assert len(last) == 2 and last[1] == "none" and last[0].startswith("UniTuple")
+
+
+@pytest.mark.parametrize(
+    "name", ["pendulum-rbf-actor-critic", "gridworld-rbf-sarsa-lambda-accumulating"]
+)
+def test_kernel_calls_in_bounded_chunks_change_nothing(name, monkeypatch):
+    # Ctrl-C is seen between kernel calls only, so `advance` calls the kernel for at most
+    # MAX_KERNEL_STEPS steps at a time (issue 20); the split must not show in the results.
+    reference, reference_agent, reference_episodes = _compiled_path(name, 5)
+    monkeypatch.setattr(stepper_module, "MAX_KERNEL_STEPS", 7)
+    stepper, agent, episodes = _compiled_path(name, 5)
+    assert episodes == reference_episodes
+    np.testing.assert_array_equal(agent.weights_, reference_agent.weights_)
+    assert stepper.num_episodes == reference.num_episodes
+    assert agent.rng_.bit_generator.state == reference_agent.rng_.bit_generator.state

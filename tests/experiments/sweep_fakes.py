@@ -7,12 +7,14 @@ resolved config; pass it as ``run_fn``. For Ray (whose workers do not share the 
 
 from __future__ import annotations
 
+import math
 import os
 import signal
 import time
 from pathlib import Path
 from typing import Any
 
+import numba
 import numpy as np
 import pytest
 from test_loop import FakeAgent, FakeWalk
@@ -91,6 +93,22 @@ class HogAgent(LoggedAgent):
 
 def kill_self(_: Any) -> None:
     os.kill(os.getpid(), signal.SIGKILL)
+
+
+@numba.njit(cache=False)
+def _spin(num_iterations: int) -> float:
+    """A compiled loop that holds the GIL for as long as it runs."""
+    total = 0.0
+    for i in range(num_iterations):
+        total += math.sqrt(i) * 1e-9
+    return total
+
+
+def spin(marker_dir: str) -> float:
+    """Compile `_spin`, write this process's id under ``marker_dir``, then spin for minutes."""
+    _spin(10)
+    (Path(marker_dir) / str(os.getpid())).write_text("spinning")
+    return _spin(10**13)
 
 
 def register_fakes() -> None:

@@ -2,17 +2,30 @@
 
 from __future__ import annotations
 
+import errno
+import io
+import json
+import os
+import socket
+import subprocess
+import sys
 from pathlib import Path
 
 import pandas as pd
 import pytest
+from click.testing import CliRunner
+from rich.console import Console
+from sweep_fakes import isolated_fakes, run_with_fakes
 from test_loop import FakeAgent, FakeWalk
 
-from conjure.experiments import registry
+from conjure.cli.main import main
+from conjure.core.errors import ResultsWriteError, RunsInterruptedError
+from conjure.experiments import parallel, registry
 from conjure.experiments.config import resolve_run
-from conjure.experiments.parallel import run_experiment
+from conjure.experiments.executors import LocalExecutor
+from conjure.experiments.parallel import execute_runs, run_experiment
 from conjure.experiments.results import error_path, read_run, run_id, run_path
-from conjure.experiments.run import TIMING_COLUMNS, run_config
+from conjure.experiments.run import TIMING_COLUMNS, run_config, run_resolved
 
 
 @pytest.fixture
@@ -68,20 +81,36 @@ def test_experiment_curve_equals_a_single_run(fakes, tmp_path):
     )
 
 
+def dead_process_id() -> int:
+    """The id of a process that has ended."""
+    child = subprocess.Popen([sys.executable, "-c", "pass"])
+    child.wait()
+    return child.pid
+
+
 def test_resume_skips_finished_runs_and_reruns_missing_ones(fakes, tmp_path):
     config = fake_config()
     run_experiment(config, tmp_path, max_workers=1, progress=False)
     kept = path_of(tmp_path, config, "slow", 0)
     before = kept.stat().st_mtime_ns
     path_of(tmp_path, config, "fast", 1).unlink()
-    stale = kept.parent / ".x.json.tmp-host-999-abc"
-    stale.write_text("half a file")
+    host, dead_pid = socket.gethostname(), dead_process_id()
+    stale = kept.parent / f".x.json.tmp-{host}-{dead_pid}-abc"  # a killed writer's
+    old_foreign = kept.parent / ".y.json.tmp-elsewhere-7-abc"
+    in_progress = [  # another live driver's writes: here, and on another host, recently
+        kept.parent / f".z.json.tmp-{host}-{os.getppid()}-abc",
+        kept.parent / ".w.json.tmp-elsewhere-7-abc",
+    ]
+    for path in [stale, old_foreign, *in_progress]:
+        path.write_text("half a file")
+    os.utime(old_foreign, (0, 0))
 
     outcome = run_experiment(config, tmp_path, max_workers=1, progress=False)
     assert outcome.num_skipped == 3
     assert kept.stat().st_mtime_ns == before
     assert path_of(tmp_path, config, "fast", 1).is_file()
-    assert not stale.exists()
+    assert not stale.exists() and not old_foreign.exists()
+    assert all(path.exists() for path in in_progress)
     assert len(outcome.results) == 4 * 5
 
 
@@ -173,3 +202,95 @@ def test_the_summary_table_keeps_long_labels_whole_at_80_columns():
     for label in labels:
         assert label in flat
     assert "-1.000 ± 0.000" in text
+
+
+def test_a_full_disk_keeps_the_writable_runs_and_says_so_in_one_line(fakes, tmp_path, monkeypatch):
+    # Issue 20: ENOSPC printed two tracebacks and dropped runs other workers had finished.
+    config = fake_config()
+    doomed = run_id(resolve_run(config, "slow", 0))
+    save = parallel.save_run
+
+    def full_disk(out_dir, spec, curve, meta=None):
+        if run_id(spec) == doomed:
+            raise OSError(errno.ENOSPC, "No space left on device", str(tmp_path / "runs" / "x"))
+        return save(out_dir, spec, curve, meta)
+
+    monkeypatch.setattr(parallel, "save_run", full_disk)
+    with pytest.raises(ResultsWriteError) as caught:
+        run_experiment(config, tmp_path, max_workers=1, progress=False)
+    message = str(caught.value)
+    assert "No space left on device" in message and "errno 28" in message
+    assert "1 finished run(s) could not be saved, 3 saved this time" in message
+    assert str(tmp_path) in message and "\n" not in message
+    saved = {p.stem for p in (tmp_path / "runs").glob("*.json")}
+    assert len(saved) == 3 and doomed not in saved
+    monkeypatch.setattr(parallel, "save_run", save)
+    assert run_experiment(config, tmp_path, max_workers=1, progress=False).num_skipped == 3
+
+
+def test_the_command_line_exits_with_status_2_on_a_full_disk(fakes, tmp_path, monkeypatch):
+    def no_space(*args, **kwargs):
+        raise OSError(errno.ENOSPC, "No space left on device", "results.parquet")
+
+    monkeypatch.setattr(parallel, "write_results", no_space)
+    config = tmp_path / "fake.yaml"
+    config.write_text(json.dumps(fake_config()))
+    result = CliRunner().invoke(
+        main, ["run", str(config), "--out", str(tmp_path / "out"), "--max-workers", "1"]
+    )
+    assert result.exit_code == 2, result.output
+    last = result.output.strip().splitlines()[-1]
+    assert last.startswith("Error: Could not write results.parquet: No space left on device")
+    assert "Traceback" not in result.output
+
+
+def test_ctrl_c_inside_a_run_stops_the_batch_and_is_not_a_failure(fakes, tmp_path):
+    # Issue 20: SIGINT inside a compiled kernel surfaced as SystemError, was recorded as the
+    # run's failure, and the sweep went on to the next run.
+    config = fake_config()
+    runs = [resolve_run(config, label, seed) for label in ("slow", "fast") for seed in (0, 1)]
+    started = []
+
+    def interrupted_second(spec):
+        started.append(spec)
+        if len(started) == 2:
+            try:
+                raise KeyboardInterrupt
+            except KeyboardInterrupt as exc:
+                raise SystemError("CPUDispatcher returned a result with an exception set") from exc
+        return run_resolved(spec)
+
+    with pytest.raises(RunsInterruptedError) as caught:
+        execute_runs(
+            runs,
+            tmp_path,
+            executor=LocalExecutor(max_workers=1),
+            run_fn=interrupted_second,
+            progress=False,
+        )
+    assert len(started) == 2  # nothing ran after the interrupt
+    assert str(caught.value).startswith(f"Interrupted: 1 of 4 runs are saved in {tmp_path}")
+    assert "the same command resumes" in str(caught.value)
+    assert not (tmp_path / "errors").exists()
+    assert not list((tmp_path / "claims").iterdir())
+
+
+@pytest.mark.usefixtures(isolated_fakes.__name__)
+def test_a_worker_death_is_announced_and_kept_in_the_run_metadata(tmp_path):
+    marker = tmp_path / "killed"
+    config = fake_config()
+    config["agents"] = {"killer": {"kind": "KillerAgent", "params": {"kill_marker": str(marker)}}}
+    config["seeds"] = 1
+    runs = [resolve_run(config, "killer", 0)]
+    output = io.StringIO()
+    execute_runs(
+        runs,
+        tmp_path,
+        executor=LocalExecutor(max_workers=2, in_process=False),
+        run_fn=run_with_fakes,
+        console=Console(file=output, width=200),
+    )
+    text = output.getvalue()
+    assert "its worker killed by SIGKILL" in text and "running it again (attempt 2)" in text
+    record = read_run(run_path(tmp_path, run_id(runs[0])))
+    assert len(record["meta"]["worker_deaths"]) == 1

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import os
 
 import pandas as pd
 import pytest
@@ -67,7 +68,9 @@ def test_run_files_are_named_by_hash_and_written_atomically(tmp_path):
     record = read_run(path)
     assert record["config"] == spec and record["curve"]["return"].tolist() == [0.0, 1.0]
     assert not list((tmp_path / "errors").iterdir())  # a success clears the old error
-    (tmp_path / "runs" / ".x.json.tmp-h-1-ab").write_text("half")
+    stale = tmp_path / "runs" / ".x.json.tmp-h-1-ab"  # another host's, written long ago
+    stale.write_text("half")
+    os.utime(stale, (0, 0))
     assert remove_stale_temporaries(tmp_path) == 1
     write_atomic(tmp_path / "f.txt", "x")
     assert [p.name for p in tmp_path.iterdir() if p.name.startswith(".")] == []

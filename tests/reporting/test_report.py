@@ -111,3 +111,25 @@ def test_report_points_at_errors_only_when_a_run_failed(tmp_path):
     assert CliRunner().invoke(report_command, [str(tmp_path)]).exit_code == 0
     text = (tmp_path / "report.md").read_text()
     assert "2 failed (tracebacks in `errors/`)" in text
+
+
+def test_report_of_a_cut_sweep_says_which_runs_are_missing(tmp_path):
+    # Issue 20: a report of a folder whose sweep was cut read as complete.
+    run_sweep(fake_sweep(), tmp_path, max_workers=1, run_fn=run_with_fakes, progress=False)
+    results = pd.read_parquet(tmp_path / "results.parquet")
+    cut = results[(results["label"] == "b") & (results["domain_label"] == "long")]["run_id"]
+    for identifier in cut.unique():
+        (tmp_path / "runs" / f"{identifier}.json").unlink()
+    result = CliRunner().invoke(report_command, [str(tmp_path)])
+    assert result.exit_code == 0, result.output
+    assert "Incomplete: 10 of 12 runs present; runs missing for b (2 missing)." in result.output
+    text = (tmp_path / "report.md").read_text()
+    assert "**Incomplete: 10 of 12 runs present**" in text
+    assert "- long b: 2 of 2 missing" in text
+
+
+def test_report_says_nothing_of_completeness_when_every_run_is_there(tmp_path):
+    run_sweep(fake_sweep(), tmp_path, max_workers=1, run_fn=run_with_fakes, progress=False)
+    result = CliRunner().invoke(report_command, [str(tmp_path)])
+    assert result.exit_code == 0 and "Incomplete" not in result.output
+    assert "Incomplete" not in (tmp_path / "report.md").read_text()

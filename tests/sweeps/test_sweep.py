@@ -279,3 +279,46 @@ def _processes_in_group(group: int) -> list[int]:
         if int(fields[2]) == group and fields[0] != "Z":
             found.append((int(status.parent.name), cmdline))
     return [pid for pid, cmd in found if b"forkserver" in cmd]
+
+
+SPINNING_DRIVER = textwrap.dedent(
+    """
+    import sys
+    from sweep_fakes import spin
+    from conjure.experiments.executors import LocalExecutor
+    with LocalExecutor(max_workers=2) as executor:
+        for _ in executor.map_unordered(spin, [sys.argv[1]] * 2):
+            pass
+    """
+)
+
+
+@pytest.mark.slow
+def test_workers_inside_a_compiled_call_die_with_their_driver(tmp_path):
+    # Issue 20: a worker holding the GIL in numba never ran its watcher thread and outlived a
+    # driver killed with -9 by minutes; the kernel's parent-death signal stops it.
+    fakes = ROOT / "tests" / "experiments"
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(fakes), str(ROOT / "src")])}
+    driver = subprocess.Popen(
+        [sys.executable, "-c", SPINNING_DRIVER, str(tmp_path)], env=env, start_new_session=True
+    )
+    try:
+        deadline = time.monotonic() + 60
+        while len(list(tmp_path.iterdir())) < 2:
+            assert driver.poll() is None and time.monotonic() < deadline
+            time.sleep(0.05)
+        time.sleep(1.0)  # both deep in the compiled loop
+        assert len(_processes_in_group(driver.pid)) >= 2  # the workers (and the forkserver)
+        driver.send_signal(signal.SIGKILL)
+        driver.wait()
+        killed = time.monotonic()
+        while _processes_in_group(driver.pid) and time.monotonic() < killed + 10:
+            time.sleep(0.05)
+        outlived = time.monotonic() - killed
+        assert not _processes_in_group(driver.pid), "workers outlived the killed driver"
+        assert outlived < 3.0, f"workers outlived the driver by {outlived:.1f} s"
+    finally:
+        if driver.poll() is None:
+            driver.kill()
+        for pid in _processes_in_group(driver.pid):
+            os.kill(pid, signal.SIGKILL)

@@ -12,8 +12,9 @@ Examples
     conjure list
     conjure plot results/pendulum --metric num_features
 
-Any `ConjureError` (a bad config, an unknown kind, ...) prints one clean line and exits with
-status 2; failed runs inside an experiment are reported and give status 1.
+Any `ConjureError` (a bad config, an unknown kind, a full disk, ...) prints one clean line and
+exits with status 2; failed runs inside an experiment are reported and give status 1; Ctrl-C
+says how many runs are saved and exits with status 130.
 
 Notes
 -----
@@ -31,7 +32,7 @@ from typing import Any
 
 import click
 
-from conjure.core.errors import ConjureError
+from conjure.core.errors import ConjureError, RunsInterruptedError
 from conjure.experiments.options import max_memory_option, out_dir_option
 
 __all__ = ["LAZY_COMMANDS", "main"]
@@ -64,7 +65,8 @@ LAZY_COMMANDS = {
 class _Group(click.Group):
     """A click group with lazily imported commands that turns a `ConjureError` into one line.
 
-    The line goes to stderr and the exit status is 2.
+    The line goes to stderr; the exit status is the error's ``exit_status`` (2 for a bad
+    config or a result that could not be written, 130 for Ctrl-C, as a shell reports it).
     """
 
     def list_commands(self, ctx: click.Context) -> list[str]:
@@ -90,8 +92,12 @@ class _Group(click.Group):
             return super().invoke(ctx)
         except ConjureError as exc:
             message = " ".join(str(exc).split())
-            click.echo(f"Error: {message}", err=True)
-            ctx.exit(2)
+            prefix = "" if isinstance(exc, RunsInterruptedError) else "Error: "
+            click.echo(f"{prefix}{message}", err=True)
+            ctx.exit(getattr(exc, "exit_status", 2))
+        except KeyboardInterrupt:  # outside any run (loading, reporting): nothing to save
+            click.echo("Interrupted.", err=True)
+            ctx.exit(130)
 
 
 @click.group(cls=_Group)

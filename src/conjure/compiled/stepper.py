@@ -25,6 +25,9 @@ Notes
   ``trace_slots_``) is passed with as many rows as the representation can hold features (a
   buffer that `append_rows` keeps using) and set to its first n_t rows after every call, as
   the Python learner's `grow_weights` / ``append_rows`` would leave it.
+- Choice: ``advance`` calls the kernel for at most `MAX_KERNEL_STEPS` steps at a time (the
+  kernel's pausable episodes make the split invisible in the results), so Ctrl-C, which
+  Python only sees between compiled calls, stops a run within about a second.
 - Compilation: two kernels, ``advance_kernel`` (fixed features, every action legal) and
   ``adaptive_kernel`` (legal actions or growing features); each serves all its combinations
   (the arguments have the same types), is compiled once per machine and cached on disk;
@@ -70,6 +73,9 @@ __all__ = [
 _I1, _I2, _F1, _F2 = EMPTY_INTS, EMPTY_INT_TABLE, EMPTY_FLOATS, EMPTY_FLOAT_TABLE
 _NO_ACTIVATE = (_I1, _I1, _I1, _I1, _I2, _I2, _I2, _I2, _I1, _I2, _I1)
 _NO_DISCOVER = (_I1, _I1, _I1, _I1, _I2, _I1, _I1, _I1, _I1, _I2, _F2, _I1, _I1, _I1, _I1, _F1)
+#: Steps per kernel call at most: a fraction of a second on the fast combinations, a few
+#: seconds on the slowest (online iFDD on the UAV missions, about 10⁵ steps/s).
+MAX_KERNEL_STEPS = 2**18
 #: The first call's seconds (compile or cache load) of each kernel, by `_kernel_name`.
 _COMPILE_SECONDS: dict[str, float] = {}
 #: Position of the representation tuple among ``advance_kernel``'s arguments.
@@ -171,7 +177,14 @@ class CompiledStepper:
             while done < num_steps:
                 before = int(loop[k.L_EPISODE])
                 status, steps, fails, delta, ep_float, ep_int = _call_kernel(
-                    num_steps - done, combo, dstate, domain, agent, self._obs, loop, self._loop_f
+                    min(num_steps - done, MAX_KERNEL_STEPS),
+                    combo,
+                    dstate,
+                    domain,
+                    agent,
+                    self._obs,
+                    loop,
+                    self._loop_f,
                 )
                 self.num_episodes += int(loop[k.L_EPISODE]) - before
                 done += steps

@@ -26,3 +26,29 @@ class IncompatibleComponentsError(ConjureError, TypeError):
 
 class DivergenceError(ConjureError, ArithmeticError):
     """A learner produced a non-finite value (the TD error or a weight)."""
+
+
+def raise_if_interrupted(exc: BaseException) -> None:
+    """Re-raise Ctrl-C that ``exc`` wraps, so that an interrupt is never recorded as a failure.
+
+    Python runs its SIGINT handler between bytecodes; a signal that lands inside a compiled
+    (numba) call surfaces when the call returns, as a ``SystemError`` whose cause is the
+    ``KeyboardInterrupt``.
+    """
+    seen = exc
+    while seen is not None:
+        if isinstance(seen, KeyboardInterrupt):
+            raise KeyboardInterrupt from exc
+        seen = seen.__cause__ or seen.__context__
+
+
+class RunsInterruptedError(ConjureError):
+    """Ctrl-C stopped a sweep or experiment; the message says what is saved (exit status 130)."""
+
+    exit_status = 130
+
+
+class ResultsWriteError(ConjureError, OSError):
+    """A result file could not be written (disk full, file-size limit); exit status 2."""
+
+    exit_status = 2

@@ -1,8 +1,10 @@
 """Where runs execute: one interface over a local process pool, Dask and Ray.
 
 An `Executor` maps a picklable function over items and yields ``(index, outcome)`` pairs as
-they finish, in any order. The outcome is the function's return value, or a `TaskFailure`
-when the task never returned (its worker died more often than allowed). The sweep driver
+they finish, in any order. The outcome is the function's return value, a `TaskFailure`
+when the task never returned (its worker died more often than allowed), or `NOT_CLAIMED` when
+the ``claim`` callback declined the item just before it would have started (another driver
+holds it, `conjure.experiments.claims`). The sweep driver
 (`conjure.experiments.parallel.execute_runs`) is the only caller: the function it maps catches
 a run's own exceptions, so a run that raises fails alone on every engine.
 
@@ -29,8 +31,17 @@ Notes
   as Ray and Dask default to); then it is reported as a `TaskFailure` naming how the worker
   died (``killed by SIGKILL`` is what the kernel's out-of-memory killer does). Each local
   worker runs one task at a time, so a death is charged to the task that worker held only.
-- Choice: local pool workers watch the driver's pid and exit when it is gone, so a driver
-  killed with -9 leaves no orphaned workers behind.
+- Choice: a local pool worker dies with the driver wherever it is, even inside a long
+  compiled call that never gives the GIL back: on Linux the kernel SIGKILLs the forkserver
+  when the driver dies and each worker when the forkserver dies (``PR_SET_PDEATHSIG``, set in
+  the forkserver by its preload `conjure.experiments._forkserver_guard`, and in each worker);
+  elsewhere, and as a second guard, a thread in each worker watches the driver's pid. The
+  forkserver must be started by a thread that lives as long as the driver (the main thread
+  in `conjure sweep`): the kernel signals the death of the parent thread.
+- Choice: items are claimed just before they start, and Dask and Ray hold at most two tasks
+  per worker in flight, so that two drivers on one folder split the runs between them.
+- Choice: the local pool reports each death it retries through ``on_retry``; Dask and Ray
+  retry inside their schedulers, unseen.
 - Choice: ``max_workers=1`` on the local executor runs every task in the calling process,
   with no pool (simplest to debug); there a task that kills its process kills the driver.
   With ``max_memory`` (or ``in_process=False``) it uses one worker process instead: the limit
@@ -45,11 +56,13 @@ Notes
 
 from __future__ import annotations
 
+import ctypes
 import logging
 import multiprocessing
 import os
 import pickle
 import signal
+import sys
 import threading
 import time
 import traceback
@@ -63,7 +76,7 @@ from dataclasses import dataclass
 from multiprocessing.connection import Connection, wait
 from typing import Any, ClassVar
 
-from conjure.core.errors import InvalidParameterError
+from conjure.core.errors import InvalidParameterError, raise_if_interrupted
 from conjure.core.params import did_you_mean
 from conjure.experiments.memory import (
     check_memory_limit,
@@ -74,11 +87,13 @@ from conjure.experiments.memory import (
 
 __all__ = [
     "EXECUTORS",
+    "NOT_CLAIMED",
     "DaskExecutor",
     "Executor",
     "LocalExecutor",
     "RayExecutor",
     "TaskFailure",
+    "die_with_parent",
     "make_executor",
 ]
 
@@ -97,6 +112,20 @@ class TaskFailure:
 
     message: str
     traceback: str
+
+
+class _NotClaimed:
+    """The outcome of an item its ``claim`` callback declined (it was never started)."""
+
+    def __repr__(self) -> str:
+        return "NOT_CLAIMED"
+
+
+NOT_CLAIMED = _NotClaimed()
+#: ``claim(index) -> bool``: whether to start item ``index`` now (called just before it starts).
+Claim = Callable[[int], bool]
+#: ``on_retry(index, cause)``: item ``index``'s worker died (``cause``) and the item is rerun.
+OnRetry = Callable[[int, str], None]
 
 
 def _failure(exc: BaseException, what: str) -> TaskFailure:
@@ -192,13 +221,25 @@ class Executor(ABC):
 
     @abstractmethod
     def map_unordered(
-        self, fn: Callable[[Any], Any], items: Sequence[Any]
+        self,
+        fn: Callable[[Any], Any],
+        items: Sequence[Any],
+        *,
+        claim: Claim | None = None,
+        on_retry: OnRetry | None = None,
     ) -> Iterator[tuple[int, Any]]:
         """Yield ``(index, fn(items[index]) or TaskFailure)`` for every item, as each finishes.
 
         ``fn`` and the items must be picklable (``fn`` importable by the workers, or pickled by
-        value with ``cloudpickle.register_pickle_by_value``).
+        value with ``cloudpickle.register_pickle_by_value``). ``claim(index)`` is asked just
+        before an item starts; an item it declines yields `NOT_CLAIMED`. ``on_retry`` hears of
+        each worker death the executor retries (the local pool only).
         """
+
+    @property
+    def window(self) -> int:
+        """Tasks in flight at most on a cluster engine: two per worker."""
+        return 2 * self.num_workers
 
     def __repr__(self) -> str:
         where = self.address or f"local, {self.num_workers} workers"
@@ -206,19 +247,38 @@ class Executor(ABC):
 
 
 def _exit_with_driver(driver_pid: int) -> None:
-    """In a pool worker: exit as soon as the driver process is gone (e.g. killed with -9)."""
+    """In a pool worker: exit as soon as the driver process is gone (e.g. killed with -9).
+
+    A thread checks every second, so a worker inside a long compiled call (which holds the
+    GIL) only notices when the call returns: `die_with_parent` covers that on Linux.
+    """
 
     def watch() -> None:
         while True:
-            time.sleep(1.0)
             try:
                 os.kill(driver_pid, 0)
             except ProcessLookupError:
                 os._exit(1)
             except PermissionError:  # alive, owned by another user: keep watching
-                continue
+                pass
+            time.sleep(1.0)
 
     threading.Thread(target=watch, name="conjure-driver-watch", daemon=True).start()
+
+
+_PR_SET_PDEATHSIG = 1  # <linux/prctl.h>
+
+
+def die_with_parent() -> bool:
+    """On Linux, have the kernel SIGKILL this process when its parent dies; whether it will.
+
+    A SIGKILL needs no cooperation from the process, so it stops one deep in a compiled call
+    that never gives the GIL back. Elsewhere (no ``prctl``): ``False``, nothing done.
+    """
+    if not sys.platform.startswith("linux"):
+        return False
+    libc = ctypes.CDLL(None, use_errno=True)
+    return libc.prctl(_PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0) == 0
 
 
 def _serve(connection: Connection, driver_pid: int, max_memory: int | None) -> None:
@@ -227,6 +287,7 @@ def _serve(connection: Connection, driver_pid: int, max_memory: int | None) -> N
     Sends back ``(index, outcome)``; ``None`` received (or the driver gone) ends the worker.
     """
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the driver's to handle
+    die_with_parent()  # the forkserver, which dies with the driver (its preload)
     _exit_with_driver(driver_pid)
     if max_memory is not None:
         limit_memory(max_memory)
@@ -289,19 +350,29 @@ class _ProcessPool:
         methods = multiprocessing.get_all_start_methods()
         method = "forkserver" if "forkserver" in methods else "spawn"
         self._context = multiprocessing.get_context(method)
-        if method == "forkserver":  # workers fork from a warm server
-            self._context.set_forkserver_preload(["conjure.experiments.run"])
+        if method == "forkserver":  # workers fork from a warm server that dies with us
+            self._context.set_forkserver_preload(
+                ["conjure.experiments._forkserver_guard", "conjure.experiments.run"]
+            )
         self.num_workers = num_workers
         self.max_memory = max_memory
         self._workers: list[_Worker] = []
 
     def map_unordered(
-        self, fn: Callable[[Any], Any], items: Sequence[Any], *, max_retries: int
+        self,
+        fn: Callable[[Any], Any],
+        items: Sequence[Any],
+        *,
+        max_retries: int,
+        claim: Claim | None,
+        on_retry: OnRetry | None,
     ) -> Iterator[tuple[int, Any]]:
         pending = deque(range(len(items)))
         deaths = [0] * len(items)
         while pending or any(worker.task is not None for worker in self._workers):
-            yield from self._dispatch(fn, items, pending)
+            yield from self._dispatch(fn, items, pending, claim, deaths)
+            if not any(worker.task is not None for worker in self._workers):
+                continue  # every pending item was declined or could not be sent
             for worker in self._ready():
                 index = worker.task
                 assert index is not None
@@ -312,17 +383,30 @@ class _ProcessPool:
                 cause = self._bury(worker)
                 deaths[index] += 1
                 if deaths[index] <= max_retries:
+                    if on_retry is not None:
+                        on_retry(index, cause)
                     pending.appendleft(index)
                     continue
                 message = f"worker died {deaths[index]} times running this task, last {cause}"
                 yield index, TaskFailure(message, message + "\n")
 
     def _dispatch(
-        self, fn: Callable[[Any], Any], items: Sequence[Any], pending: deque[int]
-    ) -> Iterator[tuple[int, TaskFailure]]:
-        """Hand pending tasks to idle workers; yield the tasks that cannot be pickled."""
+        self,
+        fn: Callable[[Any], Any],
+        items: Sequence[Any],
+        pending: deque[int],
+        claim: Claim | None,
+        deaths: list[int],
+    ) -> Iterator[tuple[int, Any]]:
+        """Hand pending tasks to idle workers; yield those declined or that cannot be pickled.
+
+        A task rerun after its worker died keeps its claim: it is not asked again.
+        """
         while pending and (worker := self._idle_worker()) is not None:
             index = pending.popleft()
+            if claim is not None and not deaths[index] and not claim(index):
+                yield index, NOT_CLAIMED
+                continue
             try:
                 payload = pickle.dumps((fn, items[index]))
             except Exception as exc:
@@ -445,7 +529,12 @@ class LocalExecutor(Executor):
         pass
 
     def map_unordered(
-        self, fn: Callable[[Any], Any], items: Sequence[Any]
+        self,
+        fn: Callable[[Any], Any],
+        items: Sequence[Any],
+        *,
+        claim: Claim | None = None,
+        on_retry: OnRetry | None = None,
     ) -> Iterator[tuple[int, Any]]:
         self.start()
         in_process = self.in_process
@@ -453,14 +542,21 @@ class LocalExecutor(Executor):
             in_process = self.num_workers == 1 and self.max_memory is None
         if in_process:
             for index, item in enumerate(items):
+                if claim is not None and not claim(index):
+                    yield index, NOT_CLAIMED
+                    continue
                 try:
-                    yield index, fn(item)
+                    outcome = fn(item)
                 except Exception as exc:
-                    yield index, _failure(exc, "task raised")
+                    raise_if_interrupted(exc)
+                    outcome = _failure(exc, "task raised")
+                yield index, outcome
             return
         pool = _ProcessPool(min(self.num_workers, len(items)), max_memory=self.max_memory)
         try:
-            yield from pool.map_unordered(fn, items, max_retries=self.max_retries)
+            yield from pool.map_unordered(
+                fn, items, max_retries=self.max_retries, claim=claim, on_retry=on_retry
+            )
         finally:
             pool.close()
 
@@ -532,20 +628,35 @@ class DaskExecutor(Executor):
             self._cluster = None
 
     def map_unordered(
-        self, fn: Callable[[Any], Any], items: Sequence[Any]
+        self,
+        fn: Callable[[Any], Any],
+        items: Sequence[Any],
+        *,
+        claim: Claim | None = None,
+        on_retry: OnRetry | None = None,
     ) -> Iterator[tuple[int, Any]]:
         from distributed import as_completed
 
         self.start()
         batch = uuid.uuid4().hex[:8]
-        futures = [
-            self.client.submit(fn, item, key=f"conjure-run-{batch}-{index}", pure=False)
-            for index, item in enumerate(items)
-        ]
-        index_of = {future.key: index for index, future in enumerate(futures)}
+        waiting = deque(range(len(items)))
+        index_of: dict[str, int] = {}
+        running = as_completed()
+
+        def submit() -> Iterator[tuple[int, Any]]:
+            while waiting and len(index_of) < self.window:
+                index = waiting.popleft()
+                if claim is not None and not claim(index):
+                    yield index, NOT_CLAIMED
+                    continue
+                key = f"conjure-run-{batch}-{index}"
+                running.add(self.client.submit(fn, items[index], key=key, pure=False))
+                index_of[key] = index
+
         try:
-            for future in as_completed(futures):
-                index = index_of[future.key]
+            yield from submit()
+            for future in running:
+                index = index_of.pop(future.key)
                 try:
                     outcome = future.result()
                 except Exception as exc:  # KilledWorker after allowed-failures, lost data
@@ -556,8 +667,9 @@ class DaskExecutor(Executor):
                         )
                 future.release()
                 yield index, outcome
+                yield from submit()
         finally:
-            self.client.cancel([f for f in futures if not f.done()])
+            self.client.cancel([f for f in running.futures if not f.done()])
 
 
 def _call(fn: Callable[[Any], Any], item: Any) -> Any:
@@ -616,14 +728,30 @@ class RayExecutor(Executor):
             ray.shutdown()
 
     def map_unordered(
-        self, fn: Callable[[Any], Any], items: Sequence[Any]
+        self,
+        fn: Callable[[Any], Any],
+        items: Sequence[Any],
+        *,
+        claim: Claim | None = None,
+        on_retry: OnRetry | None = None,
     ) -> Iterator[tuple[int, Any]]:
         import ray
 
         self.start()
         remote = ray.remote(num_cpus=1, max_retries=self.max_retries, retry_exceptions=False)(_call)
-        pending = {remote.remote(fn, item): index for index, item in enumerate(items)}
+        waiting = deque(range(len(items)))
+        pending: dict[Any, int] = {}
+
+        def submit() -> Iterator[tuple[int, Any]]:
+            while waiting and len(pending) < self.window:
+                index = waiting.popleft()
+                if claim is not None and not claim(index):
+                    yield index, NOT_CLAIMED
+                    continue
+                pending[remote.remote(fn, items[index])] = index
+
         try:
+            yield from submit()
             while pending:
                 ready, _ = ray.wait(list(pending), num_returns=1)
                 for ref in ready:
@@ -633,6 +761,7 @@ class RayExecutor(Executor):
                     except Exception as exc:  # WorkerCrashedError after max_retries, ...
                         outcome = _failure(exc, "ray task failed")
                     yield index, outcome
+                yield from submit()
         finally:
             for ref in pending:
                 ray.cancel(ref, force=True)

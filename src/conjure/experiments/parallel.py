@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import functools
 import math
+import time
 from collections.abc import Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass, field
@@ -45,8 +46,10 @@ from rich.progress import (
 )
 from rich.table import Table
 
+from conjure.core.errors import ResultsWriteError, RunsInterruptedError
+from conjure.experiments.claims import Claims
 from conjure.experiments.config import ExperimentConfig, dump_yaml, parse_config, resolve_run
-from conjure.experiments.executors import Executor, LocalExecutor, TaskFailure
+from conjure.experiments.executors import NOT_CLAIMED, Executor, LocalExecutor, TaskFailure
 from conjure.experiments.results import (
     RESOLVED_FILE,
     error_path,
@@ -56,10 +59,12 @@ from conjure.experiments.results import (
     make_out_dir,
     remove_stale_temporaries,
     run_id,
+    run_path,
     save_run,
     save_run_error,
     summarize,
     write_atomic,
+    write_planned_runs,
     write_results,
     write_run_ids,
 )
@@ -79,6 +84,7 @@ __all__ = [
 ]
 
 _WARMUP_STEPS = 50
+_POLL_SECONDS = 2.0
 
 
 @dataclass
@@ -243,8 +249,25 @@ def execute_runs(
     console = console or Console()
     if owns:
         prepare_executor(executor, [spec for _, spec in todo], run_fn)
-    counts = {"done": 0, "failed": 0, "remaining": len(todo)}
-    with Progress(
+    batch = _Batch(out_dir, todo, report, run_fn)
+    try:
+        with Claims(out_dir) as claims, _progress(console, progress, report) as bar:
+            batch.run(executor, claims, bar, description)
+    except KeyboardInterrupt:
+        raise RunsInterruptedError(
+            f"Interrupted: {batch.num_saved()} of {len(by_id)} runs are saved in {out_dir}; "
+            "the same command resumes (finished runs are not rerun)."
+        ) from None
+    finally:
+        if owns:
+            executor.shutdown()
+    batch.raise_write_errors()
+    return report
+
+
+def _progress(console: Console, progress: bool, report: RunsReport) -> Progress:
+    """The live bar: runs done, failed, remaining (and held by other drivers), ETA."""
+    return Progress(
         TextColumn("[bold]{task.description}"),
         BarColumn(),
         TextColumn(
@@ -257,25 +280,144 @@ def execute_runs(
         TimeRemainingColumn(),
         console=console,
         disable=not progress,
-    ) as bar:
-        task = bar.add_task(description, total=len(todo), **counts)
-        try:
-            task_fn = functools.partial(run_task, run_fn=run_fn)
-            for index, outcome in executor.map_unordered(task_fn, [s for _, s in todo]):
-                identifier, spec = todo[index]
-                message = _record(out_dir, spec, outcome)
-                counts["remaining"] -= 1
-                if message is None:
-                    counts["done"] += 1
+    )
+
+
+class _Batch:
+    """The runs one `execute_runs` call still has to finish, and what became of them.
+
+    Runs are claimed just before they start (`conjure.experiments.claims`); a run another
+    live driver holds is waited for (polled every `_POLL_SECONDS`) and counted as reused
+    when its result appears, or run here if its owner dies. A result that cannot be written
+    is counted, not fatal: the other runs go on (`raise_write_errors` reports it at the end).
+    """
+
+    def __init__(
+        self,
+        out_dir: Path,
+        todo: list[tuple[str, dict[str, Any]]],
+        report: RunsReport,
+        run_fn: RunFunction,
+    ):
+        self.out_dir, self.report, self.run_fn = out_dir, report, run_fn
+        self.waiting = list(todo)
+        self.retries: dict[str, list[str]] = {}
+        self.write_errors: list[OSError] = []
+        self.counts = {"done": 0, "failed": 0, "remaining": len(todo)}
+
+    def run(self, executor: Executor, claims: Claims, bar: Progress, description: str) -> None:
+        """Run the waiting runs this driver can claim; wait for those others hold."""
+        task = bar.add_task(description, total=len(self.waiting), **self.counts)
+        said_held = False
+        while self.waiting:
+            held = self._run_wave(executor, claims, bar, task)
+            if not held:
+                return
+            if not said_held:
+                owners = claims.holders([identifier for identifier, _ in held])
+                who = ", ".join(f"{owner} holds {n}" for owner, n in owners.items())
+                bar.console.print(
+                    f"{len(held)} run(s) are held by another driver ({who or 'ending'}); "
+                    "waiting for them (this driver runs any whose owner stops)."
+                )
+                said_held = True
+            self.waiting = self._wait_for_others(held, claims, bar, task)
+
+    def _run_wave(
+        self, executor: Executor, claims: Claims, bar: Progress, task: Any
+    ) -> list[tuple[str, dict[str, Any]]]:
+        """Map the waiting runs over ``executor``; return those another driver held."""
+        wave, held = self.waiting, []
+
+        def claim(index: int) -> bool:
+            identifier, spec = wave[index]
+            return claims.take(identifier) and not is_run_done(self.out_dir, spec)
+
+        def on_retry(index: int, cause: str) -> None:
+            identifier, spec = wave[index]
+            self.retries.setdefault(identifier, []).append(cause)
+            bar.console.print(
+                f"[yellow]run {_describe(spec)}: its worker {cause}; running it again "
+                f"(attempt {len(self.retries[identifier]) + 1}).[/yellow]"
+            )
+
+        task_fn = functools.partial(run_task, run_fn=self.run_fn)
+        specs = [spec for _, spec in wave]
+        for index, outcome in executor.map_unordered(
+            task_fn, specs, claim=claim, on_retry=on_retry
+        ):
+            identifier, spec = wave[index]
+            if outcome is NOT_CLAIMED:
+                if is_run_done(self.out_dir, spec):
+                    claims.release(identifier)
+                    self._count_other(bar, task)
                 else:
-                    counts["failed"] += 1
-                    report.errors[identifier] = message
-                    bar.console.print(f"[red]run {_describe(spec)} failed:[/red] {message}")
-                bar.update(task, advance=1, **counts)
-        finally:
-            if owns:
-                executor.shutdown()
-    return report
+                    held.append(wave[index])
+                continue
+            self._record(identifier, spec, outcome, bar)
+            claims.release(identifier)
+            bar.update(task, advance=1, **self.counts)
+        return held
+
+    def _record(self, identifier: str, spec: dict[str, Any], outcome: Any, bar: Progress) -> None:
+        """Write one run's result or error file and count it."""
+        if self.retries.get(identifier) and isinstance(outcome, dict):
+            outcome["meta"]["worker_deaths"] = self.retries[identifier]
+        self.counts["remaining"] -= 1
+        try:
+            message = _record(self.out_dir, spec, outcome)
+        except OSError as exc:
+            self.write_errors.append(exc)
+            self.counts["failed"] += 1
+            return
+        if message is None:
+            self.counts["done"] += 1
+            return
+        self.counts["failed"] += 1
+        self.report.errors[identifier] = message
+        bar.console.print(f"[red]run {_describe(spec)} failed:[/red] {message}")
+
+    def _count_other(self, bar: Progress, task: Any) -> None:
+        """A run another driver finished: reused, not run here."""
+        self.counts["remaining"] -= 1
+        self.report.num_skipped += 1
+        bar.update(task, advance=1, **self.counts)
+
+    def _wait_for_others(
+        self, held: list[tuple[str, dict[str, Any]]], claims: Claims, bar: Progress, task: Any
+    ) -> list[tuple[str, dict[str, Any]]]:
+        """Poll ``held`` until one is free to take; return the ones not finished by others."""
+        while True:
+            time.sleep(_POLL_SECONDS)
+            still = []
+            for identifier, spec in held:
+                if is_run_done(self.out_dir, spec):
+                    self._count_other(bar, task)
+                else:
+                    still.append((identifier, spec))
+            if not still:
+                return []
+            owners = claims.holders([identifier for identifier, _ in still])
+            if sum(owners.values()) < len(still):
+                return still
+
+    def num_saved(self) -> int:
+        """Runs of this call (finished before it or by it) whose result file exists."""
+        return sum(run_path(self.out_dir, i).is_file() for i in self.report.run_ids)
+
+    def raise_write_errors(self) -> None:
+        """Report results that could not be written, in one line."""
+        if not self.write_errors:
+            return
+        first = self.write_errors[0]
+        where = first.filename or self.out_dir
+        raise ResultsWriteError(
+            f"Could not write {where}: {first.strerror or first} (errno {first.errno}); "
+            f"{len(self.write_errors)} finished run(s) could not be saved, "
+            f"{self.counts['done']} saved this time and {self.report.num_skipped} before are "
+            f"safe in {self.out_dir}. Free space (or raise the file-size limit) and rerun the "
+            "same command: it resumes."
+        )
 
 
 def prepare_executor(
@@ -312,10 +454,12 @@ def run_batch(
 ) -> ExperimentResult:
     """Execute ``runs`` (`execute_runs`), then collect, summarize and write their results.
 
-    Writes ``run_ids.txt``, ``results.parquet`` and ``summary.csv``; prints the summary when
-    ``progress``.
+    Writes ``planned.csv`` first, then ``run_ids.txt``, ``results.parquet`` and
+    ``summary.csv``; prints the summary when ``progress``. A result table that cannot be
+    written raises `ResultsWriteError` (the run files stay).
     """
     console = console or Console()
+    write_planned_runs(out_dir, runs)
     report = execute_runs(
         runs,
         out_dir,
@@ -325,10 +469,17 @@ def run_batch(
         console=console,
         description=description,
     )
-    write_run_ids(out_dir, report.run_ids)
     results = load_results(out_dir, report.run_ids)
     summary = summarize(results, metric=metric)
-    write_results(out_dir, results, summary)
+    try:
+        write_run_ids(out_dir, report.run_ids)
+        write_results(out_dir, results, summary)
+    except OSError as exc:
+        raise ResultsWriteError(
+            f"Could not write {exc.filename or out_dir}: {exc.strerror or exc}; the "
+            f"{len(results.groupby('run_id')) if not results.empty else 0} finished run(s) are "
+            f"safe in {out_dir / 'runs'}; free space and rerun the same command."
+        ) from None
     outcome = ExperimentResult(
         out_dir, results, summary, report.errors, report.num_skipped, metric, runs
     )

@@ -23,6 +23,7 @@ import json
 import math
 import os
 import socket
+import time
 import uuid
 from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
@@ -33,6 +34,7 @@ import pandas as pd
 from scipy import stats
 
 from conjure.core.errors import InvalidParameterError
+from conjure.experiments.claims import process_exists
 from conjure.experiments.config import config_hash, dump_yaml
 
 __all__ = [
@@ -53,6 +55,7 @@ __all__ = [
     "is_run_done",
     "load_results",
     "make_out_dir",
+    "missing_runs",
     "read_run",
     "read_run_ids",
     "remove_stale_temporaries",
@@ -63,6 +66,7 @@ __all__ = [
     "summarize",
     "t_confidence",
     "write_atomic",
+    "write_planned_runs",
     "write_results",
     "write_run_ids",
 ]
@@ -71,11 +75,13 @@ RUNS_DIR = "runs"
 ERRORS_DIR = "errors"
 RESOLVED_FILE = "config.resolved.yaml"
 RUN_IDS_FILE = "run_ids.txt"
+PLANNED_FILE = "planned.csv"
 RESULTS_FILE = "results.parquet"
 SUMMARY_FILE = "summary.csv"
 #: The run-config keys that identify a method's setting, in grouping order (when present).
 GROUP_COLUMNS = ("domain_label", "label", "setting")
 _TEMP_MARK = ".tmp-"
+_FOREIGN_TEMP_SECONDS = 3600.0
 
 
 def make_out_dir(out_dir: str | Path) -> Path:
@@ -152,12 +158,33 @@ def _fsync_dir(directory: Path) -> None:
 
 
 def remove_stale_temporaries(out_dir: str | Path) -> int:
-    """Delete temporary files a killed process left behind; return how many."""
+    """Delete temporary files a killed process left behind; return how many.
+
+    A temporary names its writer (``<host>-<pid>-<nonce>``): one of a live process on this
+    host, or younger than an hour from another host, is another driver's write in progress
+    and is kept.
+    """
     removed = 0
+    host = socket.gethostname()
     for temp in Path(out_dir).rglob(f".*{_TEMP_MARK}*"):
+        writer, _, _ = temp.name.split(_TEMP_MARK, 1)[1].rpartition("-")
+        writer_host, _, pid = writer.rpartition("-")
+        if writer_host == host and pid.isdigit():
+            if process_exists(int(pid)):
+                continue
+        elif _age_seconds(temp) < _FOREIGN_TEMP_SECONDS:
+            continue
         temp.unlink(missing_ok=True)
         removed += 1
     return removed
+
+
+def _age_seconds(path: Path) -> float:
+    """Seconds since ``path`` was last written (infinite if it is gone)."""
+    try:
+        return time.time() - path.stat().st_mtime
+    except FileNotFoundError:
+        return math.inf
 
 
 def run_id(run_spec: Mapping[str, Any]) -> str:
@@ -257,6 +284,43 @@ def save_run_error(
 def write_run_ids(out_dir: str | Path, identifiers: Iterable[str]) -> Path:
     """Record which runs the current experiment or sweep consists of (``run_ids.txt``)."""
     return write_atomic(Path(out_dir) / RUN_IDS_FILE, "".join(f"{i}\n" for i in identifiers))
+
+
+def write_planned_runs(out_dir: str | Path, runs: Iterable[Mapping[str, Any]]) -> Path:
+    """Record every run a command will finish (``planned.csv``: id, method, seed), first.
+
+    `conjure report` reads it to say which runs are still missing while a sweep runs or after
+    it was cut.
+    """
+    rows = {}
+    for spec in runs:
+        row = {"run_id": run_id(spec), **_method_columns(spec), "seed": spec.get("seed")}
+        rows.setdefault(row["run_id"], row)
+    table = pd.DataFrame(list(rows.values()))
+    return write_atomic(Path(out_dir) / PLANNED_FILE, table.to_csv(index=False))
+
+
+def missing_runs(out_dir: str | Path, present: Iterable[str]) -> pd.DataFrame | None:
+    """Per method of ``planned.csv`` with runs not in ``present``: planned and missing counts.
+
+    ``None`` when the folder has no ``planned.csv`` (written by an older version).
+    """
+    path = Path(out_dir) / PLANNED_FILE
+    if not path.is_file():
+        return None
+    planned = pd.read_csv(path, keep_default_na=False, dtype=str)
+    planned["missing"] = ~planned["run_id"].isin(set(present))
+    keys = [c for c in GROUP_COLUMNS if c in planned.columns]
+    counts = planned.groupby(keys, sort=False)["missing"].agg(planned="size", missing="sum")
+    return counts[counts["missing"] > 0].reset_index()
+
+
+def _method_columns(spec: Mapping[str, Any]) -> dict[str, str]:
+    """The `GROUP_COLUMNS` of one run, as `load_results` writes them."""
+    columns = {k: str(spec[k]) for k in ("domain_label", "label") if k in spec}
+    if "setting" in spec:
+        columns["setting"] = describe_setting(spec["setting"])
+    return columns
 
 
 def read_run_ids(out_dir: str | Path) -> list[str] | None:

@@ -43,7 +43,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from conjure.core.errors import DivergenceError, InvalidParameterError
+from conjure.core.errors import DivergenceError, InvalidParameterError, raise_if_interrupted
 from conjure.core.interfaces import Agent, Domain
 from conjure.core.seeding import seed_to_int, split_seed
 from conjure.experiments.loop import CURVE_COLUMNS, learning_stepper, run_episode
@@ -318,6 +318,7 @@ def run_task(run_spec: dict[str, Any], run_fn: RunFunction = run_resolved) -> di
     try:
         result = run_fn(run_spec)
     except Exception as exc:  # recorded and reported, never fatal to other runs
+        raise_if_interrupted(exc)
         partial = getattr(exc, "partial_result", None) if isinstance(exc, DivergenceError) else None
         message = f"{type(exc).__name__}: {exc}".splitlines()[0]
         error = traceback.format_exc()

@@ -30,10 +30,11 @@ import pandas as pd
 import yaml
 from scipy import stats
 
-from conjure.core.errors import InvalidParameterError
+from conjure.core.errors import InvalidParameterError, ResultsWriteError
 from conjure.experiments.options import out_dir_option
 from conjure.experiments.results import (
     ERRORS_DIR,
+    GROUP_COLUMNS,
     RESOLVED_FILE,
     RESULTS_FILE,
     RUNS_DIR,
@@ -42,6 +43,7 @@ from conjure.experiments.results import (
     has_finite_values,
     load_results,
     make_out_dir,
+    missing_runs,
     t_confidence,
     write_atomic,
 )
@@ -141,6 +143,29 @@ def collect(results_dir: str | Path) -> pd.DataFrame:
     table = load_results(results_dir)
     write_atomic(results_dir / RESULTS_FILE, table.to_parquet(index=False))
     return table
+
+
+def completeness(results_dir: Path, results: pd.DataFrame) -> tuple[str, pd.DataFrame | None]:
+    """``"6 of 12 runs present"`` and the methods still missing runs (``planned.csv``)."""
+    present = set(results["run_id"])
+    missing = missing_runs(results_dir, present)
+    if missing is None:
+        return "", None
+    total = len(present) + int(missing["missing"].sum())
+    return f"{len(present)} of {total} runs present", (missing if len(missing) else None)
+
+
+def _missing_lines(results_dir: Path, results: pd.DataFrame) -> list[str]:
+    """The report's warning when the sweep is still running or was cut."""
+    count, missing = completeness(results_dir, results)
+    if missing is None:
+        return []
+    lines = [f"**Incomplete: {count}** (the sweep is running or was cut; rerun it to resume)."]
+    lines += ["", "Methods with missing runs:", ""]
+    for row in missing.to_dict("records"):
+        method = " ".join(str(row[k]) for k in GROUP_COLUMNS if row.get(k))
+        lines.append(f"- {method}: {row['missing']} of {row['planned']} missing")
+    return [*lines, ""]
 
 
 def _method_names(results: pd.DataFrame) -> pd.Series:
@@ -268,6 +293,7 @@ def write_report(
     lines = [
         f"# Report: {name}",
         "",
+        *_missing_lines(results_dir, results),
         f"{results['run_id'].nunique()} finished runs, "
         + (f"{len(errors)} failed (tracebacks in `{ERRORS_DIR}/`)" if errors else "none failed")
         + "; seeds per method shown as `n`. Curves are means over seeds with 95% confidence "
@@ -342,5 +368,18 @@ def write_report(
 @out_dir_option("Where to write report.md and figures/ (default RESULTS_DIR).")
 def report_command(results_dir: Path, metric: str | None, out_dir: Path | None) -> None:
     """Collect the runs in RESULTS_DIR into results.parquet and write report.md with figures."""
-    path = write_report(results_dir, metric=metric, out_dir=out_dir)
+    try:
+        path = write_report(results_dir, metric=metric, out_dir=out_dir)
+    except OSError as exc:
+        raise ResultsWriteError(
+            f"Could not write {exc.filename or out_dir or results_dir}: {exc.strerror or exc}; "
+            f"the runs in {Path(results_dir) / RUNS_DIR} are untouched. Free space and rerun."
+        ) from None
+    present = pd.read_parquet(Path(results_dir) / RESULTS_FILE, columns=["run_id"])
+    count, missing = completeness(Path(results_dir), present)
+    if missing is not None:
+        methods = ", ".join(
+            f"{row['label']} ({row['missing']} missing)" for row in missing.to_dict("records")
+        )
+        click.echo(f"Incomplete: {count}; runs missing for {methods}.")
     click.echo(f"Wrote {path} and {Path(results_dir) / RESULTS_FILE}")
