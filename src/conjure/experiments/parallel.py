@@ -367,6 +367,7 @@ class _Batch:
         try:
             message = _record(self.out_dir, spec, outcome)
         except OSError as exc:
+            exc.filename = exc.filename or str(run_path(self.out_dir, identifier))
             self.write_errors.append(exc)
             self.counts["failed"] += 1
             return
@@ -410,9 +411,8 @@ class _Batch:
         if not self.write_errors:
             return
         first = self.write_errors[0]
-        where = first.filename or self.out_dir
         raise ResultsWriteError(
-            f"Could not write {where}: {first.strerror or first} (errno {first.errno}); "
+            f"Could not write {first.filename}: {first.strerror or first} (errno {first.errno}); "
             f"{len(self.write_errors)} finished run(s) could not be saved, "
             f"{self.counts['done']} saved this time and {self.report.num_skipped} before are "
             f"safe in {self.out_dir}. Free space (or raise the file-size limit) and rerun the "
