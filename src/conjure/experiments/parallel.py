@@ -18,6 +18,9 @@ Notes
   it. A diverged run also keeps the curve it recorded (``errors/<run_id>.partial.csv``). A
   run over its memory limit (``max_memory``) fails with a `MemoryError` whose message names
   the limit; it is not retried.
+- Choice: before any run starts, each agent is set up on its domain once per distinct (domain,
+  agent) pair (`conjure.experiments.preflight`): parts that cannot work together give one
+  error, not one failed run per seed.
 - Choice: before workers on this machine start, one tiny run per distinct component structure
   (the tree of kinds) compiles the numba kernels once and fills their on-disk cache; workers
   then load compiled code instead of compiling it again. The tiny runs run in one worker
@@ -50,6 +53,7 @@ from conjure.core.errors import ResultsWriteError, RunsInterruptedError
 from conjure.experiments.claims import Claims
 from conjure.experiments.config import ExperimentConfig, dump_yaml, parse_config, resolve_run
 from conjure.experiments.executors import NOT_CLAIMED, Executor, LocalExecutor, TaskFailure
+from conjure.experiments.preflight import check_runs
 from conjure.experiments.results import (
     RESOLVED_FILE,
     error_path,
@@ -499,10 +503,14 @@ def open_executor(
 ) -> Iterator[Executor]:
     """Yield ``executor`` (default a `LocalExecutor`), started here and shut down after if not yet.
 
-    An executor started here first warms numba's cache with the ``pending`` runs' structures
-    (`prepare_executor`); a started one keeps its own workers and limits.
+    First every agent of the ``pending`` runs is set up on its domain, once per distinct pair
+    (`conjure.experiments.preflight.check_runs`): a config whose parts cannot work together
+    raises one error before any run starts. An executor started here then warms numba's cache
+    with the ``pending`` runs' structures (`prepare_executor`); a started one keeps its own
+    workers and limits.
     """
     executor = executor or LocalExecutor(max_workers=max_workers, max_memory=max_memory)
+    check_runs(pending, executor)
     owns = not executor.is_started
     try:
         if owns:

@@ -52,10 +52,21 @@ from conjure.experiments.memory import explain_memory_error
 if TYPE_CHECKING:
     import pandas as pd
 
-__all__ = ["CURVE_COLUMNS", "TIMING_COLUMNS", "Result", "run", "run_config", "run_resolved"]
+__all__ = [
+    "CURVE_COLUMNS",
+    "SEED_STREAMS",
+    "TIMING_COLUMNS",
+    "Result",
+    "checked_value_bounds",
+    "run",
+    "run_config",
+    "run_resolved",
+]
 
 #: The curve columns that depend on the machine, not on the seed.
 TIMING_COLUMNS = ("wall_time_s", "steps_per_second")
+#: The streams `run` splits its seed into (`conjure.core.seeding.split_seed`), in this order.
+SEED_STREAMS = ("domain", "evaluation", "agent")
 
 
 @dataclass
@@ -136,8 +147,14 @@ def _check_count(name: str, value: Any, low: int) -> int:
     return int(value)
 
 
-def _value_bounds(domain: Domain) -> tuple[float, float] | None:
-    """The domain's (worst, best) expected returns, checked, or ``None``."""
+def checked_value_bounds(domain: Domain) -> tuple[float, float] | None:
+    """Return the domain's (worst, best) expected returns, checked, or ``None``.
+
+    Raises
+    ------
+    InvalidParameterError
+        If ``domain.value_bounds()`` is not ``None`` nor finite with worst < best.
+    """
     bounds = domain.value_bounds()
     if bounds is None:
         return None
@@ -219,8 +236,8 @@ def run(
     budget_steps = _check_count("budget_steps", budget_steps, 1)
     num_policy_checks = _check_count("num_policy_checks", num_policy_checks, 1)
     eval_episodes = _check_count("eval_episodes", eval_episodes, 1)
-    bounds = _value_bounds(domain)
-    seeds = split_seed(seed, ("domain", "evaluation", "agent"))
+    bounds = checked_value_bounds(domain)
+    seeds = split_seed(seed, SEED_STREAMS)
     agent.setup(domain.domain_spec, seeds["agent"])
     eval_domain = domain.clone()
     eval_seed = seed_to_int(seeds["evaluation"])
