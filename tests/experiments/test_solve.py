@@ -1,3 +1,4 @@
+import re
 from pathlib import Path
 
 import pytest
@@ -25,7 +26,7 @@ def test_solve_reports_the_planners_start_value_and_renders(tmp_path):
     result = CliRunner().invoke(solve_command, [str(EXAMPLE), "--render", str(png)])
     assert result.exit_code == 0, result.output
     plan = ValueIteration(tolerance=1e-8).plan(GridWorld.gridworld_1().model())
-    assert f"{plan.start_value():.6f}" in result.output
+    assert f"{plan.start_value():,.7g}" in result.output
     for word in ("V(start)", "mean return", "iterations", "wall time"):
         assert word in result.output
     assert png.is_file() and png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
@@ -71,8 +72,8 @@ def test_uav_example_prints_the_exact_optimum_the_worst_value_and_the_first_move
     result = CliRunner().invoke(solve_command, [str(UAV_EXAMPLE)])
     assert result.exit_code == 0, result.output
     solution = UAVMission(traverse_failure=0.05).exact_solution()
-    assert f"{solution.optimal_return:,.6f}" in result.output  # 1,087.548096
-    assert f"{solution.worst_return:,.6f}" in result.output
+    assert f"{solution.optimal_return:,.7g}" in result.output  # 1,087.548
+    assert f"{solution.worst_return:,.7g}" in result.output
     assert "crash probability" in result.output and "First moves" in result.output
     assert "(UAV 0 to node 1, UAV 1 to node 1)" in result.output  # both meet at node 1
 
@@ -89,9 +90,9 @@ def test_cbba_solves_uav_missions_and_is_evaluated_exactly(tmp_path, variant):
     model = type("Model", (), {"domain_": domain})()
     planner = CBBAPlanner(variant=variant).setup(model, seed=0)
     exact = domain.evaluate_policy(planner.action)
-    assert f"{exact.value:,.6f}" in result.output and "V(start), exact" in result.output
+    assert f"{exact.value:,.7g}" in result.output and "V(start), exact" in result.output
     assert f"{exact.crash_probability:.4f}" in result.output
-    assert f"{domain.value_bounds()[1]:,.6f}" in result.output  # V* beside it
+    assert f"{domain.value_bounds()[1]:,.7g}" in result.output  # V* beside it
 
 
 def test_solve_returns_the_exact_solution_as_a_policy():
@@ -139,3 +140,15 @@ def test_an_agent_kind_is_not_a_planner(tmp_path):
     result = solve_text(tmp_path, "domain: {kind: GridWorld}\nplanner: {kind: SARSA}\n")
     assert isinstance(result.exception, InvalidParameterError)
     assert "'SARSA' is in the 'agent' registry, not a planner" in str(result.exception)
+
+
+@pytest.mark.parametrize("doc", ["README.md", "docs/safe-exploration.md"])
+def test_the_docs_show_what_solve_uav_prints(doc):
+    text = (ROOT / doc).read_text()
+    shown = re.search(
+        r"```text\n\$ conjure solve examples/solve_uav.yaml\n(.*?)\n(?:\$|```)", text, re.S
+    )
+    assert shown is not None, f"{doc} does not show `conjure solve examples/solve_uav.yaml`"
+    result = CliRunner().invoke(solve_command, [str(UAV_EXAMPLE)])
+    assert result.exit_code == 0, result.output
+    assert shown.group(1).strip("\n") == result.output.strip("\n")

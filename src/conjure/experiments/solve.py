@@ -436,14 +436,15 @@ def render_gridworld(domain: Domain, plan: Plan, path: str | Path) -> Path:
     return path
 
 
-#: The rows `conjure solve` prints: key of `Solution.numbers` -> (label, format).
+#: The rows `conjure solve` prints: key of `Solution.numbers` -> (label, format); values
+#: with 7 significant digits.
 _ROWS = {
-    "value": ("value V(start)", "{:,.6f}"),
-    "worst_value": ("worst value (start)", "{:,.6f}"),
-    "optimal_value": ("optimal value V*(start)", "{:,.6f}"),
+    "value": ("value V(start)", "{:,.7g}"),
+    "worst_value": ("worst value (start)", "{:,.7g}"),
+    "optimal_value": ("optimal value V*(start)", "{:,.7g}"),
     "crash_probability": ("crash probability", "{:.4f}"),
-    "mean_return": ("mean return ({episodes} episodes)", "{:,.6f}"),
-    "mean_discounted_return": ("mean discounted return", "{:,.6f}"),
+    "mean_return": ("mean return ({episodes} episodes)", "{:,.7g}"),
+    "mean_discounted_return": ("mean discounted return", "{:,.7g}"),
     "mean_episode_length": ("mean episode length", "{:,.1f}"),
     "num_states": ("states solved", "{:,.0f}"),
     "iterations": ("iterations", "{:,.0f}"),
