@@ -6,6 +6,7 @@ Each check runs in a fresh interpreter: the test process has imported everything
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 import gymnasium as gym
 
@@ -86,3 +87,20 @@ def test_import_conjure_loads_no_pandas_matplotlib_or_scipy_stats():
         "print(sorted(m for m in ('pandas', 'matplotlib', 'scipy.stats') if m in sys.modules))"
     )
     assert out.stdout.strip() == "[]", out.stdout + out.stderr
+
+
+def environment_table() -> str:
+    """The markdown table of every id, generated from `ENVIRONMENTS` (docs/other-libraries.md)."""
+    lines = ["| id | domain | keyword arguments | episode cap |", "|---|---|---|---|"]
+    for env_id, entry_point, max_episode_steps, kwargs in ENVIRONMENTS:
+        arguments = ", ".join(f"{name}={value!r}" for name, value in kwargs.items())
+        shown = f"`{arguments}`" if arguments else "(defaults)"
+        domain = entry_point.rsplit(":", 1)[1]
+        lines.append(f"| `{env_id}` | `{domain}` | {shown} | {max_episode_steps:,} |")
+    return "\n".join(lines) + "\n"
+
+
+def test_the_docs_list_every_environment_id_in_one_generated_table():
+    doc = (Path(__file__).resolve().parents[1] / "docs" / "other-libraries.md").read_text()
+    assert environment_table() in doc, "regenerate the table with tests/test_environments.py"
+    assert "conjure.environments`" not in doc  # the module holds ENVIRONMENTS, not a list

@@ -1,4 +1,4 @@
-"""The Python API example (examples/python_api.py) runs a YAML config to a result."""
+"""The examples run: the Python API (YAML config to a result), own representation, UAV iCCA."""
 
 import importlib.util
 from pathlib import Path
@@ -53,3 +53,30 @@ def test_own_representation_example_learns_the_same_from_objects_and_from_a_conf
     assert from_objects == from_config and len(from_objects) == 11
     # Learning with the four half-space features changes how long the greedy policy balances.
     assert max(from_objects) > from_objects[0]
+
+
+def test_uav_icca_example_runs_every_agent_and_the_docs_show_its_table(tmp_path):
+    from click.testing import CliRunner
+
+    from conjure.cli.main import main
+    from conjure.experiments.config import load_config
+    from conjure.experiments.results import read_run
+
+    config = EXAMPLE.with_name("uav_icca.yaml")
+    experiment = load_config(config)
+    labels = ["sarsa", "cbba_aggressive", "csarsa", "am_icca"]
+    assert list(experiment.agents) == labels
+    assert experiment.domain.params == {"scenario": "uav-7-2", "traverse_failure": 0.05}
+    tiny = ["budget_steps=200", "num_policy_checks=1", "eval_episodes=2", "seeds=1"]
+    args = ["run", str(config), "--out", str(tmp_path), "--quiet", "--max-workers", "1"]
+    result = CliRunner().invoke(main, [*args, *(f"--set={o}" for o in tiny)])
+    assert result.exit_code == 0, result.output
+    runs = [read_run(path) for path in (tmp_path / "runs").glob("*.json")]
+    assert sorted(run["config"]["label"] for run in runs) == sorted(labels)
+    root = EXAMPLE.parents[1]
+    for doc in ("README.md", "docs/safe-exploration.md"):  # the table shown is this config's
+        text = (root / doc).read_text()
+        table = text.split("$ conjure run examples/uav_icca.yaml\n", 1)[1].split("```", 1)[0]
+        rows = [line.split("│") for line in table.splitlines() if line.startswith("│")]
+        assert [row[1].strip() for row in rows] == labels, doc
+        assert {row[2].strip() for row in rows} == {str(experiment.seeds)}, doc

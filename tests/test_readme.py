@@ -22,3 +22,18 @@ def test_quick_start_runs_and_saves(tmp_path, monkeypatch):
     exec(compile(code, "README.md", "exec"), namespace)
     assert namespace["result"].curve["episode_length"].iloc[-1] > 0
     assert (tmp_path / "pendulum-agent" / "agent.json").is_file()
+
+
+def test_extras_are_installed_from_the_checkout_and_sb3_with_cpu_torch_first():
+    root = Path(__file__).resolve().parents[1]
+    pages = {path.name: path.read_text() for path in [root / "README.md", *root.glob("docs/*.md")]}
+    for name, text in pages.items():  # conjure is not on a registry: "conjure[sb3]" fails
+        assert not re.search(r"pip install ['\"]?conjure\[", text), name
+    install = re.search(
+        r"```\n(python -m pip install torch .*?)```", pages["other-libraries.md"], re.S
+    )
+    assert install is not None
+    assert install.group(1).splitlines() == [
+        "python -m pip install torch --index-url https://download.pytorch.org/whl/cpu",
+        'python -m pip install -e ".[sb3]"',
+    ]

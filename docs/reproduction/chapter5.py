@@ -8,8 +8,9 @@ sweep had no selection) and writes, under docs/reproduction/chapter5/:
 
 - ``FIGURE_finals.csv``: one row per method and seed: the final policy check's metrics, the
   failures while learning and the area under the return curve (the selection criterion);
-- ``FIGURE_curve.csv``: per method and policy check, the mean and 95% Student-t half-width of
-  each metric over seeds (what the learning-curve plots show);
+- ``FIGURE_curve.csv``: per method and policy check, the mean, the 95% Student-t half-width
+  and the interval's ends cut at the metric's range, of each metric over seeds (what the
+  learning-curve plots show);
 - ``FIGURE_selection.csv``: DIR/selection.csv, the settings the grid search chose;
 
 and the learning-curve plots (``docs/reproduction/FIGURE_<metric>.png``).
@@ -34,7 +35,9 @@ import numpy as np
 import pandas as pd
 from scipy import stats
 
-from conjure.experiments.results import format_interval, t_confidence
+from conjure.experiments.metric_ranges import clip_interval, metric_range
+from conjure.experiments.numbers import format_interval
+from conjure.experiments.results import t_confidence
 from conjure.reporting.plots import plot_learning_curves
 from conjure.sweeps.selection import score_runs
 
@@ -67,12 +70,15 @@ def finals_table(frame: pd.DataFrame) -> pd.DataFrame:
 
 
 def curve_table(frame: pd.DataFrame) -> pd.DataFrame:
-    """Mean and 95% t half-width of every metric per label and policy check."""
+    """Mean, 95% t half-width and cut interval of every metric per label and policy check."""
     rows = []
     for (label, steps), group in frame.groupby(["label", "learning_steps"], sort=False):
         row = {"label": label, "learning_steps": int(steps), "seeds": group["seed"].nunique()}
         for metric in METRICS:
-            row[f"{metric}_mean"], row[f"{metric}_ci95"] = t_confidence(group[metric])
+            mean, half = t_confidence(group[metric])
+            row[f"{metric}_mean"], row[f"{metric}_ci95"] = mean, half
+            cut = clip_interval(mean, half, metric_range(group, metric))
+            row[f"{metric}_low"], row[f"{metric}_high"] = cut
         rows.append(row)
     return pd.DataFrame(rows)
 
@@ -193,7 +199,8 @@ def within(
 
     def measure(finals: pd.DataFrame) -> tuple[str, bool]:
         mean, half = t_confidence(values(finals, label, metric))
-        return f"{label}: {format_interval(mean, half)}", bool(low <= mean <= high)
+        text = format_interval(mean, half, metric_range(finals, metric))
+        return f"{label}: {text}", bool(low <= mean <= high)
 
     return measure
 
@@ -465,7 +472,8 @@ def final_rows(finals: pd.DataFrame) -> str:
     for label, group in finals.groupby("label", sort=False):
         cells = [label, str(group["seed"].nunique())]
         for metric in [*metrics, "auc_return"]:
-            cells.append(format_interval(*t_confidence(group[metric])))
+            mean, half = t_confidence(group[metric])
+            cells.append(format_interval(mean, half, metric_range(group, metric)))
         lines.append("| " + " | ".join(cells) + " |")
     return "\n".join(lines)
 

@@ -41,22 +41,46 @@ def config_file(tmp_path):
     return path
 
 
-def test_list_shows_every_component():
+def test_list_shows_every_layer_with_its_kinds_on_one_screen():
+    from conjure.experiments import registry
+
     result = CliRunner().invoke(main, ["list"], terminal_width=200)
     assert result.exit_code == 0, result.output
-    for name in (
-        "InvertedPendulum",
-        "Gymnasium",
-        "TileCoding",
-        "EpsilonGreedy",
-        "SARSA",
-        "ConstantStepSize",
-        "CBBAPlanner",
-        "fuel_reserve",
-        "num_tilings",
-        "epsilon",
-    ):
+    assert len(result.output.splitlines()) < 40  # was 561 lines at 200 columns
+    for layer, components in registry.LAYERS.items():
+        assert layer in result.output and f" {len(components)} " in result.output
+        assert all(kind in result.output for kind in components)
+    assert "fuel_reserve" not in result.output  # parameters only on request
+    assert "conjure list planners" in result.output
+
+
+def test_list_a_layer_shows_its_parameters():
+    result = CliRunner().invoke(main, ["list", "planners"], terminal_width=200)
+    assert result.exit_code == 0, result.output
+    for name in ("ValueIteration", "SampledQAVI", "tolerance"):
         assert name in result.output
+    assert "SARSA" not in result.output and "CBBAPlanner" not in result.output
+    singular = CliRunner().invoke(main, ["list", "Cooperative-Planner"], terminal_width=200)
+    assert "CBBAPlanner" in singular.output and "fuel_reserve" in singular.output
+
+
+def test_list_search_matches_kinds_and_parameters_in_any_case():
+    result = CliRunner().invoke(main, ["list", "--search", "cbba"], terminal_width=200)
+    assert result.exit_code == 0, result.output
+    assert "CBBAPlanner" in result.output and "fuel_reserve" in result.output
+    assert "SARSA" not in result.output
+    by_parameter = CliRunner().invoke(main, ["list", "agents", "--search", "trace_decay"])
+    assert "SARSA" in by_parameter.output and "LSPI" not in by_parameter.output
+
+
+def test_list_with_a_bad_layer_or_no_match_is_one_line():
+    result = CliRunner().invoke(main, ["list", "plannrs"])
+    assert result.exit_code == 2
+    assert result.output.startswith("Error: Unknown layer 'plannrs'. Did you mean 'planners'?")
+    assert len(result.output.splitlines()) == 1
+    nothing = CliRunner().invoke(main, ["list", "--search", "zzz"])
+    assert nothing.exit_code == 2 and len(nothing.output.splitlines()) == 1
+    assert "No component matches --search 'zzz'" in nothing.output
 
 
 def test_run_then_plot(config_file, tmp_path):
@@ -179,6 +203,16 @@ def test_failed_runs_give_exit_code_1(tmp_path, monkeypatch):
     assert "broken/seed_0" in result.output and "fake setup failure" in result.output
     assert len(list((tmp_path / "o" / "errors").glob("*.txt"))) == 1
     assert (tmp_path / "o" / "learning_curve_return.png").is_file()
+
+
+def test_run_on_a_sweep_config_says_so_and_gives_the_sweep_command():
+    config = Path(__file__).resolve().parents[2] / "examples/reproduction/fig_5_9_13.yaml"
+    result = CliRunner().invoke(main, ["run", str(config)])
+    assert result.exit_code == 2
+    assert result.output == (
+        f"Error: {config} is a sweep config (it has `grid`), not an experiment; run it with "
+        f"`conjure sweep {config}`.\n"
+    )
 
 
 def test_invalid_component_value_exits_2(config_file, tmp_path):

@@ -324,3 +324,10 @@ def test_gridworld3_makes_the_uniform_model_filter_a_safe_optimal_route():
     )
     assert passes[:-1].max() < 0.7  # each step but the last one is vetoed at least 30% of times
     assert passes.prod() == pytest.approx(0.050, abs=1e-3)
+
+
+def test_describe_action_names_the_move():
+    domain = GridWorld()
+    assert [domain.describe_action(a) for a in range(4)] == ["up", "down", "left", "right"]
+    with pytest.raises(InvalidParameterError, match="action must be an int in"):
+        domain.describe_action(4)

@@ -106,3 +106,20 @@ def test_target_keys_may_be_digit_strings_as_json_writes_them():
 def test_bad_graphs_are_refused_with_the_value_named(data, message):
     with pytest.raises(InvalidParameterError, match=message):
         MissionGraph.from_dict(data)
+
+
+def test_a_graph_too_large_for_its_distance_table_is_refused_before_allocating_it():
+    # Issue 20: 10⁶ nodes asked Floyd-Warshall for 7.28 TiB (a raw numpy MemoryError).
+    data = {"num_nodes": 10**6, "edges": [(0, 1)], "fuel": [2], "horizon": 3}
+    with pytest.raises(InvalidParameterError, match=r"at most 1,000 .* got 1,000,000\.$"):
+        MissionGraph.from_dict(data)
+    with pytest.raises(InvalidParameterError, match="num_nodes"):
+        MissionGraph(num_nodes=10**6, edges=((0, 1),), fuel=(2,), horizon=3)
+    assert MissionGraph.from_dict({**data, "num_nodes": 2}).num_nodes == 2
+
+
+def test_a_uav_without_fuel_is_refused_by_name():
+    # Issue 20: fuel 0 only failed at run time, as value_bounds() = (0, 0).
+    data = {"num_nodes": 2, "edges": [(0, 1)], "fuel": [3, 0], "horizon": 3}
+    with pytest.raises(InvalidParameterError, match=r"`MissionGraph\.fuel\[1\]` .* fuel 0"):
+        MissionGraph.from_dict(data)

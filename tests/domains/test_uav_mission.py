@@ -382,6 +382,8 @@ BAD_GRAPHS = [
         {**line([2, 2, 2, 2], 3), "num_nodes": 40, "edges": [[k, k + 1] for k in range(39)]},
         "40\\^4 = 2560000 joint actions",
     ),
+    ({**line([2], 3), "num_nodes": 10**6}, r"num_nodes` must be at most 1,000"),
+    ({**line([2, 0], 3)}, r"fuel\[1\]` must be an int in \[1, inf\)"),
 ]
 
 
@@ -428,16 +430,26 @@ def test_bad_states_actions_and_generators_are_refused_clearly():
         domain.step(2)
 
 
-def test_bad_graph_in_a_yaml_config_is_one_clean_error(tmp_path):
+@pytest.mark.parametrize(
+    ("graph", "message"),
+    [
+        ("{num_nodes: 3, edges: [[0, 1]], fuel: [2], horizon: 3}", "disconnected"),
+        # Issue 20: Floyd-Warshall's 7.28 TiB MemoryError, and fuel 0's run-time
+        # "value_bounds() must return finite (worst, best)" in every run.
+        ("{num_nodes: 1000000, edges: [[0, 1]], fuel: [2], horizon: 3}", "at most 1,000"),
+        ("{num_nodes: 2, edges: [[0, 1]], fuel: [0], horizon: 3}", "fuel[0]` must be an int"),
+    ],
+)
+def test_bad_graph_in_a_yaml_config_is_one_clean_error(tmp_path, graph, message):
     config = textwrap.dedent(
-        """\
+        f"""\
         name: uav
         domain:
           kind: UAVMission
           params:
-            graph: {num_nodes: 3, edges: [[0, 1]], fuel: [2], horizon: 3}
+            graph: {graph}
         agents:
-          sarsa: {kind: SARSA, params: {representation: {kind: Tabular}}}
+          sarsa: {{kind: SARSA, params: {{representation: {{kind: Tabular}}}}}}
         budget_steps: 10
         """
     )
@@ -446,4 +458,32 @@ def test_bad_graph_in_a_yaml_config_is_one_clean_error(tmp_path):
     result = CliRunner().invoke(main, ["run", str(path), "--out", str(tmp_path / "out")])
     assert result.exit_code == 2 and "Traceback" not in result.output
     assert "`UAVMission.graph` is not a valid mission graph" in result.output
-    assert "disconnected" in result.output
+    assert message in result.output
+    assert not (tmp_path / "out").exists()  # refused when the config was loaded
+
+
+def test_the_joint_action_limit_is_checked_before_the_distances(monkeypatch):
+    # Issue 20: the documented N^n limit came after Floyd-Warshall's Θ(N³) work.
+    import conjure.domains.mission_graph as mission_graph
+
+    def refuse(*args):
+        raise AssertionError("the distances were computed first")
+
+    monkeypatch.setattr(mission_graph, "_floyd_warshall", refuse)
+    graph = {**line([2, 2, 2], 3, num_nodes=1000)}
+    with pytest.raises(InvalidParameterError, match=r"1000\^3 = 1000000000 joint actions"):
+        UAVMission(graph=graph)
+
+
+@pytest.mark.parametrize(
+    ("change", "message"),
+    [
+        ({"fuel": [10**6, 7]}, r"states \(fuel \[1000000, 7\]\), more than the 2e\+07"),
+        ({"horizon": 10**6}, r"horizon 1,000,000 × 1\.76e\+05 states per time layer"),
+    ],
+)
+def test_exact_solutions_too_large_for_memory_or_time_name_the_fuel_or_horizon(change, message):
+    # Issue 20: huge fuel or horizons; a huge horizon used to grind in the backward induction.
+    graph = {**UAVMission().graph_.to_dict(), **change}
+    with pytest.raises(InvalidParameterError, match=message):
+        UAVMission(graph=graph).exact_solution()

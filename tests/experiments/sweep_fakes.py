@@ -36,6 +36,22 @@ class SlowWalk(FakeWalk):
         return super().step(action)
 
 
+class LoggedWalk(SlowWalk):
+    """SlowWalk that appends its process id to ``start_log`` on its first reset (a run began)."""
+
+    def __init__(self, *, length: int = 5, sleep_s: float = 0.0, start_log: str = ""):
+        super().__init__(length=length, sleep_s=sleep_s)
+        self.start_log = start_log
+        self._is_logged = False
+
+    def reset(self, *, seed=None, options=None):
+        if not self._is_logged:
+            with open(self.start_log, "a") as log:
+                log.write(f"{os.getpid()}\n")
+            self._is_logged = True
+        return super().reset(seed=seed, options=options)
+
+
 class KillerAgent(FakeAgent):
     """FakeAgent that SIGKILLs its own process once (first setup, marked by a file), or always.
 
@@ -118,6 +134,7 @@ def register_fakes() -> None:
     registry.AGENTS.setdefault("HogAgent", HogAgent)
     registry.DOMAINS.setdefault("FakeWalk", FakeWalk)
     registry.DOMAINS.setdefault("SlowWalk", SlowWalk)
+    registry.DOMAINS.setdefault("LoggedWalk", LoggedWalk)
 
 
 def run_with_fakes(spec: dict[str, Any]):

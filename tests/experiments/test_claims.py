@@ -83,8 +83,9 @@ DRIVER = textwrap.dedent(
     from conjure.sweeps.sweep import run_sweep
     register_fakes()
     sweep = fake_sweep(
-        domains={"slow": {"kind": "SlowWalk", "params": {"sleep_s": 0.01}}},
-        agents={"a": {"kind": "LoggedAgent", "params": {"start_log": sys.argv[2]}}},
+        domains={"slow": {"kind": "LoggedWalk", "params": {"sleep_s": 0.01,
+                                                            "start_log": sys.argv[2]}}},
+        agents={"a": {"kind": "FakeAgent", "params": {}}},
         grid={"agents.a.params.step_size": [0.1, 0.3, 0.5, 0.7]},
         seeds=3,
     )
@@ -115,9 +116,8 @@ def test_two_drivers_on_one_folder_split_the_runs(tmp_path):
     assert [driver.returncode for driver in drivers] == [0, 0], outputs
     starts = log.read_text().split()
     by_driver = {pid: starts.count(pid) for pid in set(starts)}
-    assert len(starts) == 12, by_driver  # every run ran once, no run twice
+    assert len(starts) == 2 * 12, by_driver  # each run (a learning and an evaluation walk) once
     assert len(by_driver) == 2, by_driver  # both drivers worked
     assert all("RESULTS 12" in text for text in outputs)  # each reports all 12 runs
     assert len(list((out / RUNS_DIR).glob("*.json"))) == 12
     assert not list((out / CLAIMS_DIR).iterdir())
-

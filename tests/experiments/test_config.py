@@ -261,3 +261,22 @@ def test_a_bad_set_value_is_blamed_on_the_flag_and_a_bad_file_on_the_file(tmp_pa
     with pytest.raises(InvalidParameterError, match=rf"^{re.escape(str(path))}: budget_steps"):
         load_config(path, ["seeds=2"])
     assert load_config(path, ["budget_steps=5"]).budget_steps == 5  # the flag fixes the file
+
+
+@pytest.mark.parametrize("field", ["grid", "domains", "domain_grids", "selection"])
+def test_a_sweep_config_is_named_with_the_sweep_command(tmp_path, field):
+    path = tmp_path / "fig.yaml"
+    path.write_text(BASE + f"{field}: {{}}\n")
+    with pytest.raises(InvalidParameterError) as info:
+        load_config(path)
+    assert str(info.value) == (
+        f"{path} is a sweep config (it has `{field}`), not an experiment; run it with "
+        f"`conjure sweep {path}`."
+    )
+
+
+def test_a_tuning_config_is_named_with_the_tune_command(tmp_path):
+    path = tmp_path / "tune.yaml"
+    path.write_text(BASE + "search: {space: {}}\n")
+    with pytest.raises(InvalidParameterError, match=r"tuning config .* `conjure tune "):
+        load_config(path, ["seeds=2"])

@@ -189,6 +189,8 @@ def test_the_summary_table_keeps_long_labels_whole_at_80_columns():
             "num_seeds": 5,
             "final_return_mean": -1.0,
             "final_return_ci95": 1.674e-16,
+            "final_return_low": -1.0 - 1.674e-16,
+            "final_return_high": -1.0 + 1.674e-16,
             "final_num_features": 1234.0,
             "mean_steps_per_second": 45678.0,
         }
@@ -202,6 +204,34 @@ def test_the_summary_table_keeps_long_labels_whole_at_80_columns():
     for label in labels:
         assert label in flat
     assert "-1.000 ± 0.000" in text
+
+
+def test_the_summary_table_cuts_an_interval_at_the_metrics_range():
+    # Issue 21: `0.300 ± 1.271` for a probability.
+    from rich.console import Console
+
+    from conjure.experiments.parallel import ExperimentResult, print_summary
+
+    summary = pd.DataFrame(
+        {
+            "label": ["a", "b"],
+            "num_seeds": 3,
+            "final_failure_rate_mean": [0.3, 0.5],
+            "final_failure_rate_ci95": [1.271, 0.25],
+            "final_failure_rate_low": [0.0, 0.25],
+            "final_failure_rate_high": [1.0, 0.75],
+            "final_num_features": 200000.0,
+            "mean_steps_per_second": 45678.0,
+        }
+    )
+    console = Console(width=100, record=True)
+    outcome = ExperimentResult(Path("out"), pd.DataFrame(), summary, metric="failure_rate")
+    print_summary(outcome, console)
+    text = console.export_text()
+    assert "0.300 [0.000, 1.000]" in text and "1.271" not in text
+    assert "0.5000 ± 0.2500" in text  # an interval inside the range keeps its ±
+    assert "mean [low, high]: a 95% CI cut at what the metric can be" in text
+    assert "200,000" in text and "e+05" not in text
 
 
 def test_a_full_disk_keeps_the_writable_runs_and_says_so_in_one_line(fakes, tmp_path, monkeypatch):

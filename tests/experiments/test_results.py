@@ -9,6 +9,7 @@ import pandas as pd
 import pytest
 
 from conjure.experiments.results import (
+    describe_setting,
     flatten_params,
     load_results,
     read_run,
@@ -77,10 +78,43 @@ def test_run_files_are_named_by_hash_and_written_atomically(tmp_path):
 
 
 def test_intervals_read_at_the_means_precision():
-    from conjure.experiments.results import format_interval
+    from conjure.experiments.numbers import format_interval
 
     assert format_interval(-1.0, 1.674e-16) == "-1.000 ± 0.000"  # not "-1 ± 1.674e-16"
     assert format_interval(0.5, 0.25) == "0.5000 ± 0.2500"  # 4 significant digits
-    assert format_interval(-3012.4, 150.2) == "-3012 ± 150"
+    assert format_interval(-3012.4, 150.2) == "-3,012 ± 150"
     assert format_interval(0.0, 0.0) == "0.000 ± 0.000"
     assert format_interval(float("nan"), 1.0) == "n/a"
+
+
+def test_the_summary_cuts_each_interval_at_what_the_metric_can_be(tmp_path):
+    # Issue 21: a probability read 0.300 ± 1.271 and an episode length passed its cap.
+    for seed, rate, length in ((0, 1.0, 3000.0), (1, 1.0, 2990.0), (2, 0.0, 2400.0)):
+        curve = {
+            "learning_steps": [10],
+            "failure_rate": [rate],
+            "episode_length": [length],
+            "num_features": [1],
+            "steps_per_second": [1.0],
+        }
+        save_run(tmp_path, {"label": "a", "seed": seed}, curve, {"max_episode_steps": 3000.0})
+    table = load_results(tmp_path)
+    assert table["max_episode_steps"].eq(3000.0).all() and table["best_return"].isna().all()
+    rate = summarize(table, "failure_rate").iloc[0]
+    assert rate["final_failure_rate_ci95"] > 1.0  # the t half-width, as computed
+    assert (rate["final_failure_rate_low"], rate["final_failure_rate_high"]) == (0.0, 1.0)
+    length = summarize(table, "episode_length").iloc[0]
+    assert length["final_episode_length_mean"] + length["final_episode_length_ci95"] > 3000.0
+    assert length["final_episode_length_high"] == 3000.0
+
+
+def test_a_setting_reads_as_short_yaml_values():
+    # Issue 21: `alpha_0=0.05002000000000905` in printed tables.
+    setting = {
+        "agents.sarsa.params.step_size.params.alpha_0": 0.05002000000000905,
+        "agents.sarsa.params.step_size.params.n_0": 1000000,
+        "agents.sarsa.params.trace_decay": 1.0,
+    }
+    assert describe_setting(setting) == "step_size.alpha_0=0.05002, step_size.n_0=1000000, " + (
+        "trace_decay=1.0"
+    )

@@ -209,6 +209,39 @@ def test_optimality_is_nan_without_value_bounds_and_bad_bounds_are_refused():
         fake_run(domain_params={"bounds": (1.0, 1.0)})
 
 
+def test_a_run_records_the_ranges_its_domain_declares():
+    # Issue 21: intervals are cut at the episode cap and the value bounds, so runs keep them.
+    from conjure.experiments.run import run_task
+
+    bounded = fake_run(num_policy_checks=2, domain_params={"bounds": (-15.0, -4.0)})
+    assert bounded.domain_bounds == {
+        "max_episode_steps": 15.0,
+        "worst_return": -15.0,
+        "best_return": -4.0,
+    }
+    assert fake_run(num_policy_checks=2).domain_bounds == {"max_episode_steps": 15.0}
+    spec = {
+        "label": "q",
+        "domain": {"kind": "ChainMDP"},
+        "agent": {"kind": "QLearning", "params": {"representation": {"kind": "Tabular"}}},
+        "budget_steps": 20,
+        "seed": 0,
+        "num_policy_checks": 1,
+        "eval_episodes": 1,
+    }
+    out = run_task(spec)
+    assert out["meta"]["max_episode_steps"] == ChainMDP().domain_spec.max_episode_steps
+
+
+def test_the_summary_line_prints_numbers_without_exponents():
+    # Issue 21: `2e+05` in printed numbers.
+    row = {column: 1.0 for column in CURVE_COLUMNS}
+    row.update(learning_steps=200000, learning_episodes=40, num_features=3, episode_length=3000.0)
+    text = Result([{**row, "return": 200000.0}], seed=0).summary()
+    assert "final greedy return 200,000 (best 200,000," in text and "e+" not in text
+    assert "episode length 3,000" in text
+
+
 def test_before_policy_check_is_called_before_every_check():
     result = fake_run(budget_steps=100, num_policy_checks=4)
     checks = [i for i, event in enumerate(result.agent.events_) if event == "check"]

@@ -72,8 +72,11 @@ def test_paths_never_cross_pits():
 
 def test_bad_goals_and_domains_are_refused():
     domain = GridWorld.gridworld_2()
-    with pytest.raises(InvalidParameterError, match="goal cell"):
+    with pytest.raises(InvalidParameterError, match=r"goal cell .* got \(4, 11\), not a goal"):
         set_up(ShortestPathPlanner(goal=(4, 11)), domain)
+    # Issue 20: a goal off the map (the pre-flight check runs this before any run).
+    with pytest.raises(InvalidParameterError, match=r"map; got \(100, 100\), off the map"):
+        set_up(ShortestPathPlanner(goal=(100, 100)), domain)
     with pytest.raises(InvalidParameterError, match="goal"):
         ShortestPathPlanner(goal="left").validate_params()
     with pytest.raises(IncompatibleComponentsError, match="GridWorld"):

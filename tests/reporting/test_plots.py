@@ -7,9 +7,12 @@ import pandas as pd
 import pytest
 
 from conjure.core.errors import InvalidParameterError
+from conjure.reporting import plots
 from conjure.reporting.plots import (
+    AXES_INCHES,
     curve_bands,
     learning_curve_figure,
+    method_labels,
     plot_learning_curves,
     plot_results_dir,
 )
@@ -57,6 +60,95 @@ def test_plot_results_dir(tmp_path):
         "learning_curve_num_features.png"
     )
     assert np.isfinite(results_frame()["return"]).all()
+
+
+def sweep_frame() -> pd.DataFrame:
+    """Fig. 5-12's sweep: three learners x a 3 x 3 step-size grid, and two planners: 29 lines."""
+    rows = []
+    settings = [
+        f"learner.step_size.alpha_0={a}, learner.step_size.n_0={n}"
+        for a in (0.01, 0.1, 1.0)
+        for n in (100, 1000, 1000000)
+    ]
+    methods = [(label, s) for label in ("icca", "am_icca", "icca_printed") for s in settings]
+    for k, (label, setting) in enumerate([*methods, ("conservative", ""), ("aggressive", "")]):
+        for seed in range(2):
+            for step in (0, 15000, 30000):
+                rows.append((label, setting, seed, step, 0.01 * k * step / 30000 + 0.05 * seed))
+    columns = ["label", "setting", "seed", "learning_steps", "return"]
+    return pd.DataFrame(rows, columns=columns)
+
+
+def test_29_methods_leave_the_axes_most_of_the_figure():
+    # Issue 21: Fig. 5-12's legend took more than half the figure; the figure grows instead.
+    frame = sweep_frame()
+    frame = frame.assign(label=method_labels(frame))
+    assert frame["label"].nunique() == 29
+    figure = learning_curve_figure(frame, "return", "fig_5_12")
+    axes = figure.axes[0]
+    box = axes.get_position()
+    assert box.width * box.height >= 0.6
+    width, height = figure.get_size_inches()
+    assert box.width * width >= AXES_INCHES[0] and box.height * height >= AXES_INCHES[1]
+    renderer = figure.canvas.get_renderer()
+    legend = axes.get_legend().get_window_extent(renderer)
+    assert legend.x0 >= axes.get_window_extent(renderer).x1
+    assert legend.x1 <= figure.bbox.x1 and legend.y0 >= figure.bbox.y0  # all of it is seen
+    assert "icca [alpha_0=0.01, n_0=100]" in [t.get_text() for t in axes.get_legend().texts]
+
+
+def test_identical_curves_differ_in_line_style_marker_and_colour():
+    # Issue 21: the iCCA curve was hidden under its planner's.
+    planner = results_frame().query("label == 'a'")
+    frame = pd.concat([planner, planner.assign(label="icca")])
+    lines = learning_curve_figure(frame, "return").axes[0].get_lines()
+    assert len(lines) == 2
+    np.testing.assert_array_equal(lines[0].get_ydata(), lines[1].get_ydata())
+    assert lines[0].get_linestyle() != lines[1].get_linestyle()
+    assert lines[0].get_marker() != lines[1].get_marker()
+    assert lines[0].get_color() != lines[1].get_color()
+
+
+def test_a_plot_is_titled_by_the_configs_name_and_the_metric(tmp_path, monkeypatch):
+    # Issue 21: plots were titled by their folder's name.
+    figure = learning_curve_figure(results_frame(), "num_features", "fig_5_12")
+    assert figure.axes[0].get_title() == "fig_5_12: num_features"
+    folder = tmp_path / "some_folder"
+    folder.mkdir()
+    (folder / "config.resolved.yaml").write_text("name: fig_5_12\nmetric: return\n")
+    sweep_frame().to_parquet(folder / "results.parquet")
+    drawn = []
+
+    def drawing(frame, metric, title=""):
+        drawn.append(learning_curve_figure(frame, metric, title))
+        return drawn[-1]
+
+    monkeypatch.setattr(plots, "learning_curve_figure", drawing)
+    plot_results_dir(folder)
+    assert drawn[0].axes[0].get_title() == "fig_5_12: return"
+    assert len(drawn[0].axes[0].get_lines()) == 29  # one line per grid setting
+
+
+def test_bands_stop_at_the_cap_and_value_bounds_the_runs_declared():
+    # Issue 21: a pendulum band reached 3,170 steps above the 3,000-step cap.
+    lengths = pd.DataFrame(
+        {
+            "label": "pendulum",
+            "seed": [0, 1, 2],
+            "learning_steps": 100,
+            "episode_length": [3000.0, 3000.0, 2600.0],
+            "max_episode_steps": 3000.0,
+        }
+    )
+    band = curve_bands(lengths, "episode_length").iloc[0]
+    assert band["high"] == 3000.0 and band["low"] < band["mean"] < 3000.0
+    figure = learning_curve_figure(lengths, "episode_length")
+    texts = [t.get_text() for t in figure.axes[0].get_legend().get_texts()]
+    assert any("cut at the range [0, 3,000]" in t for t in texts)
+    optimality = lengths.rename(columns={"episode_length": "optimality"}).assign(
+        optimality=[1.0, 1.0, 0.4]
+    )
+    assert curve_bands(optimality, "optimality").iloc[0]["high"] == 1.0  # it reached 1.75
 
 
 def test_bands_stay_within_the_metrics_possible_range():

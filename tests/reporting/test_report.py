@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -85,7 +87,7 @@ def test_report_tables_show_failure_rate_learning_failures_and_optimality(tmp_pa
     assert "final failure rate ± 95% t" in text and "final optimality ± 95% t" in text
     assert "learning failures" in text
     assert "| reckless | 2 |" in text and "| 0.5000 ± 0.0000 |" in text  # rate 0.5, no spread
-    assert "| 4.5 |" in text  # learning failures, mean of 4 and 5
+    assert "| 4.500 |" in text  # learning failures, mean of 4 and 5
     curve = write_report(tmp_path, metric="optimality", out_dir=tmp_path / "by_optimality")
     assert "mean optimality ± 95% t" in curve.read_text()
 
@@ -133,3 +135,50 @@ def test_report_says_nothing_of_completeness_when_every_run_is_there(tmp_path):
     result = CliRunner().invoke(report_command, [str(tmp_path)])
     assert result.exit_code == 0 and "Incomplete" not in result.output
     assert "Incomplete" not in (tmp_path / "report.md").read_text()
+
+
+def test_report_cuts_intervals_at_each_metrics_range_and_prints_short_numbers(tmp_path):
+    # Issue 21: an episode band past the 3,000-step cap, `0.300 ± 1.271` for a probability,
+    # and `2e+05` in the tables.
+    from conjure.experiments.results import save_run
+    from conjure.experiments.run import CURVE_COLUMNS
+    from conjure.reporting.report import write_report
+
+    for seed, (length, rate) in enumerate([(3000.0, 1.0), (3000.0, 0.0), (2500.0, 1.0)]):
+        curve = {column: [0.0, 1.0] for column in CURVE_COLUMNS}
+        curve.update(
+            learning_steps=[0, 100],
+            episode_length=[10.0, length],
+            failure_rate=[0.0, rate],
+            num_features=[1, 200000],
+            learning_failures=[0, 200000],
+        )
+        spec = {"label": "pendulum", "seed": seed, "domain": {"kind": "InvertedPendulum"}}
+        save_run(tmp_path, spec, curve, {"max_episode_steps": 3000.0})
+    text = write_report(tmp_path, metric="episode_length").read_text()
+    assert "| 2,833 [2,116, 3,000] |" in text  # t-interval 2,833 ± 717, cut at the cap
+    assert "| 0.667 [0.000, 1.000] |" in text  # failure rate 0.667 ± 1.43, cut at 1
+    assert "| 200,000 |" in text and "e+" not in text
+    assert "cut at what each metric can be" in text
+
+
+def test_report_of_a_selection_names_the_rerun_and_prints_its_scores_to_read(tmp_path):
+    sweep = fake_sweep(selection={"criterion": "auc", "fresh_seeds": 2})
+    run_sweep(sweep, tmp_path, max_workers=1, run_fn=run_with_fakes, progress=False)
+    from conjure.reporting.report import write_report
+
+    text = write_report(tmp_path).read_text()
+    table = text.split("## Selected settings")[1]
+    assert "score ± 95% t" in table and "score_mean" not in table
+    assert not re.search(r"\d\.\d{6,}", table)  # no float noise
+    rerun = (tmp_path / "selected" / "report.md").read_text()
+    assert rerun.startswith("# Report: fake_sweep (best settings, fresh seeds)")
+
+
+def test_report_of_a_selection_without_fresh_seeds_says_its_scores_are_the_searchs(tmp_path):
+    sweep = fake_sweep(selection={"criterion": "final", "fresh_seeds": 0})
+    run_sweep(sweep, tmp_path, max_workers=1, run_fn=run_with_fakes, progress=False)
+    from conjure.reporting.report import write_report
+
+    text = write_report(tmp_path).read_text()
+    assert "No rerun on fresh seeds (`fresh_seeds: 0`)" in text

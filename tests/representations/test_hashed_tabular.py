@@ -148,3 +148,17 @@ def test_sarsa_learns_with_it_on_blocksworld_unchanged():
     stored = agent.representation_.num_stored_
     assert 1 < stored <= 300
     assert np.count_nonzero(np.any(agent.weights_ != 0.0, axis=1)) <= stored
+
+
+def test_a_run_reports_the_features_in_use_not_the_capacity():
+    from conjure.domains import UAVMission
+    from conjure.experiments import run
+
+    agent = SARSA(representation=HashedTabular())  # capacity 100,000
+    result = run(domain=UAVMission(), agent=agent, budget_steps=2_000, seed=0)
+    representation = result.agent.representation_
+    in_use = representation.num_features_in_use_
+    assert in_use == representation.num_stored_ == result.agent.num_features
+    assert 0 < in_use < representation.num_features_ == 100_000  # the capacity, θ's rows
+    assert int(result.curve["num_features"].iloc[-1]) == in_use
+    assert f"{in_use:,} features" in result.summary()

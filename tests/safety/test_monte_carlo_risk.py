@@ -121,6 +121,33 @@ def test_bad_parameters_are_refused():
         MonteCarloRiskAnalyzer(num_rollouts=0).validate_params()
 
 
+@pytest.mark.parametrize(
+    ("params", "product"),
+    [
+        ({"num_rollouts": 10**9}, "num_rollouts` 1,000,000,000: at least 1e+09 simulated"),
+        ({"horizon": 10**9}, "horizon = 5 × 1,000,000,000 = 5e+09 simulated"),
+    ],
+)
+def test_absurd_rollout_counts_and_horizons_are_refused_with_the_bound(params, product):
+    # Issue 20: 10⁹ rollouts were accepted and every learning step ground on silently.
+    with pytest.raises(InvalidParameterError) as error:
+        MonteCarloRiskAnalyzer(**params).validate_params()
+    message = str(error.value)
+    assert product in message and "MAX_ROLLOUT_STEPS = 100,000,000" in message
+    assert "raise conjure.safety.monte_carlo_risk.MAX_ROLLOUT_STEPS" in message
+
+
+def test_a_horizon_taken_from_an_absurd_episode_cap_is_refused_at_setup():
+    domain = GridWorld.from_grid(CORRIDOR, noise=0.4, max_episode_steps=10**9)
+    analyser = MonteCarloRiskAnalyzer()
+    analyser.validate_params()  # 𝓗 is not known before setup
+    with pytest.raises(
+        InvalidParameterError, match=r"5 × 1,000,000,000 \(GridWorld's max_episode_steps\) = 5e"
+    ):
+        analyser_on(domain)
+    assert analyser_on(domain, horizon=1000).horizon_ == 1000  # an explicit 𝓗 is what counts
+
+
 def test_uav_rollouts_follow_cbba_and_match_the_exact_crash_probability():
     # UAV 7-2 [R]: UAV 0 at node 1 (one hop from the base) with 2 fuel, UAV 1 at the base with
     # none, t = 1. Flying home fails with η̂ = 0.4 per try; CBBA (no target fits 1 fuel) then

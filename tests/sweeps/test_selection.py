@@ -63,3 +63,23 @@ def test_sweep_selects_best_setting_and_reruns_it_on_fresh_seeds(tmp_path):
     assert set(selected["seed"]) == {2, 3, 4}  # after the grid's seeds 0, 1
     assert set(selected.loc[selected["label"] == "a", "setting"]) == {"greedy_action=1"}
     assert selected["run_id"].nunique() == 4 * 3
+
+
+def test_no_fresh_seeds_prints_the_best_settings_on_the_search_seeds(tmp_path):
+    # Issue 21: `fresh_seeds: 0` printed an empty "selected" table.
+    from rich.console import Console
+
+    sweep = fake_sweep(
+        grid={"agents.a.params.greedy_action": [0, 1]},
+        selection={"criterion": "final", "fresh_seeds": 0},
+    )
+    console = Console(width=160, record=True)
+    outcome = run_sweep(sweep, tmp_path, max_workers=1, run_fn=run_with_fakes, console=console)
+    chosen = outcome.selected.summary
+    assert len(chosen) == 4 and chosen["num_seeds"].eq(2).all()  # seeds 0, 1 of the search
+    assert set(chosen.loc[chosen["label"] == "a", "setting"]) == {"greedy_action=1"}
+    assert not (tmp_path / "selected").exists()
+    text = console.export_text()
+    table = text.split("fresh_seeds: 0")[1]  # the second table, after the search's
+    assert table.count("greedy_action=1") == 2 and "greedy_action=0" not in table
+    assert table.count("│ b ") == 2

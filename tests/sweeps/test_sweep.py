@@ -67,12 +67,19 @@ def test_domain_grids_and_plain_fields():
         ({"domains.shrt.params.length": [3]}, "Did you mean 'short'?"),
         ({"agents.a.params.step_size": [5.0]}, "step_size"),
         ({"agents.a.params.step_size": []}, "at least one value"),
+        ({"agents.a.params.step_size": [0.1, 0.1000001]}, "both print as 0.1"),  # one setting
     ],
 )
 def test_bad_grid_keys_are_clear(grid, expected):
     with pytest.raises(InvalidParameterError, match="grid") as info:
         parse_sweep(fake_sweep(grid=grid))
     assert expected in str(info.value)
+
+
+def test_domain_grid_values_must_print_apart():
+    grids = {"short": {"agents.a.params.step_size": [0.3, 0.30000004]}}
+    with pytest.raises(InvalidParameterError, match=r"both print as 0\.3"):
+        parse_sweep(fake_sweep(domain_grids=grids))
 
 
 def test_bad_sweep_fields_are_clear():

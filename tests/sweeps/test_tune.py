@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import re
 import signal
 import sqlite3
 import subprocess
@@ -48,6 +49,17 @@ def test_tune_runs_trials_and_continues(tmp_path):
     assert len(list((tmp_path / "runs").glob("*.json"))) == 3 * 2
     again = tune(tune_config(), tmp_path, max_workers=1, run_fn=run_with_fakes, progress=False)
     assert again.loc[0, "num_complete"] == 3  # nothing more to do
+
+
+def test_tuned_values_print_short(tmp_path):
+    # Issue 21: values such as 0.05002000000000905 were echoed back whole.
+    from rich.console import Console
+
+    console = Console(width=200, record=True)
+    tune(tune_config(), tmp_path, max_workers=1, run_fn=run_with_fakes, console=console)
+    text = console.export_text()
+    assert "trial 2: COMPLETE" in text and "agents.a.params.step_size=0." in text
+    assert not re.search(r"\d\.\d{7,}", text), text
 
 
 def test_bad_search_configs_are_clear():

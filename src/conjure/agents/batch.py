@@ -140,9 +140,9 @@ class BatchAgent(Agent):
 
     @property
     def num_features(self) -> int:
-        """n, the number of features of φ(s)."""
+        """n, the number of features of φ(s) in use (`num_features_in_use_`)."""
         check_is_set_up(self, "num_features")
-        return int(self.representation_.num_features_)
+        return self.representation_.num_features_in_use_
 
     # ------------------------------------------------------------------ acting
 

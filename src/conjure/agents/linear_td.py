@@ -115,9 +115,9 @@ class LinearTDAgent(Agent):
 
     @property
     def num_features(self) -> int:
-        """Number of features of the representation now."""
+        """Number of features of the representation in use now (`num_features_in_use_`)."""
         check_is_set_up(self, "num_features")
-        return int(self.representation_.num_features_)
+        return self.representation_.num_features_in_use_
 
     # ------------------------------------------------------------------ acting
 

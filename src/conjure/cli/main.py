@@ -10,6 +10,8 @@ Examples
     conjure run examples/pendulum.yaml --seeds 4 --set agents.tile_coding.params.step_size=0.05
     conjure run examples/pendulum.yaml --max-workers 2 --max-memory 2GiB
     conjure list
+    conjure list planners
+    conjure list --search cbba
     conjure plot results/pendulum --metric num_features
 
 Any `ConjureError` (a bad config, an unknown kind, a full disk, ...) prints one clean line and
@@ -32,7 +34,7 @@ from typing import Any
 
 import click
 
-from conjure.core.errors import ConjureError, RunsInterruptedError
+from conjure.core.errors import ConjureError, InvalidParameterError, RunsInterruptedError
 from conjure.experiments.options import max_memory_option, out_dir_option
 
 __all__ = ["LAZY_COMMANDS", "main"]
@@ -57,7 +59,7 @@ LAZY_COMMANDS = {
     "solve": (
         "conjure.experiments.solve",
         "solve_command",
-        "Plan on the domain of CONFIG with its planner; report V(s0), return, iterations, time.",
+        "Solve the domain of CONFIG (a planner, or `exact`); print values and first moves.",
     ),
 }
 
@@ -161,28 +163,93 @@ def run_command(
 
 
 @main.command("list")
-def list_command() -> None:
-    """List every registered component (domains to cooperative planners) with its parameters."""
+@click.argument("layer", required=False)
+@click.option("--search", default=None, help="Only kinds or parameters containing this text.")
+def list_command(layer: str | None, search: str | None) -> None:
+    """List the components: layers with their kinds, or one LAYER's (or --search's) parameters."""
     from rich.console import Console
-    from rich.table import Table
 
     from conjure.experiments import registry
+
+    console = Console()
+    if layer is None and search is None:
+        console.print(_layers_table(registry.LAYERS))
+        console.print(
+            "Parameters: conjure list LAYER (e.g. conjure list planners), or conjure list "
+            "--search TEXT (e.g. --search cbba).",
+            markup=False,
+        )
+        return
+    layers = registry.LAYERS if layer is None else {_layer_name(layer): None}
+    rows = [
+        (name, kind, cls)
+        for name in layers
+        for kind, cls in registry.LAYERS[name].items()
+        if search is None or _matches(search, kind, cls)
+    ]
+    if not rows:
+        where = f" in layer {layer!r}" if layer is not None else ""
+        raise InvalidParameterError(
+            f"No component{where} matches --search {search!r}; `conjure list` shows every kind."
+        )
+    console.print(_components_table(rows))
+
+
+def _layer_name(name: str) -> str:
+    """The `registry.LAYERS` key of ``name`` (singular or plural, ``-`` or ``_``)."""
+    from conjure.core.params import did_you_mean
+    from conjure.experiments import registry
+
+    key = name.lower().replace("-", "_")
+    aliases = {layer: layer for layer in registry.LAYERS}
+    aliases.update({f"{layer}s": layer for layer in registry.LAYERS})
+    aliases.update({"policies": "policy", "risks": "risk", "risk_analyzers": "risk"})
+    if key not in aliases:
+        raise InvalidParameterError(
+            f"Unknown layer {name!r}.{did_you_mean(key, list(aliases))} Known: "
+            f"{', '.join(registry.LAYERS)} (or their plurals)."
+        )
+    return aliases[key]
+
+
+def _matches(text: str, kind: str, cls: Any) -> bool:
+    """Whether ``text`` occurs (any case) in ``kind`` or in one of its parameter names."""
+    needle = text.lower()
+    return needle in kind.lower() or any(needle in name.lower() for name in cls.param_defaults())
+
+
+def _layers_table(layers: dict[str, Any]) -> Any:
+    from rich.table import Table
+
+    table = Table(title="conjure components (use a kind in configs as {kind, params})")
+    table.add_column("layer", style="bold")
+    table.add_column("count", justify="right")
+    table.add_column("kinds", style="cyan")
+    for name, components in layers.items():
+        table.add_row(name, str(len(components)), ", ".join(components))
+    return table
+
+
+def _components_table(rows: list[tuple[str, str, Any]]) -> Any:
+    from rich.table import Table
 
     table = Table(title="conjure components (kind: use in configs as {kind, params})")
     table.add_column("layer", style="bold")
     table.add_column("kind", style="cyan")
     table.add_column("parameters (default)")
-    for layer, components in registry.LAYERS.items():
-        for position, (kind, cls) in enumerate(components.items()):
-            lines = []
-            for name, default in cls.param_defaults().items():
-                shown = "required" if default is inspect.Parameter.empty else repr(default)
-                constraint = cls.parameter_constraints.get(name)
-                rule = f" — {constraint.describe()}" if constraint is not None else ""
-                lines.append(f"{name} = {shown}{rule}")
-            table.add_row(layer if position == 0 else "", kind, "\n".join(lines) or "(none)")
-        table.add_section()
-    Console().print(table)
+    previous = None
+    for layer, kind, cls in rows:
+        if previous is not None and layer != previous:
+            table.add_section()
+        lines = []
+        for name, default in cls.param_defaults().items():
+            shown = "required" if default is inspect.Parameter.empty else repr(default)
+            constraint = cls.parameter_constraints.get(name)
+            rule = f" — {constraint.describe()}" if constraint is not None else ""
+            lines.append(f"{name} = {shown}{rule}")
+        table.add_row(layer if layer != previous else "", kind, "\n".join(lines) or "(none)")
+        previous = layer
+    return table
 
 
 @main.command("plot")

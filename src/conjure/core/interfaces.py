@@ -345,6 +345,16 @@ class Representation(Configurable):
             buffer.flags.writeable = False
         return buffer[:count]
 
+    @property
+    def num_features_in_use_(self) -> int:
+        """Features φ(s) can activate now; the learners' ``num_features`` (a run's curve).
+
+        ``num_features_`` (θ's rows) unless the representation reserves rows for features it
+        has not created yet (`HashedTabular`: its capacity, against the cells indexed so far).
+        """
+        check_is_set_up(self, "num_features_in_use_")
+        return int(self.num_features_)
+
     def feature_values(self, state: np.ndarray) -> np.ndarray:
         """Return the dense feature vector φ(s) of length ``num_features_`` (from `encode`)."""
         check_is_set_up(self, "feature_values")

@@ -24,6 +24,7 @@ MAPS_DIR = Path(__file__).resolve().parent / "maps"
 FREE, BLOCKED, START, GOAL, PIT, WINDY = 0, 1, 2, 3, 4, 5
 # Actions 0..3: up, down, left, right as (row, column) offsets (RLPy's order).
 MOVES = ((-1, 0), (1, 0), (0, -1), (0, 1))
+_MOVE_NAMES = ("up", "down", "left", "right")
 
 
 def shipped_maps() -> list[str]:
@@ -421,6 +422,10 @@ class GridWorld(NoisyDomain):
     def is_constrained(self, state: np.ndarray) -> bool:
         """Whether ``state`` is a pit (the danger zones of Figures 5-1 and 5-10)."""
         return bool(self._is_pit[self._cell_of(state)])
+
+    def describe_action(self, action: int) -> str:
+        """Return the action as a move: ``up``, ``down``, ``left`` or ``right``."""
+        return _MOVE_NAMES[self.check_action(action)]
 
     def set_state(self, state: Any) -> None:
         """Put the agent in cell ``state`` = (row, col) (the generative-model hook, Eq. 2.28)."""

@@ -32,9 +32,12 @@ import numpy as np
 
 from conjure.core.errors import InvalidParameterError
 
-__all__ = ["MissionGraph", "uav_7_2", "uav_7_2_spec", "uav_10_2", "uav_10_2_spec"]
+__all__ = ["MAX_NODES", "MissionGraph", "uav_7_2", "uav_7_2_spec", "uav_10_2", "uav_10_2_spec"]
 
 UNREACHABLE = np.iinfo(np.int64).max // 4
+#: Most nodes a mission graph may have: Floyd-Warshall's N × N table and N³ steps (about 2 s
+#: and 8 MB at N = 1000; 10⁶ nodes would need 7.3 TiB).
+MAX_NODES = 1000
 #: Spec 2.2's edges of UAV 7-2 (hops from the base 1, 1, 2, 2, 3, 3 for nodes 1-6).
 EDGES_7_2 = ((0, 1), (0, 2), (1, 2), (1, 3), (2, 4), (3, 4), (3, 5), (4, 6), (5, 6))
 #: Spec 2.2's edges of UAV 10-2 (hops from the base 1, 1, 2, 2, 3, 3, 4, 4, 4 for nodes 1-9).
@@ -51,11 +54,13 @@ class MissionGraph:
     Parameters
     ----------
     num_nodes : int
-        N >= 2 nodes, numbered 0 .. N-1.
+        N in [2, `MAX_NODES`] nodes, numbered 0 .. N-1 (checked before anything is allocated:
+        the distance table takes Θ(N²) memory and Θ(N³) time).
     edges : sequence of (int, int)
         Undirected edges between distinct nodes; the graph must be connected.
     fuel : sequence of int
-        Initial fuel of each UAV (n = len(fuel) >= 1), each >= 0.
+        Initial fuel of each UAV (n = len(fuel) >= 1), each >= 1: a UAV without fuel could
+        never leave the base.
     horizon : int
         The mission horizon H >= 1 (all UAVs must be home at t = H).
     base : int, default 0
@@ -88,14 +93,14 @@ class MissionGraph:
     neighbours: np.ndarray = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
-        n = _check_int("num_nodes", self.num_nodes, 2)
+        n = _check_num_nodes(self.num_nodes)
         horizon = _check_int("horizon", self.horizon, 1)
         base = _check_int("base", self.base, 0)
         if base >= n:
             raise InvalidParameterError(
                 f"`MissionGraph.base` must be a node in [0, {n - 1}]; got {self.base!r}."
             )
-        fuel = tuple(_check_int(f"fuel[{i}]", f, 0) for i, f in enumerate(_as_list(self.fuel)))
+        fuel = tuple(_check_fuel(i, f) for i, f in enumerate(_as_list(self.fuel)))
         if not fuel:
             raise InvalidParameterError("`MissionGraph.fuel` must list at least one UAV; got [].")
         edges = _check_edges(self.edges, n)
@@ -240,7 +245,7 @@ class MissionGraph:
         missing = sorted({"num_nodes", "edges", "fuel", "horizon"} - set(data))
         if missing:
             raise InvalidParameterError(f"A mission graph needs `{missing[0]}`; it is missing.")
-        n = _check_int("num_nodes", data["num_nodes"], 2)
+        n = _check_num_nodes(data["num_nodes"])
         horizon = _check_int("horizon", data["horizon"], 1)
         rewards, probabilities = np.zeros(n), np.ones(n)
         windows = np.tile(np.array([0, horizon], dtype=np.int64), (n, 1))
@@ -464,6 +469,28 @@ def _check_int(name: str, value: Any, low: int) -> int:
             f"`MissionGraph.{name}` must be an int in [{low}, inf); got {value!r}."
         )
     return int(value)
+
+
+def _check_num_nodes(value: Any) -> int:
+    """N in [2, `MAX_NODES`], checked before any table of N or N² entries is allocated."""
+    n = _check_int("num_nodes", value, 2)
+    if n > MAX_NODES:
+        raise InvalidParameterError(
+            f"`MissionGraph.num_nodes` must be at most {MAX_NODES:,} (all-pairs distances take "
+            f"N² = {n * n:.3g} entries and N³ steps); got {n:,}."
+        )
+    return n
+
+
+def _check_fuel(uav: int, value: Any) -> int:
+    """F_i >= 1: with no fuel a UAV can only stay at the base (and every return is 0)."""
+    fuel = _check_int(f"fuel[{uav}]", value, 0)
+    if fuel == 0:
+        raise InvalidParameterError(
+            f"`MissionGraph.fuel[{uav}]` must be an int in [1, inf): a UAV with fuel 0 can never "
+            f"leave the base; got 0."
+        )
+    return fuel
 
 
 def _check_float(name: str, value: Any) -> float:

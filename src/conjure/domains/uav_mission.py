@@ -3,8 +3,9 @@
 from __future__ import annotations
 
 import json
+import math
 from collections import OrderedDict
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any, ClassVar
 
@@ -56,6 +57,9 @@ SCENARIOS = {
 MAX_JOINT_ACTIONS = 1_000_000
 #: Largest time layer 2^m Π(F_i + 1) N^n `exact_solution` accepts (~33 bytes per key in memory).
 MAX_LAYER_KEYS = 20_000_000
+#: Largest H · 2^m Π(F_i + 1) N^n `exact_solution` accepts: it visits every key of every
+#: layer (UAV 10-2: 1.1e7 in about 4 s, so the limit is a few minutes).
+MAX_SOLVE_KEYS = 500_000_000
 _SOLUTIONS: OrderedDict[tuple[str, float], MissionSolution] = OrderedDict()
 _CACHE_SIZE = 8
 
@@ -84,7 +88,7 @@ class UAVMission(ActionMasking, NoisyDomain):
     graph : mapping or None, default=None
         Any mission graph, as a config mapping ``MissionGraph.from_dict`` reads (``num_nodes``,
         ``edges``, ``fuel``, ``horizon``, ``base``, ``targets``); it replaces ``scenario``. At
-        most 10⁶ joint actions N^n.
+        most 10⁶ joint actions N^n (checked first) and 1000 nodes (`mission_graph.MAX_NODES`).
     traverse_failure : float, default=0.0
         η in [0, 1], the probability that a UAV trying to traverse an edge stays where it is
         (Section 5.4.1 uses 0.05; Section 5.3.5 uses 0).
@@ -202,11 +206,6 @@ class UAVMission(ActionMasking, NoisyDomain):
         self.validate_params()
         graph = self._read_graph()
         n, num_nodes = graph.num_uavs, graph.num_nodes
-        if graph.num_actions > MAX_JOINT_ACTIONS:
-            raise InvalidParameterError(
-                f"`UAVMission.graph` has {num_nodes}^{n} = {graph.num_actions} joint actions; "
-                f"at most {MAX_JOINT_ACTIONS} are supported (fewer UAVs or nodes)."
-            )
         self.graph_ = graph
         adjacency = np.eye(num_nodes, dtype=np.uint8)
         for u, v in graph.edges:
@@ -249,6 +248,7 @@ class UAVMission(ActionMasking, NoisyDomain):
     def _read_graph(self) -> MissionGraph:
         if self.graph is None:
             return SCENARIOS[self.scenario]()
+        _check_joint_actions(self.graph)  # before the graph's Θ(N³) distances
         try:
             return MissionGraph.from_dict(self.graph)
         except InvalidParameterError as error:
@@ -415,7 +415,8 @@ class UAVMission(ActionMasking, NoisyDomain):
         Section 5.3.5 ("the optimal solutions were obtained using dynamic programming"; about a
         day for UAV 7-2 in the thesis, footnote 4). Solutions are cached per graph and η.
         Feasible while one time layer, 2^m Π_i (F_i + 1) N^n keys (m targets), stays within
-        2·10⁷: UAV 7-2 has 1.8e5 (its -spec graph 7.7e4) and UAV 10-2 1.0e6.
+        2·10⁷ (UAV 7-2 has 1.8e5, its -spec graph 7.7e4, UAV 10-2 1.0e6) and H times that
+        within 5·10⁸ (UAV 10-2: 1.1e7); beyond either it raises `InvalidParameterError`.
         """
         graph = self.graph_
         cache_key = (json.dumps(graph.to_dict(), sort_keys=True), self._eta)
@@ -427,8 +428,15 @@ class UAVMission(ActionMasking, NoisyDomain):
         if num_keys > MAX_LAYER_KEYS:
             raise InvalidParameterError(
                 f"UAVMission.exact_solution: one time layer of this graph has 2^{targets.size} · "
-                f"Π(F_i + 1) · {graph.num_nodes}^{graph.num_uavs} = {num_keys:.3g} states, more "
-                f"than the {MAX_LAYER_KEYS:.0e} that fit in memory; use a smaller graph."
+                f"Π(F_i + 1) · {graph.num_nodes}^{graph.num_uavs} = {num_keys:.3g} states (fuel "
+                f"{list(graph.fuel)}), more than the {MAX_LAYER_KEYS:.0e} that fit in memory; "
+                f"use less fuel or a smaller graph."
+            )
+        if graph.horizon * num_keys > MAX_SOLVE_KEYS:
+            raise InvalidParameterError(
+                f"UAVMission.exact_solution: horizon {graph.horizon:,} × {num_keys:.3g} states "
+                f"per time layer = {graph.horizon * num_keys:.3g} states to visit, more than the "
+                f"{MAX_SOLVE_KEYS:.0e} solved in a few minutes; use a shorter horizon or less fuel."
             )
         target_bit = np.full(graph.num_nodes, -1, dtype=np.int64)
         target_bit[targets] = np.arange(targets.size)
@@ -531,6 +539,29 @@ class UAVMission(ActionMasking, NoisyDomain):
         """
         solution = self.exact_solution()
         return solution.worst_return, solution.optimal_return
+
+
+def _check_joint_actions(graph: Mapping[str, Any]) -> None:
+    """Refuse more than `MAX_JOINT_ACTIONS` joint actions N^n, read from the raw mapping.
+
+    Only well-typed ``num_nodes`` and ``fuel`` are read; `MissionGraph.from_dict` reports the
+    others.
+    """
+    num_nodes, fuel = graph.get("num_nodes"), graph.get("fuel")
+    if not isinstance(num_nodes, (int, np.integer)) or isinstance(num_nodes, bool):
+        return
+    if isinstance(fuel, (str, bytes)) or not isinstance(fuel, (Sequence, np.ndarray)):
+        return
+    num_nodes = int(num_nodes)
+    if num_nodes < 2:
+        return
+    digits = len(fuel) * math.log10(num_nodes)  # no exact power of a huge count
+    num_actions = f"{num_nodes ** len(fuel)}" if digits < 30 else f"about 1e{digits:.0f}"
+    if digits >= 30 or num_nodes ** len(fuel) > MAX_JOINT_ACTIONS:
+        raise InvalidParameterError(
+            f"`UAVMission.graph` has {num_nodes}^{len(fuel)} = {num_actions} joint actions; "
+            f"at most {MAX_JOINT_ACTIONS} are supported (fewer UAVs or nodes)."
+        )
 
 
 @dataclass(frozen=True, eq=False)

@@ -53,6 +53,7 @@ __all__ = [
     "ComponentConfig",
     "ExperimentConfig",
     "apply_overrides",
+    "check_not_a_sweep",
     "config_hash",
     "dump_yaml",
     "load_config",
@@ -278,11 +279,42 @@ def load_config(path: str | Path, overrides: Sequence[str] = ()) -> ExperimentCo
     except OSError as exc:
         raise InvalidParameterError(f"Cannot read config {str(path)!r}: {exc.strerror}.") from None
     data = load_yaml(text, source=str(path))
+    check_not_a_sweep(data, str(path))
     if not overrides:
         return parse_config(data, source=str(path))
     if not isinstance(data, Mapping):
         raise InvalidParameterError(f"{path}: an experiment config must be a mapping.")
     return parse_overridden(data, overrides, apply_overrides, parse_config, source=str(path))
+
+
+#: Top-level fields a sweep config (`conjure sweep`, docs/sweeps.md) has and an experiment lacks.
+_SWEEP_ONLY_FIELDS = ("grid", "domains", "domain_grids", "selection")
+
+
+def check_not_a_sweep(data: Any, source: str) -> None:
+    """Raise `InvalidParameterError` with the right command if ``data`` is a sweep or tuning config.
+
+    Examples
+    --------
+    >>> check_not_a_sweep({"name": "x", "grid": {}}, "fig.yaml")
+    Traceback (most recent call last):
+    ...
+    conjure.core.errors.InvalidParameterError: fig.yaml is a sweep config (it has `grid`), not \
+an experiment; run it with `conjure sweep fig.yaml`.
+    """
+    if not isinstance(data, Mapping):
+        return
+    if "search" in data:
+        raise InvalidParameterError(
+            f"{source} is a tuning config (it has `search`), not an experiment; run it with "
+            f"`conjure tune {source}`."
+        )
+    fields = [name for name in _SWEEP_ONLY_FIELDS if name in data]
+    if fields:
+        raise InvalidParameterError(
+            f"{source} is a sweep config (it has `{fields[0]}`), not an experiment; run it with "
+            f"`conjure sweep {source}`."
+        )
 
 
 # ---------------------------------------------------------------------------------------------

@@ -194,6 +194,11 @@ class Executor(ABC):
         """Whether workers run on this machine (so warming numba's cache here serves them)."""
         return self.address is None
 
+    @property
+    def runs_in_caller(self) -> bool:
+        """Whether tasks run in the calling process (no worker process at all)."""
+        return False
+
     def start(self) -> Executor:
         """Start or connect to the workers (no-op if started)."""
         if not self.is_started:
@@ -528,6 +533,13 @@ class LocalExecutor(Executor):
     def _shutdown(self) -> None:
         pass
 
+    @property
+    def runs_in_caller(self) -> bool:
+        """``in_process``, or by default: one worker and no ``max_memory``."""
+        if self.in_process is None:
+            return self.num_workers == 1 and self.max_memory is None
+        return self.in_process
+
     def map_unordered(
         self,
         fn: Callable[[Any], Any],
@@ -537,10 +549,7 @@ class LocalExecutor(Executor):
         on_retry: OnRetry | None = None,
     ) -> Iterator[tuple[int, Any]]:
         self.start()
-        in_process = self.in_process
-        if in_process is None:
-            in_process = self.num_workers == 1 and self.max_memory is None
-        if in_process:
+        if self.runs_in_caller:
             for index, item in enumerate(items):
                 if claim is not None and not claim(index):
                     yield index, NOT_CLAIMED

@@ -18,6 +18,9 @@ Notes
   it. A diverged run also keeps the curve it recorded (``errors/<run_id>.partial.csv``). A
   run over its memory limit (``max_memory``) fails with a `MemoryError` whose message names
   the limit; it is not retried.
+- Choice: before any run starts, each agent is set up on its domain once per distinct (domain,
+  agent) pair (`conjure.experiments.preflight`): parts that cannot work together give one
+  error, not one failed run per seed.
 - Choice: before workers on this machine start, one tiny run per distinct component structure
   (the tree of kinds) compiles the numba kernels once and fills their on-disk cache; workers
   then load compiled code instead of compiling it again. The tiny runs run in one worker
@@ -37,6 +40,7 @@ from typing import Any
 
 import pandas as pd
 from rich.console import Console
+from rich.markup import escape
 from rich.progress import (
     BarColumn,
     Progress,
@@ -50,10 +54,11 @@ from conjure.core.errors import ResultsWriteError, RunsInterruptedError
 from conjure.experiments.claims import Claims
 from conjure.experiments.config import ExperimentConfig, dump_yaml, parse_config, resolve_run
 from conjure.experiments.executors import NOT_CLAIMED, Executor, LocalExecutor, TaskFailure
+from conjure.experiments.numbers import format_interval, format_value
+from conjure.experiments.preflight import check_runs
 from conjure.experiments.results import (
     RESOLVED_FILE,
     error_path,
-    format_interval,
     is_run_done,
     load_results,
     make_out_dir,
@@ -129,7 +134,8 @@ class ExperimentResult:
     selection : pandas.DataFrame or None
         With a sweep's ``selection``: each method's best setting (``selection.csv``).
     selected : ExperimentResult or None
-        With a sweep's ``selection``: the best settings rerun on fresh seeds (``selected/``).
+        With a sweep's ``selection``: the best settings rerun on fresh seeds (``selected/``),
+        or with ``fresh_seeds: 0`` their runs on the search seeds.
     """
 
     out_dir: Path
@@ -182,7 +188,9 @@ def _describe(spec: Mapping[str, Any]) -> str:
     parts = [str(spec.get(k)) for k in ("domain_label", "label") if k in spec]
     setting = spec.get("setting")
     if setting:
-        parts.append(",".join(f"{k.rsplit('.', 1)[-1]}={v}" for k, v in setting.items()))
+        parts.append(
+            ",".join(f"{k.rsplit('.', 1)[-1]}={format_value(v)}" for k, v in setting.items())
+        )
     return "/".join(parts) + f"/seed_{spec.get('seed')}"
 
 
@@ -499,10 +507,14 @@ def open_executor(
 ) -> Iterator[Executor]:
     """Yield ``executor`` (default a `LocalExecutor`), started here and shut down after if not yet.
 
-    An executor started here first warms numba's cache with the ``pending`` runs' structures
-    (`prepare_executor`); a started one keeps its own workers and limits.
+    First every agent of the ``pending`` runs is set up on its domain, once per distinct pair
+    (`conjure.experiments.preflight.check_runs`): a config whose parts cannot work together
+    raises one error before any run starts. An executor started here then warms numba's cache
+    with the ``pending`` runs' structures (`prepare_executor`); a started one keeps its own
+    workers and limits.
     """
     executor = executor or LocalExecutor(max_workers=max_workers, max_memory=max_memory)
+    check_runs(pending, executor)
     owns = not executor.is_started
     try:
         if owns:
@@ -579,23 +591,33 @@ def run_experiment(
         )
 
 
-def print_summary(outcome: ExperimentResult, console: Console | None = None) -> None:
-    """Print the per-method summary table (final metric ± 95% CI, features, steps/s)."""
+def print_summary(
+    outcome: ExperimentResult, console: Console | None = None, title: str | None = None
+) -> None:
+    """Print the per-method summary table (final metric and its 95% CI, features, steps/s).
+
+    An interval cut at the metric's range (``summary.csv``'s ``_low`` and ``_high`` columns)
+    reads ``mean [low, high]``; ``title`` defaults to the folder and what the table shows.
+    """
     console = console or Console()
     metric = outcome.metric
     summary = outcome.summary
     keys = [c for c in ("domain_label", "label", "setting") if c in summary.columns]
-    table = Table(title=f"{outcome.out_dir}: final policy check, mean over seeds")
+    table = Table(title=title or f"{outcome.out_dir}: final policy check, mean over seeds")
     for name in keys:  # labels wrap (fold) but are never cut: sweeps differ at their ends
         table.add_column(name.replace("_", " "), justify="left", overflow="fold")
     for name in ("seeds", f"final {metric.replace('_', ' ')}\n± 95% CI", "features", "steps/s"):
         table.add_column(name, justify="right", no_wrap=True)
     for row in summary.to_dict("records"):
         rate = row["mean_steps_per_second"]
+        mean, half = row[f"final_{metric}_mean"], row[f"final_{metric}_ci95"]
+        low, high = row[f"final_{metric}_low"], row[f"final_{metric}_high"]  # the CI, cut
+        if low > mean - half or high < mean + half:
+            table.caption = escape("mean [low, high]: a 95% CI cut at what the metric can be")
         table.add_row(
             *(str(row[k]).replace(", ", ",\n") for k in keys),  # a setting: one value a line
             str(row["num_seeds"]),
-            format_interval(row[f"final_{metric}_mean"], row[f"final_{metric}_ci95"]),
+            format_interval(mean, half, (low, high)),
             f"{row['final_num_features']:,.0f}",
             "n/a" if pd.isna(rate) or math.isinf(rate) else f"{rate:,.0f}",
         )

@@ -8,7 +8,7 @@ Layout of a results folder (an experiment or a sweep)::
     OUT/errors/<run_id>.txt         the traceback of a failed run (its config at the top)
     OUT/errors/<run_id>.partial.csv the curve a diverged run recorded before it stopped
     OUT/results.parquet             every finished run: one row per policy check
-    OUT/summary.csv                 per method: final metric ± 95% CI, features, steps/s
+    OUT/summary.csv                 per method: final metric, its 95% CI, features, steps/s
 
 A run's id is `run_id` (the `config_hash` of its resolved config), so a run is finished if and
 only if ``runs/<run_id>.json`` exists: resume needs no other bookkeeping, a changed config
@@ -35,7 +35,9 @@ from scipy import stats
 
 from conjure.core.errors import InvalidParameterError
 from conjure.experiments.claims import process_exists
-from conjure.experiments.config import config_hash, dump_yaml
+from conjure.experiments.config import config_hash, dump_yaml, load_yaml
+from conjure.experiments.metric_ranges import DOMAIN_BOUND_COLUMNS, clip_interval, metric_range
+from conjure.experiments.numbers import format_value
 
 __all__ = [
     "ERRORS_DIR",
@@ -44,21 +46,23 @@ __all__ = [
     "RESULTS_FILE",
     "RUNS_DIR",
     "RUN_IDS_FILE",
+    "SELECTED_DIR",
     "SUMMARY_FILE",
     "describe_setting",
     "error_path",
     "final_rows",
     "flatten_params",
-    "format_interval",
     "group_columns",
     "has_finite_values",
     "is_run_done",
     "load_results",
     "make_out_dir",
     "missing_runs",
+    "read_resolved",
     "read_run",
     "read_run_ids",
     "remove_stale_temporaries",
+    "results_name",
     "run_id",
     "run_path",
     "save_run",
@@ -78,6 +82,8 @@ RUN_IDS_FILE = "run_ids.txt"
 PLANNED_FILE = "planned.csv"
 RESULTS_FILE = "results.parquet"
 SUMMARY_FILE = "summary.csv"
+#: The subfolder of a sweep's rerun of its chosen settings on fresh seeds.
+SELECTED_DIR = "selected"
 #: The run-config keys that identify a method's setting, in grouping order (when present).
 GROUP_COLUMNS = ("domain_label", "label", "setting")
 _TEMP_MARK = ".tmp-"
@@ -323,6 +329,28 @@ def _method_columns(spec: Mapping[str, Any]) -> dict[str, str]:
     return columns
 
 
+def read_resolved(results_dir: str | Path) -> dict[str, Any]:
+    """Return the folder's ``config.resolved.yaml`` as a dict (empty when there is none)."""
+    path = Path(results_dir) / RESOLVED_FILE
+    if not path.is_file():
+        return {}
+    return load_yaml(path.read_text(), source=str(path)) or {}
+
+
+def results_name(results_dir: str | Path) -> str:
+    """Return what a results folder's plots and report are titled by: its config's ``name``.
+
+    A sweep's ``selected/`` rerun, which has no config of its own, is named after the sweep;
+    a folder with no config by itself.
+    """
+    results_dir = Path(results_dir)
+    name = read_resolved(results_dir).get("name")
+    if name is None and results_dir.name == SELECTED_DIR:
+        parent = read_resolved(results_dir.parent).get("name")
+        name = None if parent is None else f"{parent} (best settings, fresh seeds)"
+    return str(name or results_dir.name)
+
+
 def read_run_ids(out_dir: str | Path) -> list[str] | None:
     """Return the ids in ``run_ids.txt``, or ``None`` if the folder has none."""
     path = Path(out_dir) / RUN_IDS_FILE
@@ -351,7 +379,17 @@ def flatten_params(spec: Mapping[str, Any], prefix: str) -> dict[str, Any]:
 
 
 def describe_setting(setting: Mapping[str, Any] | None) -> str:
-    """Return a short text for a grid setting: ``"step_size.alpha_0=0.1, ..."``."""
+    """Return a short text for a grid setting: ``"step_size.alpha_0=0.1, ..."``.
+
+    Values read as YAML (`conjure.experiments.numbers.format_value`), so each ``key=value``
+    can go back into ``--set`` or a grid.
+
+    Examples
+    --------
+    >>> describe_setting({"agents.sarsa.params.step_size.params.alpha_0": 0.05002000000000905,
+    ...                   "agents.sarsa.params.step_size.params.n_0": 1000000})
+    'step_size.alpha_0=0.05002, step_size.n_0=1000000'
+    """
     if not setting:
         return ""
     parts = []
@@ -362,7 +400,7 @@ def describe_setting(setting: Mapping[str, Any] | None) -> str:
         elif keys[0] == "domain":
             keys = keys[1:]
         short = ".".join(k for k in keys if k != "params")
-        parts.append(f"{short}={value}")
+        parts.append(f"{short}={format_value(value)}")
     return ", ".join(parts)
 
 
@@ -379,8 +417,9 @@ def load_results(out_dir: str | Path, run_ids: Iterable[str] | None = None) -> p
     """Combine finished runs into one table, one row per policy check.
 
     Columns: ``run_id``, ``label``, ``seed`` (and ``domain_label`` and ``setting`` for sweep
-    runs), the curve columns, ``run_seconds``, then the flattened agent and domain parameters
-    (``agent.step_size``, ``domain.length``, ...).
+    runs), the curve columns, ``run_seconds``, what the run's domain declared
+    (`conjure.experiments.metric_ranges.DOMAIN_BOUND_COLUMNS`, NaN when not recorded), then
+    the flattened agent and domain parameters (``agent.step_size``, ``domain.length``, ...).
 
     Parameters
     ----------
@@ -413,6 +452,8 @@ def load_results(out_dir: str | Path, run_ids: Iterable[str] | None = None) -> p
         for position, (name, value) in enumerate(leading.items()):
             curve.insert(position, name, value)
         curve["run_seconds"] = float(record["meta"].get("run_seconds", math.nan))
+        for column in DOMAIN_BOUND_COLUMNS:
+            curve[column] = float(record["meta"].get(column, math.nan))
         params: dict[str, Any] = {}
         for key in ("agent", "domain"):
             if isinstance(config.get(key), Mapping):
@@ -456,26 +497,6 @@ def has_finite_values(results: pd.DataFrame, column: str) -> bool:
     return bool(np.isfinite(values).any())
 
 
-def format_interval(mean: float, half: float) -> str:
-    """Return ``mean ± half`` with 4 significant digits of the larger, both to the same decimals.
-
-    A half-width that is NaN (one seed) is left out; a non-finite mean reads ``n/a``.
-
-    Examples
-    --------
-    >>> format_interval(-1.0, 1.674e-16)
-    '-1.000 ± 0.000'
-    >>> format_interval(1234.56, 12.3), format_interval(0.01234, 0.0021), format_interval(2.5, float("nan"))
-    ('1235 ± 12', '0.01234 ± 0.00210', '2.500')
-    """  # noqa: E501
-    if not math.isfinite(mean):
-        return "n/a"
-    scale = max(abs(mean), abs(half) if math.isfinite(half) else 0.0)
-    decimals = 3 if scale == 0 else min(max(3 - math.floor(math.log10(scale)), 0), 8)
-    text = f"{mean:.{decimals}f}"
-    return text if not math.isfinite(half) else f"{text} ± {half:.{decimals}f}"
-
-
 def t_confidence(values: Iterable[float], level: float = 0.95) -> tuple[float, float]:
     """Return the mean and the Student-t confidence half-width (NaN for fewer than 2 values).
 
@@ -505,7 +526,12 @@ def final_rows(results: pd.DataFrame) -> pd.DataFrame:
 def summarize(
     results: pd.DataFrame, metric: str = "return", by: Sequence[str] | None = None
 ) -> pd.DataFrame:
-    """Per method, the final policy check over seeds: mean ``metric`` ± 95% t half-width, etc.
+    """Per method, the final policy check over seeds: mean ``metric`` and its 95% t-interval, etc.
+
+    Columns: ``by``, ``num_seeds``, ``final_<metric>_mean``, ``final_<metric>_ci95`` (the
+    Student-t half-width), ``final_<metric>_low`` and ``final_<metric>_high`` (the interval's
+    ends, cut at the metric's range: `conjure.experiments.metric_ranges`),
+    ``final_num_features`` and ``mean_steps_per_second``.
 
     Parameters
     ----------
@@ -523,6 +549,8 @@ def summarize(
         "num_seeds",
         f"final_{metric}_mean",
         f"final_{metric}_ci95",
+        f"final_{metric}_low",
+        f"final_{metric}_high",
         "final_num_features",
         "mean_steps_per_second",
     ]
@@ -542,6 +570,7 @@ def summarize(
                 len(finals),
                 mean,
                 half,
+                *clip_interval(mean, half, metric_range(finals, metric)),
                 float(finals["num_features"].mean()),
                 float(np.nanmean(finals["steps_per_second"].to_numpy(dtype=float))),
             )

@@ -48,14 +48,27 @@ from conjure.core.interfaces import Agent, Domain
 from conjure.core.seeding import seed_to_int, split_seed
 from conjure.experiments.loop import CURVE_COLUMNS, learning_stepper, run_episode
 from conjure.experiments.memory import explain_memory_error
+from conjure.experiments.metric_ranges import domain_bounds
+from conjure.experiments.numbers import format_number
 
 if TYPE_CHECKING:
     import pandas as pd
 
-__all__ = ["CURVE_COLUMNS", "TIMING_COLUMNS", "Result", "run", "run_config", "run_resolved"]
+__all__ = [
+    "CURVE_COLUMNS",
+    "SEED_STREAMS",
+    "TIMING_COLUMNS",
+    "Result",
+    "checked_value_bounds",
+    "run",
+    "run_config",
+    "run_resolved",
+]
 
 #: The curve columns that depend on the machine, not on the seed.
 TIMING_COLUMNS = ("wall_time_s", "steps_per_second")
+#: The streams `run` splits its seed into (`conjure.core.seeding.split_seed`), in this order.
+SEED_STREAMS = ("domain", "evaluation", "agent")
 
 
 @dataclass
@@ -76,6 +89,9 @@ class Result:
         For `summary`.
     is_complete : bool
         False for the partial result a `DivergenceError` carries.
+    domain_bounds : dict
+        What the domain declared of its metrics' ranges (its episode cap and value bounds,
+        `conjure.experiments.metric_ranges.domain_bounds`); recorded with the run.
     """
 
     rows: list[dict[str, Any]] = field(repr=False)
@@ -85,6 +101,7 @@ class Result:
     agent_name: str = ""
     domain_name: str = ""
     is_complete: bool = True
+    domain_bounds: dict[str, float] = field(default_factory=dict)
 
     @functools.cached_property
     def curve(self) -> pd.DataFrame:
@@ -120,8 +137,9 @@ class Result:
         return (
             f"{who}{status}: {int(last['learning_steps']):,} learning steps in "
             f"{int(last['learning_episodes']):,} episodes; final greedy return "
-            f"{last['return']:.4g} (best {best:.4g}, discounted {last['discounted_return']:.4g}, "
-            f"episode length {last['episode_length']:.4g}); {int(last['num_features']):,} "
+            f"{format_number(last['return'])} (best {format_number(best)}, discounted "
+            f"{format_number(last['discounted_return'])}, episode length "
+            f"{format_number(last['episode_length'])}); {int(last['num_features']):,} "
             f"features; {_format_rate(last['steps_per_second'])} learning steps/s."
         )
 
@@ -136,8 +154,14 @@ def _check_count(name: str, value: Any, low: int) -> int:
     return int(value)
 
 
-def _value_bounds(domain: Domain) -> tuple[float, float] | None:
-    """The domain's (worst, best) expected returns, checked, or ``None``."""
+def checked_value_bounds(domain: Domain) -> tuple[float, float] | None:
+    """Return the domain's (worst, best) expected returns, checked, or ``None``.
+
+    Raises
+    ------
+    InvalidParameterError
+        If ``domain.value_bounds()`` is not ``None`` nor finite with worst < best.
+    """
     bounds = domain.value_bounds()
     if bounds is None:
         return None
@@ -219,8 +243,8 @@ def run(
     budget_steps = _check_count("budget_steps", budget_steps, 1)
     num_policy_checks = _check_count("num_policy_checks", num_policy_checks, 1)
     eval_episodes = _check_count("eval_episodes", eval_episodes, 1)
-    bounds = _value_bounds(domain)
-    seeds = split_seed(seed, ("domain", "evaluation", "agent"))
+    bounds = checked_value_bounds(domain)
+    seeds = split_seed(seed, SEED_STREAMS)
     agent.setup(domain.domain_spec, seeds["agent"])
     eval_domain = domain.clone()
     eval_seed = seed_to_int(seeds["evaluation"])
@@ -228,6 +252,7 @@ def run(
         domain, agent, seed=seed_to_int(seeds["domain"]), budget_steps=budget_steps
     )
     names = {"agent_name": type(agent).__name__, "domain_name": domain.domain_spec.name}
+    declared = domain_bounds(domain.domain_spec.max_episode_steps, bounds)
     int_seed = int(seed) if isinstance(seed, (int, np.integer)) else -1
 
     rows: list[dict[str, Any]] = []
@@ -241,7 +266,9 @@ def run(
             wall_time += time.perf_counter() - started
             checked = _evaluate(eval_domain, agent, eval_episodes, eval_seed, bounds)
         except DivergenceError as exc:
-            partial = Result(rows, int_seed, config, agent, **names, is_complete=False)
+            partial = Result(
+                rows, int_seed, config, agent, **names, is_complete=False, domain_bounds=declared
+            )
             last = int(rows[-1]["learning_steps"]) if rows else 0
             error = DivergenceError(
                 f"Learning diverged at learning step {loop.total_steps + 1:,} of "
@@ -265,7 +292,7 @@ def run(
                 else math.nan,
             }
         )
-    return Result(rows, int_seed, config, agent, **names)
+    return Result(rows, int_seed, config, agent, **names, domain_bounds=declared)
 
 
 #: The integer curve columns (the others are float64).
@@ -333,4 +360,5 @@ def run_task(run_spec: dict[str, Any], run_fn: RunFunction = run_resolved) -> di
             "meta": meta,
         }
     meta["run_seconds"] = time.perf_counter() - started
+    meta.update(result.domain_bounds)
     return {"curve": result.columns(), "error": None, "meta": meta}

@@ -113,9 +113,12 @@ class ShortestPathPlanner(CooperativePlanner):
         elif tuple(int(x) for x in self.goal) in goals:
             targets = [tuple(int(x) for x in self.goal)]
         else:
+            rows, cols = grid.shape
+            row, col = (int(x) for x in self.goal)
+            where = "not a goal" if 0 <= row < rows and 0 <= col < cols else "off the map"
             raise InvalidParameterError(
-                f"`ShortestPathPlanner.goal` must be a goal cell of the map; got "
-                f"{tuple(self.goal)}, goals are {goals}."
+                f"`ShortestPathPlanner.goal` must be a goal cell of the {rows}×{cols} map; got "
+                f"{(row, col)}, {where}; goals are {goals}."
             )
         self.distances_ = _distances(grid, domain.feasible_moves_, targets)
         self.policy_ = _policy(grid, domain.feasible_moves_, self.distances_)

@@ -5,11 +5,23 @@ work on servers and in worker processes.
 
 Notes
 -----
-- Choice: the band is the Student-t 95% confidence interval of the mean over seeds, clipped to
-  the metric's possible range (`METRIC_BOUNDS`: a failure rate lies in [0, 1], counts and
-  times are non-negative): a normal interval of a 0/1 quantity over few seeds spills past its
-  bounds, and the mean it brackets cannot. The legend says what the band is.
-- Choice: the legend sits right of the axes, never over the curves (a sweep has many labels).
+- Choice: the band is the Student-t 95% confidence interval of the mean over seeds, cut at
+  the metric's range (`conjure.experiments.metric_ranges`: a failure rate in [0, 1], an
+  episode no longer than the domain's cap, a return within the domain's value bounds): an
+  interval over few seeds spills past what the mean it brackets can be. The legend says what
+  the band is and where it was cut.
+- Choice: the legend sits right of the axes, never over the curves, and the figure grows
+  around it instead of shrinking the axes: they keep at least `AXES_INCHES`, grow as tall as
+  the legend when it is taller (a sweep's 29 labels) and as wide as `AXES_ASPECT` then asks.
+- Choice: lines differ from their neighbours in colour, line style and marker at once
+  (`LINE_STYLES`, `MARKERS`), so two curves that coincide (a cooperative learner following
+  its planner) both show: the dashes of the one drawn on top leave the other visible.
+- Choice: a plot is titled by what it shows and the metric, ``fig_5_12: return``; a results
+  folder's plots by its config's name (`conjure.experiments.results.results_name`).
+- Choice: a sweep's lines are labelled ``label [setting]`` with each parameter by its own
+  name when that is unambiguous within the setting (``icca [alpha_0=0.1, n_0=100]`` for
+  ``learner.step_size.alpha_0=0.1, ...``), so the legend stays narrow; a label's number of
+  seeds is shown only when the labels differ in it.
 - Choice: files are named after their metric (``learning_curve_<metric>.png``), so a plot of
   one metric never replaces a plot of another.
 """
@@ -17,29 +29,34 @@ Notes
 from __future__ import annotations
 
 import math
+import re
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
-import yaml
+from matplotlib.axes import Axes
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
+from matplotlib.legend import Legend
 from matplotlib.patches import Patch
+from matplotlib.ticker import StrMethodFormatter
 
 from conjure.core.errors import InvalidParameterError
+from conjure.experiments.metric_ranges import clip_interval, describe_range, metric_range
 from conjure.experiments.results import (
-    RESOLVED_FILE,
     RESULTS_FILE,
     has_finite_values,
+    read_resolved,
+    results_name,
     t_confidence,
 )
 
 __all__ = [
-    "METRIC_BOUNDS",
     "METRIC_LABELS",
     "curve_bands",
     "curve_file_name",
     "learning_curve_figure",
+    "method_labels",
     "plot_learning_curves",
     "plot_results_dir",
 ]
@@ -57,18 +74,18 @@ METRIC_LABELS = {
     "learning_episodes": "Learning episodes",
     "learning_failures": "Failures during learning (cumulative)",
 }
-
-#: The possible range of each bounded curve column (the band is clipped to it).
-METRIC_BOUNDS = {
-    "failure_rate": (0.0, 1.0),
-    "episode_length": (0.0, math.inf),
-    "num_features": (0.0, math.inf),
-    "steps_per_second": (0.0, math.inf),
-    "wall_time_s": (0.0, math.inf),
-    "learning_episodes": (0.0, math.inf),
-    "learning_failures": (0.0, math.inf),
-}
-BAND_LABEL = "shaded: 95% confidence interval of the mean over seeds"
+#: Line styles and markers, cycled beside the ten colours (lines 0 and 1 differ in all three).
+LINE_STYLES = ("-", "--", ":", "-.")
+MARKERS = ("o", "s", "^", "D", "v", "P", "X")
+#: The least size of the axes (width, height), in inches.
+AXES_INCHES = (6.5, 4.0)
+#: Width over height of axes made taller than `AXES_INCHES` for a tall legend.
+AXES_ASPECT = 2.0
+#: Room around the axes, in inches: left (tick labels), right, bottom, top (title), and the
+#: gap between the axes and the legend.
+MARGIN_INCHES = {"left": 0.9, "right": 0.1, "bottom": 0.6, "top": 0.4, "gap": 0.15}
+#: A parameter path of a setting's text, after its start (written as "[") or a ", ".
+_KEY = re.compile(r"(?:(?<=\[)|(?<=, ))([A-Za-z_][\w.]*)=")
 
 
 def curve_file_name(metric: str) -> str:
@@ -80,7 +97,8 @@ def curve_bands(results_frame: pd.DataFrame, metric: str) -> pd.DataFrame:
     """Per label and policy check: the mean of ``metric`` over seeds and its 95% interval.
 
     Columns ``label``, ``learning_steps``, ``mean``, ``low``, ``high``, ``num_seeds``; the
-    interval is Student-t, clipped to `METRIC_BOUNDS` (a single seed has a zero-width band).
+    interval is Student-t, cut at the label's `metric_range` (a single seed has a zero-width
+    band).
 
     Examples
     --------
@@ -90,17 +108,48 @@ def curve_bands(results_frame: pd.DataFrame, metric: str) -> pd.DataFrame:
     >>> [round(float(band[c]), 3) for c in ("mean", "low", "high")]  # t interval: ± 1.43
     [0.667, 0.0, 1.0]
     """
-    low_bound, high_bound = METRIC_BOUNDS.get(metric, (-math.inf, math.inf))
     rows = []
     for label, group in results_frame.groupby("label", sort=False):
+        bounds = metric_range(group, metric)
         for step, at_step in group.groupby("learning_steps", sort=True):
             mean, half = t_confidence(at_step[metric])
-            half = 0.0 if pd.isna(half) else half
-            low, high = np.clip([mean - half, mean + half], low_bound, high_bound)
-            seeds = at_step["seed"].nunique()
-            rows.append((label, step, mean, float(low), float(high), seeds))
+            low, high = clip_interval(mean, 0.0 if pd.isna(half) else half, bounds)
+            rows.append((label, step, mean, low, high, at_step["seed"].nunique()))
     columns = ["label", "learning_steps", "mean", "low", "high", "num_seeds"]
     return pd.DataFrame(rows, columns=columns)
+
+
+def method_labels(results: pd.DataFrame, *, abbreviate: bool = True) -> pd.Series:
+    """A name per row for its method: ``label [setting]``.
+
+    With ``abbreviate`` each parameter goes by its own name when that is unique in the setting
+    (the legend's choice); with several domains the domain comes first (``chain5 / sarsa``).
+
+    Examples
+    --------
+    >>> frame = pd.DataFrame({"label": ["icca", "sarsa"], "setting": [
+    ...     "learner.step_size.alpha_0=0.1, learner.step_size.n_0=100", ""]})
+    >>> method_labels(frame).tolist()
+    ['icca [alpha_0=0.1, n_0=100]', 'sarsa']
+    """
+    labels = results["label"].astype(str)
+    if "domain_label" in results.columns and results["domain_label"].nunique() > 1:
+        labels = results["domain_label"].astype(str) + " / " + labels
+    if "setting" not in results.columns:
+        return labels
+    setting = results["setting"].fillna("").astype(str)
+    if abbreviate:
+        setting = setting.map(_short_setting)
+    return labels + np.where(setting != "", " [" + setting + "]", "")
+
+
+def _short_setting(setting: str) -> str:
+    """``setting`` with each parameter path cut to its last name, if those are unique."""
+    paths = _KEY.findall(f"[{setting}")
+    names = [path.rsplit(".", 1)[-1] for path in paths]
+    if len(set(names)) < len(names):
+        return setting
+    return _KEY.sub(lambda match: f"{match.group(1).rsplit('.', 1)[-1]}=", f"[{setting}")[1:]
 
 
 def plot_learning_curves(
@@ -111,13 +160,15 @@ def plot_learning_curves(
     Parameters
     ----------
     results_frame : pandas.DataFrame
-        Columns ``label``, ``seed``, ``learning_steps`` and ``metric`` (``results.parquet``).
+        Columns ``label``, ``seed``, ``learning_steps`` and ``metric`` (``results.parquet``);
+        the columns of `conjure.experiments.metric_ranges.DOMAIN_BOUND_COLUMNS`, when there,
+        bound the band.
     path : str or Path
         The PNG to write.
     metric : str, default "return"
         Any numeric curve column.
     title : str, default ""
-        The figure title.
+        What the curves are of (a config's name); the plot is titled ``"<title>: <metric>"``.
 
     Returns
     -------
@@ -131,8 +182,8 @@ def plot_learning_curves(
     return path
 
 
-def learning_curve_figure(results_frame: pd.DataFrame, metric: str, title: str = "") -> Figure:
-    """Draw `plot_learning_curves`' figure and return it unsaved (same checks, same arguments)."""
+def _check_plottable(results_frame: pd.DataFrame, metric: str) -> None:
+    """Raise `InvalidParameterError` naming the plottable metrics if ``metric`` is not one."""
     needed = {"label", "seed", "learning_steps", metric}
     missing = needed - set(results_frame.columns)
     known = ", ".join(c for c in METRIC_LABELS if has_finite_values(results_frame, c))
@@ -148,44 +199,93 @@ def learning_curve_figure(results_frame: pd.DataFrame, metric: str, title: str =
             f"Cannot plot {metric!r}: it has no finite value in these results (optimality "
             f"needs a domain with value_bounds()). Plottable metrics: {known or '(none)'}."
         )
-    figure = Figure(figsize=(7, 4.5), dpi=120)
+
+
+def learning_curve_figure(results_frame: pd.DataFrame, metric: str, title: str = "") -> Figure:
+    """Draw `plot_learning_curves`' figure and return it unsaved (same checks, same arguments)."""
+    _check_plottable(results_frame, metric)
+    figure = Figure(figsize=(10, 6), dpi=120)
     FigureCanvasAgg(figure)
     axes = figure.add_subplot()
+    seeds = results_frame.groupby("label", sort=False)["seed"].nunique()
+    same_seeds = seeds.nunique() == 1
     bands = curve_bands(results_frame, metric)
-    for label, band in bands.groupby("label", sort=False):
-        num_seeds = results_frame.loc[results_frame["label"] == label, "seed"].nunique()
+    alpha = max(0.05, 0.2 * min(1.0, 6 / len(seeds)))  # many bands would stack to a smear
+    for index, (label, band) in enumerate(bands.groupby("label", sort=False)):
         steps = band["learning_steps"]
         (line,) = axes.plot(
-            steps, band["mean"], marker="o", markersize=3, label=f"{label} (n={num_seeds})"
+            steps,
+            band["mean"],
+            color=f"C{index % 10}",
+            linestyle=LINE_STYLES[index % len(LINE_STYLES)],
+            marker=MARKERS[index % len(MARKERS)],
+            markersize=3.5,
+            label=str(label) if same_seeds else f"{label} (n={seeds[label]})",
         )
         axes.fill_between(
-            steps, band["low"], band["high"], color=line.get_color(), alpha=0.2, linewidth=0
+            steps, band["low"], band["high"], color=line.get_color(), alpha=alpha, linewidth=0
         )
     axes.set_xlabel("Learning steps")
+    axes.xaxis.set_major_formatter(StrMethodFormatter("{x:,.0f}"))
     axes.set_ylabel(METRIC_LABELS.get(metric, metric))
-    if title:
-        axes.set_title(title)
+    axes.set_title(f"{title}: {metric}" if title else metric)
     axes.grid(alpha=0.3)
+    band_text = _band_text(metric_range(results_frame, metric), seeds)
+    _lay_out(figure, axes, _side_legend(axes, band_text))
+    return figure
+
+
+def _band_text(bounds: tuple[float, float], seeds: pd.Series) -> str:
+    """The legend entry of the shaded band: what it is, over how many seeds, where it is cut."""
+    over = f"{seeds.iloc[0]} seeds" if seeds.nunique() == 1 else "n seeds"
+    text = f"shaded: 95% confidence interval\nof the mean over {over}"
+    if all(math.isinf(b) for b in bounds):
+        return text
+    return f"{text},\ncut at the range {describe_range(bounds)}"
+
+
+def _side_legend(axes: Axes, band_text: str) -> Legend:
+    """The legend right of ``axes``: every line, then the band's entry."""
     handles, labels = axes.get_legend_handles_labels()
     handles.append(Patch(color="grey", alpha=0.3))
-    labels.append(BAND_LABEL)
-    axes.legend(
+    labels.append(band_text)
+    return axes.legend(
         handles,
         labels,
         loc="upper left",
-        bbox_to_anchor=(1.02, 1.0),
+        bbox_to_anchor=(1.0, 1.0),
         borderaxespad=0.0,
         fontsize="small",
     )
-    figure.tight_layout()
-    return figure
+
+
+def _lay_out(figure: Figure, axes: Axes, legend: Legend) -> None:
+    """Size ``figure`` so that ``axes`` keep their size and ``legend`` fits at their right."""
+    box = legend.get_window_extent(figure.canvas.get_renderer())
+    legend_width, legend_height = box.width / figure.dpi, box.height / figure.dpi
+    height = max(AXES_INCHES[1], legend_height)
+    width = max(AXES_INCHES[0], AXES_ASPECT * height if height > AXES_INCHES[1] else 0.0)
+    margin = MARGIN_INCHES
+    figure_width = margin["left"] + width + margin["gap"] + legend_width + margin["right"]
+    figure_height = margin["bottom"] + height + margin["top"]
+    figure.set_size_inches(figure_width, figure_height)
+    axes.set_position(
+        [
+            margin["left"] / figure_width,
+            margin["bottom"] / figure_height,
+            width / figure_width,
+            height / figure_height,
+        ]
+    )
+    legend.set_bbox_to_anchor((1.0 + margin["gap"] / width, 1.0), transform=axes.transAxes)
 
 
 def plot_results_dir(results_dir: str | Path, metric: str | None = None) -> Path:
     """Plot ``results_dir/results.parquet`` to ``learning_curve_<metric>.png`` there.
 
-    ``metric`` defaults to the one the experiment's config chose (``config.resolved.yaml``),
-    else ``return``.
+    One line per method (``label [setting]``, `method_labels`); ``metric`` defaults to the
+    one the experiment's config chose (``config.resolved.yaml``), else ``return``. The plot is
+    titled by the config's name.
     """
     results_dir = Path(results_dir)
     table = results_dir / RESULTS_FILE
@@ -193,10 +293,8 @@ def plot_results_dir(results_dir: str | Path, metric: str | None = None) -> Path
         raise InvalidParameterError(
             f"No {RESULTS_FILE} in {str(results_dir)!r}; run `conjure run CONFIG` first."
         )
-    if metric is None:
-        resolved = results_dir / RESOLVED_FILE
-        config = yaml.safe_load(resolved.read_text()) if resolved.is_file() else None
-        metric = (config or {}).get("metric", "return")
+    metric = metric or read_resolved(results_dir).get("metric") or "return"
     frame = pd.read_parquet(table)
     path = results_dir / curve_file_name(metric)
-    return plot_learning_curves(frame, path, metric=metric, title=results_dir.name)
+    frame = frame.assign(label=method_labels(frame))
+    return plot_learning_curves(frame, path, metric=metric, title=results_name(results_dir))

@@ -27,27 +27,29 @@ from typing import Any
 import click
 import numpy as np
 import pandas as pd
-import yaml
 from scipy import stats
 
 from conjure.core.errors import InvalidParameterError, ResultsWriteError
+from conjure.experiments.metric_ranges import metric_range
+from conjure.experiments.numbers import format_interval, format_number
 from conjure.experiments.options import out_dir_option
 from conjure.experiments.results import (
     ERRORS_DIR,
     GROUP_COLUMNS,
-    RESOLVED_FILE,
     RESULTS_FILE,
     RUNS_DIR,
+    SELECTED_DIR,
     final_rows,
-    format_interval,
     has_finite_values,
     load_results,
     make_out_dir,
     missing_runs,
+    read_resolved,
+    results_name,
     t_confidence,
     write_atomic,
 )
-from conjure.reporting.plots import plot_learning_curves
+from conjure.reporting.plots import method_labels, plot_learning_curves
 
 __all__ = [
     "collect",
@@ -168,22 +170,11 @@ def _missing_lines(results_dir: Path, results: pd.DataFrame) -> list[str]:
     return [*lines, ""]
 
 
-def _method_names(results: pd.DataFrame) -> pd.Series:
-    if "setting" not in results.columns:
-        return results["label"].astype(str)
-    setting = results["setting"].fillna("").astype(str)
-    return results["label"].astype(str) + np.where(setting != "", " [" + setting + "]", "")
-
-
 def _markdown_table(frame: pd.DataFrame) -> str:
     header = "| " + " | ".join(str(c) for c in frame.columns) + " |"
     rule = "|" + "|".join("---" for _ in frame.columns) + "|"
     body = ["| " + " | ".join(str(v) for v in row) + " |" for row in frame.itertuples(False)]
     return "\n".join([header, rule, *body])
-
-
-def _number(value: float) -> str:
-    return "n/a" if value is None or not math.isfinite(value) else f"{value:.4g}"
 
 
 def _rate(value: float) -> str:
@@ -198,13 +189,20 @@ SAFETY_COLUMNS = {
 }
 
 
-def _mean_interval(values: pd.Series) -> str:
-    return format_interval(*t_confidence(values.to_numpy(dtype=float)))
+def _mean_interval(group: pd.DataFrame, column: str) -> str:
+    """The mean of ``column`` over ``group``'s runs with its 95% t-interval, cut at its range."""
+    mean, half = t_confidence(group[column].to_numpy(dtype=float))
+    return format_interval(mean, half, metric_range(group, column))
 
 
 def _finite_mean(values: pd.Series) -> float:
     """The mean of the finite values (NaN, without a warning, when there is none)."""
     return t_confidence(values.to_numpy(dtype=float))[0]
+
+
+def _iqm_text(point: float, low: float, high: float) -> str:
+    """``IQM [low, high]``, each to 4 significant digits."""
+    return f"{format_number(point)} [{format_number(low)}, {format_number(high)}]"
 
 
 def _final_table(finals: pd.DataFrame, metric: str) -> pd.DataFrame:
@@ -217,14 +215,14 @@ def _final_table(finals: pd.DataFrame, metric: str) -> pd.DataFrame:
         row = {
             "method": method,
             "runs": len(values),
-            f"mean {metric} ± 95% t": _mean_interval(group[metric]),
-            f"IQM {metric} [95% bootstrap]": f"{_number(point)} [{_number(low)}, {_number(high)}]",
-            "final features": _number(float(group["num_features"].mean())),
+            f"mean {metric} ± 95% t": _mean_interval(group, metric),
+            f"IQM {metric} [95% bootstrap]": _iqm_text(point, low, high),
+            "final features": f"{group['num_features'].mean():,.0f}",
         }
         for column in safety:
-            row[f"final {SAFETY_COLUMNS[column]} ± 95% t"] = _mean_interval(group[column])
+            row[f"final {SAFETY_COLUMNS[column]} ± 95% t"] = _mean_interval(group, column)
         if has_failures:
-            row["learning failures"] = _number(_finite_mean(group["learning_failures"]))
+            row["learning failures"] = format_number(_finite_mean(group["learning_failures"]))
         rows.append(row)
     return pd.DataFrame(rows)
 
@@ -236,8 +234,8 @@ def _timing_table(finals: pd.DataFrame) -> pd.DataFrame:
             {
                 "method": method,
                 "runs": len(group),
-                "run wall time (s)": _number(_finite_mean(group["run_seconds"])),
-                "learning wall time (s)": _number(float(group["wall_time_s"].mean())),
+                "run wall time (s)": format_number(_finite_mean(group["run_seconds"])),
+                "learning wall time (s)": format_number(float(group["wall_time_s"].mean())),
                 "learning steps/s": _rate(_finite_mean(group["steps_per_second"])),
             }
         )
@@ -269,12 +267,42 @@ def write_report(
     """
     results_dir = Path(results_dir)
     out_dir = make_out_dir(out_dir if out_dir is not None else results_dir)
-    figures = out_dir / "figures"
-    resolved: dict[str, Any] = {}
-    if (results_dir / RESOLVED_FILE).is_file():
-        resolved = yaml.safe_load((results_dir / RESOLVED_FILE).read_text()) or {}
+    resolved = read_resolved(results_dir)
     metric = metric or resolved.get("metric") or "return"
     results = collect(results_dir)
+    _check_metric(results, metric, results_dir)
+    name = results_name(results_dir)
+    errors = sorted((results_dir / ERRORS_DIR).glob("*.txt"))
+    lines = [
+        f"# Report: {name}",
+        "",
+        *_missing_lines(results_dir, results),
+        f"{results['run_id'].nunique()} finished runs, "
+        + (f"{len(errors)} failed (tracebacks in `{ERRORS_DIR}/`)" if errors else "none failed")
+        + "; seeds per method shown as `n`. Curves are means over seeds with 95% confidence "
+        "bands (Student t), cut at what each metric can be (a rate within [0, 1], an episode "
+        "no longer than the domain's cap, a return within the domain's value bounds); in the "
+        "tables an interval so cut reads `mean [low, high]`. The final performance is the "
+        "last policy check.",
+        "",
+    ]
+    domains = (
+        list(results.groupby("domain_label", sort=False))
+        if "domain_label" in results.columns
+        else [(None, results)]
+    )
+    for domain, frame in domains:
+        lines += _domain_lines(frame, domain, metric, name, out_dir)
+    lines += _selection_lines(results_dir, results, metric, resolved)
+    if errors:
+        lines += ["## Failed runs", ""]
+        lines += [f"- `{ERRORS_DIR}/{path.name}`" for path in errors]
+        lines.append("")
+    return write_atomic(out_dir / REPORT_FILE, "\n".join(lines))
+
+
+def _check_metric(results: pd.DataFrame, metric: str, results_dir: Path) -> None:
+    """Raise `InvalidParameterError` unless ``results`` has finite values of ``metric``."""
     if results.empty:
         raise InvalidParameterError(f"No finished runs in {str(results_dir)!r} to report.")
     if metric not in results.columns:
@@ -287,79 +315,76 @@ def write_report(
             f"{str(results_dir)!r} (optimality needs a domain with value_bounds()); report "
             f"another metric with --metric."
         )
-    results = results.assign(method=_method_names(results))
-    name = resolved.get("name", results_dir.name)
-    errors = sorted((results_dir / ERRORS_DIR).glob("*.txt"))
-    lines = [
-        f"# Report: {name}",
+
+
+def _domain_lines(
+    frame: pd.DataFrame, domain: str | None, metric: str, name: str, out_dir: Path
+) -> list[str]:
+    """The report's section of one domain: its plots and tables."""
+    lines = [] if domain is None else [f"## Domain {domain}", ""]
+    if not has_finite_values(frame, metric):
+        return [*lines, f"No finite {metric} on this domain (skipped).", ""]
+    tag = "" if domain is None else f"_{_file_name(str(domain))}"
+    title = name if domain is None else f"{name} / {domain}"
+    frame = frame.assign(method=method_labels(frame, abbreviate=False))
+    plotted = frame.assign(label=method_labels(frame))
+    figures = out_dir / "figures"
+    curve = plot_learning_curves(
+        plotted, figures / f"learning_curve_{metric}{tag}.png", metric=metric, title=title
+    )
+    features = plot_learning_curves(
+        plotted, figures / f"features{tag}.png", metric="num_features", title=title
+    )
+    finals = final_rows(frame)
+    return [
+        *lines,
+        f"![learning curves]({curve.relative_to(out_dir).as_posix()})",
         "",
-        *_missing_lines(results_dir, results),
-        f"{results['run_id'].nunique()} finished runs, "
-        + (f"{len(errors)} failed (tracebacks in `{ERRORS_DIR}/`)" if errors else "none failed")
-        + "; seeds per method shown as `n`. Curves are means over seeds with 95% confidence "
-        "bands (Student t); the final performance is the last policy check.",
+        f"![feature counts]({features.relative_to(out_dir).as_posix()})",
+        "",
+        "Final performance:",
+        "",
+        _markdown_table(_final_table(finals, metric)),
+        "",
+        "Wall time and speed (per run; learning time excludes policy checks):",
+        "",
+        _markdown_table(_timing_table(finals)),
         "",
     ]
-    domains = (
-        list(results.groupby("domain_label", sort=False))
-        if "domain_label" in results.columns
-        else [(None, results)]
-    )
-    for domain, frame in domains:
-        tag = "" if domain is None else f"_{_file_name(str(domain))}"
-        if domain is not None:
-            lines += [f"## Domain {domain}", ""]
-        if not has_finite_values(frame, metric):
-            lines += [f"No finite {metric} on this domain (skipped).", ""]
-            continue
-        curve = plot_learning_curves(
-            frame.assign(label=frame["method"]),
-            figures / f"learning_curve_{metric}{tag}.png",
-            metric=metric,
-            title=f"{name}{'' if domain is None else f' / {domain}'}",
-        )
-        features = plot_learning_curves(
-            frame.assign(label=frame["method"]),
-            figures / f"features{tag}.png",
-            metric="num_features",
-            title=f"{name}: features{'' if domain is None else f' / {domain}'}",
-        )
-        finals = final_rows(frame)
-        lines += [
-            f"![learning curves]({curve.relative_to(out_dir).as_posix()})",
-            "",
-            f"![feature counts]({features.relative_to(out_dir).as_posix()})",
-            "",
-            "Final performance:",
-            "",
-            _markdown_table(_final_table(finals, metric)),
-            "",
-            "Wall time and speed (per run; learning time excludes policy checks):",
-            "",
-            _markdown_table(_timing_table(finals)),
-            "",
-        ]
+
+
+def _selection_table(selection: pd.DataFrame, results: pd.DataFrame, metric: str) -> pd.DataFrame:
+    """``selection.csv`` to read: the score as one interval (cut at the metric's range)."""
+    bounds = metric_range(results, metric)
+    scores = [
+        format_interval(mean, half, bounds)
+        for mean, half in zip(selection["score_mean"], selection["score_ci95"], strict=True)
+    ]
+    table = selection.drop(columns=["score_mean", "score_ci95"])
+    table.insert(table.columns.get_loc("criterion") + 1, "score ± 95% t", scores)
+    return table
+
+
+def _selection_lines(
+    results_dir: Path, results: pd.DataFrame, metric: str, resolved: dict[str, Any]
+) -> list[str]:
+    """The report's section on a grid selection: the chosen settings and their rerun."""
     selection = results_dir / "selection.csv"
-    if selection.is_file():
+    if not selection.is_file():
+        return []
+    chosen = pd.read_csv(selection, keep_default_na=False)
+    lines = ["## Selected settings", "", _markdown_table(_selection_table(chosen, results, metric))]
+    selected = results_dir / SELECTED_DIR
+    if (selected / RUNS_DIR).is_dir():
+        sub = write_report(selected, metric=metric).relative_to(results_dir).as_posix()
+        lines += ["", f"Rerun on fresh seeds: [{sub}]({sub})."]
+    elif (resolved.get("selection") or {}).get("fresh_seeds") in (0, []):
         lines += [
-            "## Selected settings",
             "",
-            _markdown_table(pd.read_csv(selection, keep_default_na=False)),
-            "",
+            "No rerun on fresh seeds (`fresh_seeds: 0`): the scores are those of the search "
+            "seeds, which the choice biases upward.",
         ]
-        selected = results_dir / "selected"
-        if (selected / RUNS_DIR).is_dir():
-            sub = write_report(selected, metric=metric)
-            lines += [
-                f"Rerun on fresh seeds: [{sub.relative_to(results_dir).as_posix()}]"
-                f"({sub.relative_to(results_dir).as_posix()}).",
-                "",
-            ]
-    if errors:
-        lines += ["## Failed runs", ""]
-        lines += [f"- `{ERRORS_DIR}/{path.name}`" for path in errors]
-        lines.append("")
-    return write_atomic(out_dir / REPORT_FILE, "\n".join(lines))
+    return [*lines, ""]
 
 
 @click.command("report")

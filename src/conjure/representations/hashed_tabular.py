@@ -48,7 +48,9 @@ class HashedTabular(Representation):
     spec_ : DomainSpec
         The spec given to `setup`.
     num_features_ : int
-        The number of indices: ``capacity``, or the number of grid cells if that is smaller.
+        The capacity in effect, θ's rows: ``capacity``, or the number of grid cells if that is
+        smaller. The features in use, which a run's ``num_features`` column reports, are
+        `num_features_in_use_` (= ``num_stored_``).
     num_buckets_ : ndarray of int64, shape (d,)
         Buckets per dimension (as `Tabular`'s).
     num_stored_ : int
@@ -86,7 +88,7 @@ class HashedTabular(Representation):
     >>> rep = HashedTabular(capacity=10).setup(spec, seed=0)
     >>> [rep.active_features(s).tolist() for s in ([1, 1], [0, 1], [1, 1])]
     [[0], [1], [0]]
-    >>> rep.num_features_, rep.num_stored_, rep.index_of([0, 0])
+    >>> rep.num_features_, rep.num_features_in_use_, rep.index_of([0, 0])  # capacity, in use
     (4, 2, -1)
     """
 
@@ -150,6 +152,11 @@ class HashedTabular(Representation):
             f"{suggested * self.spec_.num_actions * 8 / 2**20:,.1f} MiB for "
             f"{self.spec_.num_actions} actions)."
         )
+
+    @property
+    def num_features_in_use_(self) -> int:
+        """The cells indexed so far (``num_stored_``), not the capacity ``num_features_``."""
+        return self.num_stored_
 
     @property
     def num_stored_(self) -> int:

@@ -6,12 +6,17 @@ import numpy as np
 import scipy.sparse as sp
 
 from conjure.core.cooperative import RiskAnalyzer
-from conjure.core.errors import IncompatibleComponentsError
+from conjure.core.errors import IncompatibleComponentsError, InvalidParameterError
 from conjure.core.interfaces import Domain, check_is_set_up
 from conjure.core.params import InstanceOf, Interval
 from conjure.safety import _kernels
 
-__all__ = ["MonteCarloRiskAnalyzer"]
+__all__ = ["MAX_ROLLOUT_STEPS", "MonteCarloRiskAnalyzer"]
+
+#: Most simulated transitions 𝓜𝓗 one judgement may take if no rollout ends early: seconds in
+#: the compiled rollouts, minutes in Python ones, for each action the learner suggests
+#: (Section 5.5.2's 𝓜 = 5 on GridWorld's 1000-step episodes: 5000).
+MAX_ROLLOUT_STEPS = 100_000_000
 
 
 class MonteCarloRiskAnalyzer(RiskAnalyzer):
@@ -31,7 +36,8 @@ class MonteCarloRiskAnalyzer(RiskAnalyzer):
         𝓜 ≥ 1 (Section 5.5.2: 5).
     horizon : int or None, default None
         𝓗 ≥ 1 transitions per rollout; ``None`` takes the model domain's episode cap
-        (``domain_spec.max_episode_steps``).
+        (``domain_spec.max_episode_steps``). 𝓜𝓗 may not exceed `MAX_ROLLOUT_STEPS`
+        (``validate_params`` checks it with 𝓗 = 1 when ``None``; ``setup`` with the cap).
     risk_tolerance : float, default 0.2
         ε in (0, 1] (Section 5.5.2: 20%); safe iff risk < ε.
 
@@ -98,6 +104,11 @@ class MonteCarloRiskAnalyzer(RiskAnalyzer):
         self.horizon = horizon
         self.risk_tolerance = risk_tolerance
 
+    def validate_params(self) -> None:
+        """Check each parameter, then 𝓜𝓗 (𝓗 = 1 if ``None``) against `MAX_ROLLOUT_STEPS`."""
+        super().validate_params()
+        _check_rollout_steps(self.num_rollouts, self.horizon)
+
     def _bind(self) -> None:
         """Fix 𝓗; tabulate T̂'s decomposition when the model's domain has one."""
         domain = self.model_.domain_
@@ -109,9 +120,13 @@ class MonteCarloRiskAnalyzer(RiskAnalyzer):
                 f"states (GridWorld, UAVMission, InvertedPendulum, ...) or define "
                 f"is_constrained on yours."
             )
-        self.horizon_ = (
-            domain.domain_spec.max_episode_steps if self.horizon is None else self.horizon
-        )
+        if self.horizon is None:
+            self.horizon_ = domain.domain_spec.max_episode_steps
+            _check_rollout_steps(
+                self.num_rollouts, self.horizon_, f" ({type(domain).__name__}'s max_episode_steps)"
+            )
+        else:
+            self.horizon_ = self.horizon
         decomposition = domain.noise_decomposition()
         self.is_compiled_ = decomposition is not None
         if self.is_compiled_:
@@ -174,3 +189,25 @@ class MonteCarloRiskAnalyzer(RiskAnalyzer):
             t += 1
             constrained = model.is_constrained(state)
         return constrained
+
+
+def _check_rollout_steps(num_rollouts: int, horizon: int | None, source: str = "") -> None:
+    """Refuse judgements of more than `MAX_ROLLOUT_STEPS` simulated transitions 𝓜𝓗.
+
+    ``horizon`` ``None`` (not known before setup) counts as 1; ``source`` says where 𝓗 came from.
+    """
+    total = num_rollouts * (1 if horizon is None else horizon)
+    if total <= MAX_ROLLOUT_STEPS:
+        return
+    if horizon is None:
+        count = f"`MonteCarloRiskAnalyzer.num_rollouts` {num_rollouts:,}: at least {total:.3g}"
+    else:
+        count = (
+            f"`MonteCarloRiskAnalyzer.num_rollouts` × horizon = {num_rollouts:,} × {horizon:,}"
+            f"{source} = {total:.3g}"
+        )
+    raise InvalidParameterError(
+        f"{count} simulated transitions per judged action, more than MAX_ROLLOUT_STEPS = "
+        f"{MAX_ROLLOUT_STEPS:,}. Lower num_rollouts or horizon, or raise "
+        f"conjure.safety.monte_carlo_risk.MAX_ROLLOUT_STEPS to simulate more."
+    )

@@ -15,7 +15,9 @@ Notes
 - Choice: only settings whose every seed finished are eligible; a setting that diverged on
   some seeds is never chosen on the strength of the seeds that survived. Ties go to the first
   setting in grid order.
-- Choice: fresh seeds start after the largest seed used in the grid.
+- Choice: fresh seeds start after the largest seed used in the grid. With ``fresh_seeds: 0``
+  there is no rerun, and the chosen settings are shown on the search seeds
+  (`selected_results`), whose numbers the choice biases upward.
 """
 
 from __future__ import annotations
@@ -30,7 +32,14 @@ import pandas as pd
 from conjure.core.errors import InvalidParameterError
 from conjure.experiments.results import describe_setting, final_rows, t_confidence
 
-__all__ = ["CRITERIA", "fresh_seeds", "score_runs", "select_best", "selected_runs"]
+__all__ = [
+    "CRITERIA",
+    "fresh_seeds",
+    "score_runs",
+    "select_best",
+    "selected_results",
+    "selected_runs",
+]
 
 #: Selection criteria by name.
 CRITERIA = ("auc", "final")
@@ -189,3 +198,18 @@ def selected_runs(
             spec["seed"] = int(seed)
             chosen.append(spec)
     return chosen
+
+
+def selected_results(results: pd.DataFrame, best: pd.DataFrame) -> pd.DataFrame:
+    """Return the rows of ``results`` (a sweep's search) that belong to a chosen setting.
+
+    Examples
+    --------
+    >>> search = pd.DataFrame({"label": ["a", "a", "b"], "setting": ["x=1", "x=2", ""],
+    ...                        "seed": 0})
+    >>> chosen = pd.DataFrame({"label": ["a", "b"], "setting": ["x=2", ""]})
+    >>> selected_results(search, chosen)["setting"].tolist()
+    ['x=2', '']
+    """
+    keys = [c for c in (*_METHOD, "setting") if c in results.columns]
+    return results.merge(best[keys].drop_duplicates(), on=keys, how="inner")

@@ -25,7 +25,7 @@ A sweep YAML extends the experiment YAML (`conjure.experiments.config`)::
     metric: return
     selection:                        # optional: pick the best setting, rerun on fresh seeds
       criterion: auc                  # auc (mean of the learning curve) or final
-      fresh_seeds: 30                 # seeds after the largest grid seed, or a list
+      fresh_seeds: 30                 # seeds after the largest grid seed, or a list (0: none)
 
 A grid key is a dotted path into the experiment tree, as ``--set`` takes: ``agents.<label>...``
 applies to that agent only, ``domain...`` (or ``domains.<label>...``) to the domain, and a
@@ -61,18 +61,21 @@ from conjure.experiments.config import (
     resolve_run,
     set_component_value,
 )
+from conjure.experiments.numbers import format_value
 from conjure.experiments.options import max_memory_option, out_dir_option
 from conjure.experiments.parallel import (
     ExperimentResult,
     open_executor,
     pending_runs,
+    print_summary,
     run_batch,
 )
-from conjure.experiments.results import make_out_dir, write_atomic
+from conjure.experiments.results import SELECTED_DIR, make_out_dir, summarize, write_atomic
 from conjure.experiments.run import RunFunction, run_resolved
-from conjure.sweeps.selection import fresh_seeds, select_best, selected_runs
+from conjure.sweeps.selection import fresh_seeds, select_best, selected_results, selected_runs
 
 if TYPE_CHECKING:
+    import pandas as pd
     from rich.console import Console
 
     from conjure.experiments.executors import Executor
@@ -106,6 +109,20 @@ class SelectionConfig(BaseModel):
     fresh_seeds: int | list[int] = 30
 
 
+def _check_values_read_apart(key: str, values: list[Any]) -> None:
+    """Refuse grid values that print alike: a setting is named by its printed values."""
+    seen: dict[str, Any] = {}
+    for value in values:
+        text = format_value(value)
+        if text in seen and seen[text] != value:
+            raise ValueError(
+                f"grid key {key!r}: {seen[text]!r} and {value!r} both print as {text} (6 "
+                f"significant digits), so their runs would read as one setting; use values "
+                f"that differ sooner"
+            )
+        seen[text] = value
+
+
 class SweepConfig(BaseModel):
     """A sweep: domains × labelled agents × parameter grids × seeds (see the module docstring)."""
 
@@ -132,7 +149,18 @@ class SweepConfig(BaseModel):
         for key, values in grid.items():
             if not values:
                 raise ValueError(f"grid key {key!r} needs at least one value")
+            _check_values_read_apart(key, values)
         return grid
+
+    @field_validator("domain_grids")
+    @classmethod
+    def _domain_values_read_apart(
+        cls, grids: dict[str, dict[str, list[Any]]]
+    ) -> dict[str, dict[str, list[Any]]]:
+        for grid in grids.values():
+            for key, values in grid.items():
+                _check_values_read_apart(key, values)
+        return grids
 
     def domain_specs(self) -> dict[str, ComponentConfig]:
         """Return the domains by label (a single ``domain`` is labelled by its kind)."""
@@ -475,7 +503,8 @@ def run_sweep(
         The sweep.
     out_dir : str or Path
         The results folder; finished runs in it are reused. The fresh-seed rerun of the
-        selected settings goes to ``out_dir/selected``, the choice to ``selection.csv``.
+        selected settings goes to ``out_dir/selected``, the choice to ``selection.csv``; with
+        ``fresh_seeds: 0`` the result's ``selected`` holds the chosen settings' search runs.
     executor : Executor or None
         Default a `LocalExecutor` with ``max_workers`` (else the sweep's, else the CPU count)
         and ``max_memory`` (else the sweep's). A given executor keeps its own limits.
@@ -524,14 +553,32 @@ def run_sweep(
                 f"Best setting per method by {choice.criterion} of {sweep.metric} "
                 f"({choice.mode}): see {out_dir / 'selection.csv'}"
             )
+        outcome.selection = best
         seeds = fresh_seeds(sweep.seed_list(), choice.fresh_seeds)
+        if not seeds:
+            outcome.selected = _on_search_seeds(outcome, best)
+            if progress:
+                print_summary(
+                    outcome.selected,
+                    console,
+                    title=f"{out_dir}: the best settings on the search seeds (fresh_seeds: 0, "
+                    "so no rerun; the choice biases these upward)",
+                )
+            return outcome
         final_runs = selected_runs(runs, best, seeds)
         outcome.selected = batch(
             final_runs,
-            out_dir / "selected",
+            out_dir / SELECTED_DIR,
             console=console,
             description=f"{sweep.name}: best settings, fresh seeds",
         )
-        outcome.selection = best
         outcome.errors.update(outcome.selected.errors)
         return outcome
+
+
+def _on_search_seeds(outcome: ExperimentResult, best: pd.DataFrame) -> ExperimentResult:
+    """The search runs of the chosen settings, as the result of a rerun with no fresh seeds."""
+    results = selected_results(outcome.results, best)
+    return ExperimentResult(
+        outcome.out_dir, results, summarize(results, metric=outcome.metric), metric=outcome.metric
+    )

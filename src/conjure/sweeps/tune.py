@@ -52,6 +52,7 @@ from conjure.core.errors import InvalidParameterError
 from conjure.core.params import did_you_mean
 from conjure.experiments.config import dump_yaml, load_yaml
 from conjure.experiments.executors import Executor, LocalExecutor
+from conjure.experiments.numbers import format_number, format_value
 from conjure.experiments.options import max_memory_option, out_dir_option
 from conjure.experiments.parallel import execute_runs, prepare_executor
 from conjure.experiments.results import load_results, make_out_dir, write_atomic
@@ -290,9 +291,14 @@ def tune(
 
                 def announce(study: Any, trial: Any, name: str = name) -> None:
                     if progress:
-                        value = "" if trial.value is None else f" value {trial.value:.5g}"
+                        value = (
+                            "" if trial.value is None else f" value {format_number(trial.value)}"
+                        )
+                        params = ", ".join(
+                            f"{k}={format_value(v)}" for k, v in trial.params.items()
+                        )
                         console.print(
-                            f"{name} trial {trial.number}: {trial.state.name}{value} {trial.params}"
+                            f"{name} trial {trial.number}: {trial.state.name}{value} {params}"
                         )
 
                 study = optuna.create_study(
@@ -345,7 +351,10 @@ def tune(
     }
     write_atomic(out_dir / "best.yaml", dump_yaml(best_grid))
     if progress:
-        console.print(table.to_string(index=False))
+        formats = {key: format_value for key in search.space if key in table.columns}
+        console.print(
+            table.to_string(index=False, formatters={"best_value": format_number, **formats})
+        )
         console.print(f"Trials in {out_dir / 'trials.csv'}; best settings in {out_dir}/best.yaml")
     return table
 
