@@ -400,6 +400,26 @@ FIGURES: dict[str, Figure] = {
                 "≈ 20% (= ε)",
                 within("am_icca", "failure_rate", 0.1, 0.3),
             ),
+            Claim(
+                "AM-iCCA with risk ≤ 20% allowed ends at least 5% above the better CBBA",
+                '+22% ("allowed risk level of 20%")',
+                above_best("am_icca_tolerant", ("cbba_aggressive", "cbba_conservative"), by=0.05),
+            ),
+            Claim(
+                "AM-iCCA with risk ≤ 20% allowed ends above the better CBBA",
+                "yes",
+                above_best("am_icca_tolerant", ("cbba_aggressive", "cbba_conservative")),
+            ),
+            Claim(
+                "AM-iCCA with risk ≤ 20% crashes at most 0.3× as often as SARSA while learning",
+                "far fewer",
+                at_most("am_icca_tolerant", "sarsa", 0.3),
+            ),
+            Claim(
+                "AM-iCCA with risk ≤ 20%: crash probability in [0.1, 0.3]",
+                "≈ 20% (= ε)",
+                within("am_icca_tolerant", "failure_rate", 0.1, 0.3),
+            ),
         ),
     ),
     "fig_5_12": Figure(

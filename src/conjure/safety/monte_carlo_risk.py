@@ -66,6 +66,11 @@ class MonteCarloRiskAnalyzer(RiskAnalyzer):
     - Choice: risk is computed as the exact fraction k/𝓜, the value Algorithm 25's
       incremental mean reaches without its rounding (with 𝓜 = 5 and ε = 0.2 an action is
       safe iff no rollout fails).
+    - Two readings of ε: Algorithm 25 prints ``risk < ε``; Figure 5-13's caption speaks of
+      "the allowed risk level of 20%", i.e. ``risk ≤ ε``. ``risk_tolerance`` keeps the
+      printed ``<``; the caption's reading at 𝓜 = 5 is ``risk_tolerance=0.4`` (one failed
+      rollout in five). On UAV 7-2 with 5% failures only the caption's reading lets AM-iCCA
+      end above aggressive CBBA (+8.7% against +1.8%; docs/reproduction.md, Figs. 5-9/5-13).
     - Choice: when the model's domain has a `noise_decomposition` (grid worlds), rollouts run
       in a numba kernel over the two tabular models, drawing the noise with probability η̂ at
       each step; π^p is tabulated over the model's states and re-tabulated after `update`
