@@ -354,12 +354,14 @@ def test_learning_stepper_uses_the_compiled_path_only_when_worth_it_and_answered
         return "compiled stepper" if len(asked) == 1 else None
 
     compiled.for_combination = for_combination
+    compiled.why_not_compiled = lambda d, a: "no kernel in this fake"
     warmth_asked = []
     compiled.is_warm = lambda stepper: warmth_asked.append(stepper) or warm
     monkeypatch.setitem(sys.modules, "conjure.compiled", compiled)
     first = learning_stepper(domain, agent, seed=4, budget_steps=budget_steps)
     fallback = learning_stepper(domain, agent, seed=4, budget_steps=budget_steps)
     assert type(fallback) is Stepper and fallback.learn
+    assert fallback.path == "python: no kernel in this fake"
     assert asked == [(domain, agent, 4)] * 2
     assert (first == "compiled stepper") is is_compiled
     # the warmth asked about is that of the stepper's own kernel, and only for a short run

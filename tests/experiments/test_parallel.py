@@ -324,3 +324,12 @@ def test_a_worker_death_is_announced_and_kept_in_the_run_metadata(tmp_path):
     assert "its worker killed by SIGKILL" in text and "running it again (attempt 2)" in text
     record = read_run(run_path(tmp_path, run_id(runs[0])))
     assert len(record["meta"]["worker_deaths"]) == 1
+
+
+def test_the_summary_says_which_path_each_method_learned_on(fakes, tmp_path):
+    output = io.StringIO()
+    run_experiment(fake_config(), tmp_path, max_workers=1, console=Console(file=output, width=200))
+    text = output.getvalue()
+    for label in ("slow", "fast"):
+        assert f"{label}: learned on the Python path (the domain FakeWalk has no compiled" in text
+    assert set(read_run(path_of(tmp_path, fake_config(), "slow", 0))["meta"]["path"].split(":"))

@@ -348,3 +348,41 @@ def test_a_failing_run_task_returns_its_error_as_data():
 
     out = run_task({"label": "x", "domain": {"kind": "NoSuchDomain"}})
     assert out["curve"] is None and "NoSuchDomain" in out["message"]
+
+
+def test_a_run_says_which_path_its_learning_steps_took(monkeypatch):
+    # Issue 22: the fast path was chosen silently, and an option it lacks fell back unseen.
+    from conjure.agents import ActorCritic
+    from conjure.experiments import loop
+    from conjure.experiments.run import run_task
+
+    monkeypatch.setattr(loop, "COMPILE_WORTH_STEPS", 0)  # compile even a short run
+    compiled = run(
+        domain=ChainMDP(), agent=SARSA(representation=Tabular()), budget_steps=200, seed=0
+    )
+    assert compiled.path == "compiled" and "(compiled path)" in compiled.summary()
+    advantage = ActorCritic(representation=Tabular(), critic="v")
+    python = run(domain=ChainMDP(), agent=advantage, budget_steps=200, seed=0)
+    assert python.path.startswith("python: ActorCritic with these parameters has no compiled")
+    assert "critic='q'" in python.path
+    fake = run(domain=FakeWalk(), agent=FakeAgent(), budget_steps=50, seed=0)
+    assert fake.path == "python: the domain FakeWalk has no compiled kernel"
+    monkeypatch.setattr(loop, "COMPILE_WORTH_STEPS", 10**9)
+    cold = loop.learning_stepper(
+        ChainMDP(),
+        SARSA(representation=Tabular()).setup(ChainMDP().domain_spec, 0),
+        budget_steps=100,
+    )
+    assert cold.path == "compiled" or "would not earn the compile back" in cold.path
+    spec = {
+        "domain": {"kind": "ChainMDP"},
+        "agent": {
+            "kind": "ActorCritic",
+            "params": {"representation": {"kind": "Tabular"}, "critic": "v"},
+        },
+        "budget_steps": 100,
+        "num_policy_checks": 1,
+        "eval_episodes": 1,
+        "seed": 0,
+    }
+    assert run_task(spec)["meta"]["path"].startswith("python: ActorCritic with these")

@@ -1,9 +1,11 @@
 """The compiled path: whole learning loops in one numba function (issue 11).
 
 `for_combination` (domain, agent) returns a `CompiledStepper` when every part has a compiled
-kernel, else ``None`` (the caller keeps the Python path).
+kernel, else ``None`` (the caller keeps the Python path); `why_not_compiled` says which part
+has no kernel.
 """
 
+from conjure.compiled.combination import why_not_compiled
 from conjure.compiled.stepper import (
     AdvanceStats,
     CompiledStepper,
@@ -20,4 +22,5 @@ __all__ = [
     "for_combination",
     "is_warm",
     "warm_up",
+    "why_not_compiled",
 ]

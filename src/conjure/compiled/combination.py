@@ -70,7 +70,7 @@ from conjure.representations import (
     TileCoding,
 )
 
-__all__ = ["Combination", "pack_combination"]
+__all__ = ["Combination", "pack_combination", "why_not_compiled"]
 
 #: Empty stand-ins for the kernels' unused array arguments: numba types an array by its dtype
 #: and dimensions, so one compilation serves every combination.
@@ -342,17 +342,38 @@ def pack_combination(domain: Domain, agent: Agent) -> Combination | None:
     NotSetUpError
         If ``agent.setup`` has not run.
     """
+    packed = _pack(domain, agent)
+    return packed if isinstance(packed, Combination) else None
+
+
+def why_not_compiled(domain: Domain, agent: Agent) -> str | None:
+    """Name the first part of a set-up ``agent`` on ``domain`` with no compiled kernel.
+
+    ``None`` when every part has one (then `pack_combination` packs them).
+    """
+    packed = _pack(domain, agent)
+    return None if isinstance(packed, Combination) else packed
+
+
+def _pack(domain: Domain, agent: Agent) -> Combination | str:
+    """The packed combination, or why a part has no compiled kernel."""
     domain_packer = _DOMAINS.get(type(domain))
-    if type(agent) not in (SARSA, QLearning, ActorCritic) or domain_packer is None:
-        return None  # decided on exact types alone: other agents' attributes are not read
+    if domain_packer is None:
+        return f"the domain {type(domain).__name__} has no compiled kernel"
+    if type(agent) not in (SARSA, QLearning, ActorCritic):
+        return f"the agent {type(agent).__name__} has no compiled kernel"  # exact types only
     check_is_set_up(agent, "pack_combination")
     agent_codes = _agent(agent)
     if agent_codes is None:
-        return None
+        return f"{type(agent).__name__} with these parameters has no compiled kernel" + (
+            " (only Algorithm 12 as printed: critic='q', actor_update='features', no traces)"
+            if type(agent) is ActorCritic
+            else ""
+        )
     domain_code, domain_arrays, read, write = domain_packer(domain)
     is_constrained = domain_code in _CONSTRAINED
     if not is_constrained and domain.domain_spec.has_action_constraints:
-        return None
+        return f"the action constraints of {type(domain).__name__} have no compiled kernel"
     is_ifdd = type(agent.representation_) is OnlineIFDD
     is_adaptive = is_constrained or is_ifdd
     if is_adaptive:
@@ -361,8 +382,13 @@ def pack_combination(domain: Domain, agent: Agent) -> Combination | None:
         rep = _representation(agent.representation_)
     policy = _policy(agent.policy_)
     schedule = _schedule(agent.schedule_)
-    if rep is None or policy is None or schedule is None:
-        return None
+    for part, component, packed in (
+        ("representation", agent.representation_, rep),
+        ("policy", agent.policy_, policy),
+        ("step-size schedule", agent.schedule_, schedule),
+    ):
+        if packed is None:
+            return f"the {part} {type(component).__name__} has no compiled kernel here"
     agent_code, traces, trace_factor, min_trace, actor = agent_codes
     actor = schedule if actor is None else actor
     rep_code, num_tilings, max_active, rep_arrays = rep

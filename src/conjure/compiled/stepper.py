@@ -121,7 +121,12 @@ class CompiledStepper:
     ----------
     total_steps, num_episodes, num_failures : int
         Learning steps, episodes started and failure steps so far.
+    path : str
+        ``"compiled"``: the path a run records (`conjure.experiments.loop.Stepper` says
+        ``"python: <why>"``).
     """
+
+    path = "compiled"
 
     def __init__(
         self, domain: Domain, agent: Agent, combination: Combination, *, seed: int | None = None

@@ -120,6 +120,9 @@ class Stepper:
         The episode cap, in [1, inf); ``None`` uses ``domain.domain_spec.max_episode_steps``.
     timed : bool, default False
         Time every ``domain.step``, ``agent.act`` and ``agent.learn`` call (see `timings`).
+    path : str, default "python"
+        Which path the steps take, as a run records it (`learning_stepper` adds why the
+        compiled path was not taken).
 
     Notes
     -----
@@ -167,10 +170,12 @@ class Stepper:
         seed: int | None = None,
         max_episode_steps: int | None = None,
         timed: bool = False,
+        path: str = "python",
     ):
         self.domain = domain
         self.agent = agent
         self.learn = learn
+        self.path = path
         self.total_steps = 0
         self.num_episodes = 0
         self.num_failures = 0
@@ -320,16 +325,22 @@ def learning_stepper(
     part has no kernel), or ``conjure.compiled`` is not installed, a learning `Stepper` runs.
     """
     try:
-        from conjure.compiled import for_combination, is_warm
+        from conjure.compiled import for_combination, is_warm, why_not_compiled
     except ModuleNotFoundError as exc:
         if exc.name != "conjure.compiled":
             raise
-        compiled = None
-    else:
-        compiled = for_combination(domain, agent, seed=seed)  # packing only: no compile
-        if compiled is not None and budget_steps < COMPILE_WORTH_STEPS and not is_warm(compiled):
-            compiled = None
-    return compiled if compiled is not None else Stepper(domain, agent, seed=seed)
+        return Stepper(domain, agent, seed=seed, path="python: conjure.compiled is not installed")
+    compiled = for_combination(domain, agent, seed=seed)  # packing only: no compile
+    if compiled is None:
+        reason = why_not_compiled(domain, agent)
+        return Stepper(domain, agent, seed=seed, path=f"python: {reason}")
+    if budget_steps < COMPILE_WORTH_STEPS and not is_warm(compiled):
+        reason = (
+            f"its kernel is not compiled yet and {budget_steps:,} steps would not earn the "
+            f"compile back (the compiled path starts at {COMPILE_WORTH_STEPS:,})"
+        )
+        return Stepper(domain, agent, seed=seed, path=f"python: {reason}")
+    return compiled
 
 
 def run_episode(

@@ -591,6 +591,19 @@ def run_experiment(
         )
 
 
+def _path_lines(results: pd.DataFrame) -> list[str]:
+    """One line per method and path: where its runs' learning steps ran (and why not compiled)."""
+    if results.empty or "path" not in results.columns:
+        return []
+    paths = results.drop_duplicates("run_id").groupby("label", sort=False)["path"].unique()
+    lines = []
+    for label, taken in paths.items():
+        for path in (p for p in taken if p):
+            how = "compiled path" if path == "compiled" else f"Python path ({path[8:]})"
+            lines.append(f"{label}: learned on the {how}")
+    return lines
+
+
 def print_summary(
     outcome: ExperimentResult, console: Console | None = None, title: str | None = None
 ) -> None:
@@ -622,6 +635,8 @@ def print_summary(
             "n/a" if pd.isna(rate) or math.isinf(rate) else f"{rate:,.0f}",
         )
     console.print(table)
+    for line in _path_lines(outcome.results):
+        console.print(line)
     if outcome.num_skipped:
         console.print(f"{outcome.num_skipped} finished run(s) were reused (not rerun).")
     for identifier, message in outcome.errors.items():

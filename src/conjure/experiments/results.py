@@ -452,6 +452,7 @@ def load_results(out_dir: str | Path, run_ids: Iterable[str] | None = None) -> p
         for position, (name, value) in enumerate(leading.items()):
             curve.insert(position, name, value)
         curve["run_seconds"] = float(record["meta"].get("run_seconds", math.nan))
+        curve["path"] = str(record["meta"].get("path", ""))
         for column in DOMAIN_BOUND_COLUMNS:
             curve[column] = float(record["meta"].get(column, math.nan))
         params: dict[str, Any] = {}

@@ -92,6 +92,9 @@ class Result:
     domain_bounds : dict
         What the domain declared of its metrics' ranges (its episode cap and value bounds,
         `conjure.experiments.metric_ranges.domain_bounds`); recorded with the run.
+    path : str
+        Which path the learning steps took: ``"compiled"`` or ``"python: <why not
+        compiled>"`` (`conjure.experiments.loop.learning_stepper`); recorded with the run.
     """
 
     rows: list[dict[str, Any]] = field(repr=False)
@@ -102,6 +105,7 @@ class Result:
     domain_name: str = ""
     is_complete: bool = True
     domain_bounds: dict[str, float] = field(default_factory=dict)
+    path: str = ""
 
     @functools.cached_property
     def curve(self) -> pd.DataFrame:
@@ -140,7 +144,8 @@ class Result:
             f"{format_number(last['return'])} (best {format_number(best)}, discounted "
             f"{format_number(last['discounted_return'])}, episode length "
             f"{format_number(last['episode_length'])}); {int(last['num_features']):,} "
-            f"features; {_format_rate(last['steps_per_second'])} learning steps/s."
+            f"features; {_format_rate(last['steps_per_second'])} learning steps/s"
+            + (f" ({self.path} path)." if self.path == "compiled" else f" ({self.path}).")
         )
 
 
@@ -251,7 +256,11 @@ def run(
     loop = learning_stepper(
         domain, agent, seed=seed_to_int(seeds["domain"]), budget_steps=budget_steps
     )
-    names = {"agent_name": type(agent).__name__, "domain_name": domain.domain_spec.name}
+    names = {
+        "agent_name": type(agent).__name__,
+        "domain_name": domain.domain_spec.name,
+        "path": loop.path,
+    }
     declared = domain_bounds(domain.domain_spec.max_episode_steps, bounds)
     int_seed = int(seed) if isinstance(seed, (int, np.integer)) else -1
 
@@ -360,5 +369,6 @@ def run_task(run_spec: dict[str, Any], run_fn: RunFunction = run_resolved) -> di
             "meta": meta,
         }
     meta["run_seconds"] = time.perf_counter() - started
+    meta["path"] = result.path
     meta.update(result.domain_bounds)
     return {"curve": result.columns(), "error": None, "meta": meta}
