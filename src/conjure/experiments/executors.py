@@ -812,6 +812,6 @@ def make_executor(
         except ImportError:
             raise InvalidParameterError(
                 f"The {name} executor needs {module!r}; install it with "
-                f"`pip install 'conjure[{extra}]'`."
+                f"`pip install -e '.[{extra}]'` in the conjure checkout."
             ) from None
     return EXECUTORS[name](max_workers=max_workers, address=address, max_memory=max_memory)

@@ -241,7 +241,8 @@ def tune(
         import optuna
     except ImportError:
         raise InvalidParameterError(
-            "`conjure tune` needs Optuna; install it with `pip install 'conjure[tune]'`."
+            "`conjure tune` needs Optuna; install it with `pip install -e '.[tune]'` in the "
+            "conjure checkout."
         ) from None
     config = parse_tune(config)
     sweep, search = config.sweep, config.search
