@@ -328,8 +328,8 @@ class ActorCritic(LinearTDAgent):
             if self._has_traces:
                 self.actor_traces_.grow(expansion)
 
-    def _state_arrays(self) -> dict[str, np.ndarray]:
-        arrays = super()._state_arrays()
+    def state_arrays(self) -> dict[str, np.ndarray]:
+        arrays = super().state_arrays()
         arrays["actor_weights"] = self.actor_weights_
         if self._has_traces:
             arrays.update(self.critic_traces_.state_arrays("critic_trace_"))
@@ -342,8 +342,8 @@ class ActorCritic(LinearTDAgent):
             )
         return arrays
 
-    def _load_state(self, saved: persistence.SavedAgent) -> None:
-        super()._load_state(saved)
+    def load_state(self, saved: persistence.SavedAgent) -> None:
+        super().load_state(saved)
         if not self._is_shared:
             self.actor_representation_.load_state_arrays(saved.with_prefix("actor_representation."))
         shape = (self.actor_representation_.num_features_, self.spec_.num_actions)

@@ -243,17 +243,20 @@ class BatchAgent(Agent):
         """Load an agent written by `save`; it continues exactly as if never saved."""
         return persistence.restore_agent(cls, path)
 
-    def _state_metadata(self) -> dict[str, Any]:
+    def state_metadata(self) -> dict[str, Any]:
+        """The agent's scalar state for `save` (RNG state, new-sample and iteration counts)."""
         return {
             "rng": rng_state(self.rng_),
             "num_new_samples": self.num_new_samples_,
             "iterations": self.iterations_,
         }
 
-    def _state_arrays(self) -> dict[str, np.ndarray]:
+    def state_arrays(self) -> dict[str, np.ndarray]:
+        """The agent's own arrays for `save` (the representation saves its own)."""
         return _pack_samples(self.samples_, self.spec_)
 
-    def _load_state(self, saved: persistence.SavedAgent) -> None:
+    def load_state(self, saved: persistence.SavedAgent) -> None:
+        """Restore what `state_metadata` and `state_arrays` saved, checking each array."""
         state = saved.state
         self.rng_ = rng_from_state(state["rng"])
         self.iterations_ = int(state["iterations"])

@@ -424,10 +424,10 @@ class FDLSTD(BatchAgent):
             active = np.concatenate([active, conjunctions + indicator.shape[0] - 1])
         return SparseFeatures(active, np.ones(active.shape[0]))
 
-    def _state_arrays(self) -> dict[str, np.ndarray]:
+    def state_arrays(self) -> dict[str, np.ndarray]:
         n0 = self.representation_.num_features_
         return {
-            **super()._state_arrays(),
+            **super().state_arrays(),
             "weights": self.weights_,
             "q_weights": self.q_weights_,
             "parents": self.parents_,
@@ -436,8 +436,8 @@ class FDLSTD(BatchAgent):
             "q_conjunctions": _padded([tuple(m[m < n0]) for m in self._q_members], n0),
         }
 
-    def _load_state(self, saved: persistence.SavedAgent) -> None:
-        super()._load_state(saved)
+    def load_state(self, saved: persistence.SavedAgent) -> None:
+        super().load_state(saved)
         n0, num_actions = self.representation_.num_features_, self.spec_.num_actions
         conjunctions = _unpadded(saved, "conjunctions", n0)
         q_conjunctions = _unpadded(saved, "q_conjunctions", n0)

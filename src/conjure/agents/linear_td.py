@@ -255,17 +255,20 @@ class LinearTDAgent(Agent):
         """
         return persistence.restore_agent(cls, path)
 
-    def _state_metadata(self) -> dict[str, Any]:
+    def state_metadata(self) -> dict[str, Any]:
+        """The agent's scalar state for `save` (episode and step counters, RNG state)."""
         return {
             "episode": self.episode_,
             "num_learning_steps": self.num_learning_steps_,
             "rng": rng_state(self.rng_),
         }
 
-    def _state_arrays(self) -> dict[str, np.ndarray]:
+    def state_arrays(self) -> dict[str, np.ndarray]:
+        """The agent's own arrays for `save` (the representation saves its own)."""
         return {"weights": self.weights_}
 
-    def _load_state(self, saved: persistence.SavedAgent) -> None:
+    def load_state(self, saved: persistence.SavedAgent) -> None:
+        """Restore what `state_metadata` and `state_arrays` saved, checking each array."""
         state = saved.state
         self.episode_ = int(state["episode"])
         self.num_learning_steps_ = int(state["num_learning_steps"])

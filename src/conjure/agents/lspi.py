@@ -207,10 +207,10 @@ class LSPI(BatchAgent):
 
     # ------------------------------------------------------------------ persistence
 
-    def _state_arrays(self) -> dict[str, np.ndarray]:
-        return {**super()._state_arrays(), "weights": self.weights_}
+    def state_arrays(self) -> dict[str, np.ndarray]:
+        return {**super().state_arrays(), "weights": self.weights_}
 
-    def _load_state(self, saved: persistence.SavedAgent) -> None:
-        super()._load_state(saved)
+    def load_state(self, saved: persistence.SavedAgent) -> None:
+        super().load_state(saved)
         shape = (self.representation_.num_features_, self.spec_.num_actions)
         self.weights_ = saved.array("weights", shape)

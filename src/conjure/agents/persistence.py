@@ -24,7 +24,7 @@ Loading trusts nothing in the files:
   raises one `InvalidParameterError` naming the file, never a raw ``BadZipFile`` or
   ``JSONDecodeError``.
 
-Agents implement ``_state_metadata()``, ``_state_arrays()`` and ``_load_state(saved)`` and
+Agents implement ``state_metadata()``, ``state_arrays()`` and ``load_state(saved)`` and
 delegate ``save`` and ``restore`` to `save_agent` and `restore_agent`.
 """
 
@@ -358,27 +358,27 @@ def read_agent(cls: type[AgentType], saved: SavedAgent) -> AgentType:
 
 
 def save_agent(agent: Any, path: str | Path) -> Path:
-    """Write a set-up linear agent: component tree, spec, ``_state_metadata`` and arrays.
+    """Write a set-up linear agent: component tree, spec, ``state_metadata`` and arrays.
 
     The arrays are the representation's (``representation.*``) and the agent's own
-    (``_state_arrays``).
+    (``state_arrays``).
     """
     arrays = prefixed("representation.", agent.representation_.state_arrays())
-    arrays.update(agent._state_arrays())
-    return write_agent(path, agent, agent._state_metadata(), arrays)
+    arrays.update(agent.state_arrays())
+    return write_agent(path, agent, agent.state_metadata(), arrays)
 
 
 def restore_agent(cls: type[AgentType], path: str | Path) -> AgentType:
     """Rebuild a linear agent of class ``cls`` saved by `save_agent`, checking what it loads.
 
     The agent is built from the saved component tree, set up for the saved spec, given the
-    representation's arrays and then its own state (``agent._load_state(saved)``).
+    representation's arrays and then its own state (``agent.load_state(saved)``).
     """
     saved = read(path)
     with saved.loading():
         agent = read_agent(cls, saved)
         agent.representation_.load_state_arrays(saved.with_prefix("representation."))
-        agent._load_state(saved)
+        agent.load_state(saved)
     return agent
 
 

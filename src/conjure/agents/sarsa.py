@@ -187,8 +187,8 @@ class SARSA(LinearTDAgent):
 
     # ------------------------------------------------------------------ persistence
 
-    def _state_arrays(self) -> dict[str, np.ndarray]:
-        arrays = super()._state_arrays()
+    def state_arrays(self) -> dict[str, np.ndarray]:
+        arrays = super().state_arrays()
         if self._has_traces:
             count = int(self.trace_count_[0])
             arrays["trace_features"] = self.trace_features_[:count]
@@ -196,8 +196,8 @@ class SARSA(LinearTDAgent):
             arrays["trace_values"] = self.trace_values_[:count]
         return arrays
 
-    def _load_state(self, saved: persistence.SavedAgent) -> None:
-        super()._load_state(saved)
+    def load_state(self, saved: persistence.SavedAgent) -> None:
+        super().load_state(saved)
         if not self._has_traces:
             return
         self._make_traces()

@@ -193,10 +193,10 @@ class CooperativeAgent(Agent):
         with saved.loading():
             agent = persistence.read_agent(cls, saved)
             agent.learner_ = type(agent.learner_).restore(directory / LEARNER_DIRECTORY)
-            agent._load_state(saved)
+            agent.load_state(saved)
         return agent
 
-    def _load_state(self, saved: persistence.SavedAgent) -> None:
+    def load_state(self, saved: persistence.SavedAgent) -> None:
         state = saved.state
         model = self.model_
         model.noise_ = self.planned_noise_ = float(state["planned_noise"])
