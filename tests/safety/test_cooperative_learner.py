@@ -286,3 +286,29 @@ def test_static_model_icca_on_gridworld2_ends_at_the_conservative_policy():
     assert min(finals[-1.0]) >= 0.6  # the conservative route on every seed
     assert np.mean(finals[None]) < 0.0  # as printed: cycling until the cap
     assert sum(failures[-1.0]) * 5 < sum(failures[None])
+
+
+def test_algorithm_24_takes_section_5_5_3s_extension_as_a_parameter():
+    # Issue 22: the extension was a subclass hook only AM-iCCA switched on.
+    domain = GridWorld(map_name="4x5", noise=0.0)
+    start = cell(0, 0)
+    for trusted, expected in ((None, 1), (1.0, 3)):
+        agent = CooperativeLearner(
+            learner=FakeLearner(action=3),
+            planner=ShortestPathPlanner(),
+            risk=FixedRiskAnalyzer(value=1.0),
+            model=gridworld_model(),
+            num_known_visits=1,
+            trusted_knownness=trusted,
+        ).setup(domain.domain_spec, seed=0)
+        agent.act(start)  # the planner's action (down, 1) becomes known
+        assert agent.act(start) == expected  # the learner's unsafe move, once trusted
+        assert agent.act(start, greedy=True) == expected
+    with pytest.raises(InvalidParameterError, match="trusted_knownness"):
+        CooperativeLearner(
+            learner=FakeLearner(action=3),
+            planner=ShortestPathPlanner(),
+            risk=FixedRiskAnalyzer(value=1.0),
+            model=gridworld_model(),
+            trusted_knownness=1.5,
+        ).setup(domain.domain_spec, seed=0)

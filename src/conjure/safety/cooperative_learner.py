@@ -10,7 +10,7 @@ import numpy as np
 
 from conjure.core.cooperative import CooperativePlanner, RiskAnalyzer
 from conjure.core.interfaces import Agent, Representation, Transition, check_is_set_up
-from conjure.core.params import Interval, Predicate
+from conjure.core.params import InstanceOf, Interval, Predicate
 from conjure.models.approximate_model import ApproximateModel
 from conjure.safety.cooperative_agent import CooperativeAgent
 
@@ -69,6 +69,14 @@ class CooperativeLearner(CooperativeAgent):
         Notes), any finite float: −1 is the grid worlds' pit reward; give a domain's own
         failure reward elsewhere (a UAV crash costs −Σ rewards, −1750 on UAV 7-2). ``None``:
         Algorithm 24 as printed, a vetoed proposal changes nothing.
+    trusted_knownness : float or None, default None
+        Section 5.5.3's extension: from this knownness in [0, 1] on, the learner's action is
+        executed without a safety check (line 5 skipped), so that a wrong model cannot filter
+        the learner forever; also in greedy acting. ``None``: always check (as printed).
+        Knownness moves in steps of 1/𝒦 and the learner is consulted from 1/𝒦 on, so a value
+        ≤ 1/𝒦 never checks a consulted learner. Section 5.5.3 adds it to AM-iCCA
+        (`AdaptiveCooperativeLearner`); it is a parameter here so that Algorithm 24 can use it
+        too.
 
     Attributes
     ----------
@@ -149,6 +157,7 @@ class CooperativeLearner(CooperativeAgent):
         **CooperativeAgent.parameter_constraints,
         "num_known_visits": Interval(int, 1, None),
         "veto_reward": Predicate(_is_reward_or_none, "a finite float or None"),
+        "trusted_knownness": Interval(float, 0.0, 1.0) | InstanceOf(type(None)),
     }
 
     def __init__(
@@ -161,6 +170,7 @@ class CooperativeLearner(CooperativeAgent):
         index: Representation | None = None,
         num_known_visits: int = 10,
         veto_reward: float | None = -1.0,
+        trusted_knownness: float | None = None,
     ):
         self.learner = learner
         self.planner = planner
@@ -169,6 +179,7 @@ class CooperativeLearner(CooperativeAgent):
         self.index = index
         self.num_known_visits = num_known_visits
         self.veto_reward = veto_reward
+        self.trusted_knownness = trusted_knownness
 
     def _build_tables(self, num_states: int, num_actions: int) -> None:
         self.counts_ = np.zeros((num_states, num_actions), dtype=np.int32)
@@ -245,5 +256,5 @@ class CooperativeLearner(CooperativeAgent):
         return planner_action if values[planner_action] >= values[best] else int(best)
 
     def _is_trusted(self, knownness: float) -> bool:
-        """Whether the learner's action may skip the safety check (Section 5.5.3; never here)."""
-        return False
+        """Whether the learner's action may skip the safety check (Section 5.5.3)."""
+        return self.trusted_knownness is not None and knownness >= self.trusted_knownness
