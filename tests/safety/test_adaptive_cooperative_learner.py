@@ -2,7 +2,6 @@ import tempfile
 
 import numpy as np
 import pytest
-from safety_fakes import FakeLearner, FixedRiskAnalyzer, cell, gridworld_model
 
 from conjure.agents import SARSA
 from conjure.domains import GridWorld
@@ -66,24 +65,6 @@ def test_replanning_waits_for_the_model_to_drift_more_than_delta_t():
             replanned_at.append(m)
     assert replanned_at == [15, 35, 63]
     assert agent.num_policy_changes_ == 1 and agent.planner_.is_aggressive_
-
-
-def test_trusted_knownness_skips_the_safety_check():
-    # Section 5.5.3: from knownness 1 the learner's (here always unsafe) action is executed.
-    domain = GridWorld(map_name="4x5", noise=0.0)
-    start = cell(0, 0)
-    for trusted, expected in ((None, 1), (1.0, 3)):
-        agent = AdaptiveCooperativeLearner(
-            learner=FakeLearner(action=3),
-            planner=ShortestPathPlanner(),
-            risk=FixedRiskAnalyzer(value=1.0),
-            model=gridworld_model(),
-            num_known_visits=1,
-            trusted_knownness=trusted,
-        ).setup(domain.domain_spec, seed=0)
-        agent.act(start)  # the planner's action (down, 1) becomes known
-        assert agent.act(start) == expected
-        assert agent.act(start, greedy=True) == expected
 
 
 def test_a_restored_agent_continues_with_the_switched_planner():

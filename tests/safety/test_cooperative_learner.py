@@ -14,6 +14,7 @@ from conjure.planners import ModelPlanner, ShortestPathPlanner
 from conjure.policies import EpsilonGreedy
 from conjure.representations import Tabular
 from conjure.safety import (
+    AdaptiveCooperativeLearner,
     CooperativeLearner,
     MonteCarloRiskAnalyzer,
     NominalRiskAnalyzer,
@@ -288,12 +289,14 @@ def test_static_model_icca_on_gridworld2_ends_at_the_conservative_policy():
     assert sum(failures[-1.0]) * 5 < sum(failures[None])
 
 
-def test_algorithm_24_takes_section_5_5_3s_extension_as_a_parameter():
-    # Issue 22: the extension was a subclass hook only AM-iCCA switched on.
+@pytest.mark.parametrize("kind", [CooperativeLearner, AdaptiveCooperativeLearner])
+def test_trusted_knownness_skips_the_safety_check_in_algorithms_24_and_26(kind):
+    # Section 5.5.3: from knownness 1 the learner's (here always unsafe) action is executed.
+    # Issue 22: it was a subclass hook only AM-iCCA switched on; Algorithm 24 takes it too.
     domain = GridWorld(map_name="4x5", noise=0.0)
     start = cell(0, 0)
     for trusted, expected in ((None, 1), (1.0, 3)):
-        agent = CooperativeLearner(
+        agent = kind(
             learner=FakeLearner(action=3),
             planner=ShortestPathPlanner(),
             risk=FixedRiskAnalyzer(value=1.0),
@@ -305,7 +308,7 @@ def test_algorithm_24_takes_section_5_5_3s_extension_as_a_parameter():
         assert agent.act(start) == expected  # the learner's unsafe move, once trusted
         assert agent.act(start, greedy=True) == expected
     with pytest.raises(InvalidParameterError, match="trusted_knownness"):
-        CooperativeLearner(
+        kind(
             learner=FakeLearner(action=3),
             planner=ShortestPathPlanner(),
             risk=FixedRiskAnalyzer(value=1.0),
