@@ -187,6 +187,8 @@ class ActorCritic(LinearTDAgent):
             self._trace_factor = self.discount_ * self.trace_decay
             self.critic_traces_ = RowTraces(self.weights_.shape[0], self.weights_.shape[1])
             self.actor_traces_ = RowTraces(actor.num_features_, spec.num_actions)
+            self._critic_units = np.eye(self.weights_.shape[1])  # e_column, no per-step array
+            self._actor_units = np.eye(spec.num_actions)
         return self
 
     def begin_episode(self) -> None:
@@ -285,15 +287,10 @@ class ActorCritic(LinearTDAgent):
     ) -> float:
         """δ, after z^θ ← γλz^θ + φ(s) ⊗ e_column and z^ω ← γλz^ω + ψ(s) ⊗ the actor's direction."""
         delta = target - float(_kernels.q_values(self.weights_, phi[0], phi[1])[column])
-        critic = np.zeros(self.weights_.shape[1])
-        critic[column] = 1.0
-        self.critic_traces_.step(self._trace_factor, phi, critic)
+        self.critic_traces_.step(self._trace_factor, phi, self._critic_units[column])
+        actor = self._actor_units[transition.action]
         if self._is_log_policy:
-            actor = -self._policy_of(transition.state) / self.policy_.temperature
-            actor[transition.action] += 1.0 / self.policy_.temperature
-        else:
-            actor = np.zeros(self.spec_.num_actions)
-            actor[transition.action] = 1.0
+            actor = (actor - self._policy_of(transition.state)) / self.policy_.temperature
         self.actor_traces_.step(self._trace_factor, psi, actor)
         return delta
 
