@@ -599,7 +599,8 @@ def _path_lines(results: pd.DataFrame) -> list[str]:
     lines = []
     for label, taken in paths.items():
         for path in (p for p in taken if p):
-            how = "compiled path" if path == "compiled" else f"Python path ({path[8:]})"
+            why = path.removeprefix("python: ")
+            how = "compiled path" if path == "compiled" else f"Python path ({why})"
             lines.append(f"{label}: learned on the {how}")
     return lines
 
