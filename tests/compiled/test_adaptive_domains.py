@@ -3,16 +3,15 @@
 BlocksWorld and Persistent Surveillance (Geramifard 2012, Section 4.1.4) with their initial
 features alone or under online iFDD / iFDD+, and the pendulum, GridWorld and chain with
 online iFDD over tile coding, a table or independent discretization
-(`conjure.compiled._adaptive_kernel`), learned by SARSA(λ), Q-Learning or Actor-Critic.
+(`conjure.compiled.loop`), learned by SARSA(λ), Q-Learning or Actor-Critic.
 """
 
 import numpy as np
 import pytest
 
 from conjure.agents import SARSA, ActorCritic, QLearning
-from conjure.compiled import CompiledStepper, for_combination
-from conjure.compiled import _adaptive_kernel as ak
-from conjure.compiled.combination import pack_combination
+from conjure.compiled import CompiledStepper, for_combination, why_not_compiled
+from conjure.compiled import loop as loop_module
 from conjure.core.schedules import EpisodicDecay, FeatureNormalizedDecay
 from conjure.domains import (
     BlocksWorld,
@@ -66,7 +65,7 @@ PST_REPRESENTATIONS = {
     "pst-ifdd-fixed-rate": lambda: OnlineIFDD(base=IndependentDiscretization(), discovery_rate=2),
     "pst-independent": IndependentDiscretization,
 }
-#: Every action legal (the domains of `conjure.compiled._kernels`), iFDD over fixed features.
+#: Every action legal (pendulum, grid world, chain), iFDD over fixed features.
 UNCONSTRAINED_REPRESENTATIONS = {
     "pendulum-ifdd-plus-over-tiles": lambda: OnlineIFDD(
         base=TileCoding(), relevance="ifdd_plus", discovery_threshold=0.05
@@ -213,7 +212,7 @@ def _check_both_paths(rep: str, agent_name: str, seed: int) -> None:
     python_checks = _learn(loop, python_agent, seed, rep)
     domain, agent = _build(rep, agent_name, seed)
     stepper = for_combination(domain, agent, seed=seed)
-    assert isinstance(stepper, CompiledStepper) and stepper.combination.is_adaptive
+    assert isinstance(stepper, CompiledStepper)
     assert _learn(stepper, agent, seed, rep) == python_checks
     np.testing.assert_array_equal(agent.weights_, python_agent.weights_)
     if isinstance(agent, ActorCritic):
@@ -290,25 +289,20 @@ def test_one_compilation_serves_every_adaptive_combination():
         for agent_name in [*AGENTS, *ACTOR_CRITIC]:
             domain, agent = _build(rep, agent_name, 3)
             for_combination(domain, agent, seed=3).advance(30)
-    assert len(ak.adaptive_kernel.overloads) == 1
+    binary = [
+        s for s in loop_module.learning_loop.overloads if str(s[3].types[0].types[-1]) == "none"
+    ]
+    assert len(binary) == 1
 
 
 @pytest.mark.parametrize(
     ("domain", "agent"),
     [
-        (BlocksWorld(), SARSA(representation=RandomExpansion(base=BinaryIndicators()))),
-        (PersistentSurveillance(), SARSA(representation=TileCoding(memory_size=64))),
-        (
-            PersistentSurveillance(),
-            SARSA(representation=OnlineIFDD(base=TileCoding(memory_size=64))),
-        ),
         (
             BlocksWorld(),
             ActorCritic(representation=BinaryIndicators(), actor_representation=BinaryIndicators()),
         ),  # separate actor features
         (InvertedPendulum(), SARSA(representation=OnlineIFDD(base=HashedTabular()))),
-        (RescueMission(), SARSA(representation=TileCoding(memory_size=64))),
-        (UAVMission(), QLearning(representation=OnlineIFDD(base=TileCoding(memory_size=64)))),
         (
             InvertedPendulum(),
             ActorCritic(
@@ -318,7 +312,24 @@ def test_one_compilation_serves_every_adaptive_combination():
     ],
 )
 def test_adaptive_combinations_the_kernel_does_not_cover(domain, agent):
-    assert pack_combination(domain, agent.setup(domain.domain_spec, 0)) is None
+    assert why_not_compiled(domain, agent.setup(domain.domain_spec, 0)) is not None
+
+
+#: Pairs the components' kernels compose into without a line of their own in the loop.
+COMPOSED = {
+    "random-expansion": lambda: RandomExpansion(base=BinaryIndicators(), discovery_rate=0.4),
+    "pst-hashed-tiles": lambda: TileCoding(memory_size=64),
+    "rescue-hashed-tiles": lambda: TileCoding(memory_size=64),
+    "uav-ifdd-over-hashed-tiles": lambda: OnlineIFDD(
+        base=TileCoding(memory_size=64), discovery_threshold=0.5
+    ),
+}
+
+
+@pytest.mark.parametrize("rep", list(COMPOSED))
+def test_composed_pairs_give_the_same_learner_on_both_paths(rep, monkeypatch):
+    monkeypatch.setitem(ALL_REPRESENTATIONS, rep, COMPOSED[rep])
+    _check_both_paths(rep, "sarsa", 4)
 
 
 def test_persistent_surveillance_counts_crashes_as_python_does():

@@ -6,11 +6,11 @@ import pytest
 from conjure.agents import SARSA, ActorCritic, QLearning
 from conjure.compiled import (
     CompiledStepper,
-    _kernels,
     compile_seconds,
     for_combination,
     warm_up,
 )
+from conjure.compiled import loop as loop_module
 from conjure.compiled import stepper as stepper_module
 from conjure.core.errors import DivergenceError, InvalidParameterError
 from conjure.core.schedules import EpisodicDecay, FeatureNormalizedDecay
@@ -269,8 +269,8 @@ def test_one_compilation_serves_every_binary_combination_and_one_every_rbf_one()
     for name in COMBINATIONS:
         domain, agent = _build(name, 1)
         for_combination(domain, agent, seed=1).advance(50)
-    # The representation tuple ends with None (binary φ) or RBF's arrays (real-valued φ).
-    last = sorted(str(sig[8].types[-1]) for sig in _kernels.advance_kernel.overloads)
+    # The representation's base ends with None (binary φ) or RBF's arrays (real-valued φ).
+    last = sorted(str(sig[3].types[0].types[-1]) for sig in loop_module.learning_loop.overloads)
     assert len(last) == 2 and last[1] == "none" and last[0].startswith("UniTuple")
 
 

@@ -20,7 +20,7 @@ from conjure.core.interfaces import (
 from conjure.core.params import InstanceOf, Interval, Options
 from conjure.core.schedules import StepSizeSchedule
 from conjure.policies import Gibbs, greedy_action
-from conjure.representations.weights import grow_weights
+from conjure.representations.weights import grow_weights, with_room
 
 __all__ = ["ActorCritic"]
 
@@ -190,6 +190,31 @@ class ActorCritic(LinearTDAgent):
             self._critic_units = np.eye(self.weights_.shape[1])  # e_column, no per-step array
             self._actor_units = np.eye(spec.num_actions)
         return self
+
+    compiled_variant = (
+        "Algorithm 12 as printed only: critic='q', actor_update='features', the actor sharing "
+        "the critic's features, no traces"
+    )
+
+    def compiled_form(self) -> _kernels.AgentKernel | None:
+        """Algorithm 12 as printed for the compiled loop (see `compiled_variant`), else None."""
+        check_is_set_up(self, "compiled_form")
+        printed = self.critic == "q" and self.actor_update == "features"
+        if not (printed and self._is_shared and not self._has_traces):
+            return None
+        return self._kernel(_kernels.ACTOR_CRITIC, actor_schedule=self.actor_schedule_)
+
+    def compiled_arrays(self, rows: int = 0) -> _kernels.LearnerArrays:
+        """θ and the actor's ω, each with room for ``rows`` features."""
+        arrays = super().compiled_arrays(rows)
+        return arrays._replace(actor_weights=with_room(self.actor_weights_, rows))
+
+    def load_compiled_arrays(
+        self, arrays: _kernels.LearnerArrays, num_features: int | None = None
+    ) -> None:
+        rows = self.weights_.shape[0] if num_features is None else num_features
+        super().load_compiled_arrays(arrays, rows)
+        self.actor_weights_ = arrays.actor_weights[:rows]
 
     def begin_episode(self) -> None:
         """Count a new episode and clear the eligibility traces."""

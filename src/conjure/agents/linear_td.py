@@ -29,6 +29,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from conjure.agents import _kernels, persistence
+from conjure.core.compiled_form import compiled_form
 from conjure.core.errors import DivergenceError, IncompatibleComponentsError
 from conjure.core.interfaces import (
     Agent,
@@ -44,7 +45,7 @@ from conjure.core.params import InstanceOf, Interval
 from conjure.core.schedules import ConstantStepSize, StepSizeSchedule
 from conjure.core.seeding import make_rng, rng_from_state, rng_state, split_seed
 from conjure.policies import EpsilonGreedy, greedy_action
-from conjure.representations.weights import grow_weights
+from conjure.representations.weights import grow_weights, with_room
 
 __all__ = ["STEP_SIZE", "LinearTDAgent", "state_key"]
 
@@ -54,6 +55,14 @@ STEP_SIZE = Interval(float, 0, None, closed="neither") | InstanceOf(
 _FLOAT64 = np.dtype(np.float64)
 _NDARRAY = np.ndarray
 _q_values = _kernels.q_values
+#: The trace arrays of `compiled_arrays` for a learner without traces.
+_NO_TRACES = (
+    np.zeros((0, 0), dtype=np.int64),
+    np.zeros(0, dtype=np.int64),
+    np.zeros(0, dtype=np.int64),
+    np.zeros(0),
+    np.zeros(1, dtype=np.int64),
+)
 _l1_norm = _kernels.l1_norm
 
 
@@ -80,6 +89,12 @@ class LinearTDAgent(Agent):
         "initial_weight": Interval(float, None, None),
     }
     default_policy: ClassVar[type[Policy]] = EpsilonGreedy
+    #: The methods a compiled form stands in for (`conjure.core.compiled_form`).
+    compiled_methods: ClassVar[tuple[str, ...]] = (
+        "act", "learn", "begin_episode", "_bootstrap", "_update", "_after_update",
+    )  # fmt: skip
+    #: What the compiled loop covers of the learner (said when a run falls back to Python).
+    compiled_variant: ClassVar[str] = ""
 
     # ------------------------------------------------------------------ lifecycle
 
@@ -104,7 +119,7 @@ class LinearTDAgent(Agent):
         self.num_learning_steps_ = 0
         self._all_actions = np.arange(spec.num_actions, dtype=np.int64)
         self._encode = self.representation_.encode
-        self._forget_cache()
+        self.forget_cache()
         self.is_set_up_ = True
         return self
 
@@ -112,6 +127,45 @@ class LinearTDAgent(Agent):
         """Count a new episode (the schedules' ``Episode #``)."""
         check_is_set_up(self, "begin_episode")
         self.episode_ += 1
+
+    def _kernel(
+        self,
+        kind: int,
+        traces: int = _kernels.NO_TRACES,
+        trace_decay: float = 0.0,
+        min_trace: float = 0.0,
+        actor_schedule: StepSizeSchedule | None = None,
+    ) -> _kernels.AgentKernel | None:
+        """The `AgentKernel` of a set-up learner, or None if its policy or a schedule has none."""
+        check_is_set_up(self, "compiled_form")
+        parts = (self.policy_, self.schedule_, actor_schedule or self.schedule_)
+        policy, schedule, actor = (compiled_form(part) for part in parts)
+        if policy is None or schedule is None or actor is None:
+            return None
+        return _kernels.AgentKernel(
+            kind, traces, trace_decay, min_trace, self.discount_, schedule, actor, policy
+        )
+
+    def compiled_arrays(self, rows: int = 0) -> _kernels.LearnerArrays:
+        """θ, ω and the traces for the compiled loop, with room for ``rows`` features.
+
+        The arrays are the learner's own (or buffers they lead, `with_room`), updated in
+        place; `load_compiled_arrays` takes them back.
+        """
+        check_is_set_up(self, "compiled_arrays")
+        weights = with_room(self.weights_, rows)
+        return _kernels.LearnerArrays(weights, weights, *_NO_TRACES)
+
+    def load_compiled_arrays(
+        self, arrays: _kernels.LearnerArrays, num_features: int | None = None
+    ) -> None:
+        """Take θ back from the compiled loop and drop the cache.
+
+        The first ``num_features`` rows (default: as many as now) stay in use.
+        """
+        rows = self.weights_.shape[0] if num_features is None else num_features
+        self.weights_ = arrays.weights[:rows]
+        self.forget_cache()
 
     @property
     def num_features(self) -> int:
@@ -187,7 +241,7 @@ class LinearTDAgent(Agent):
     def _grow(self, expansion: Expansion) -> None:
         """Add rows for new features, θ_f = θ_g + θ_h (Section 4.1.1), and drop stale caches."""
         self.weights_ = grow_weights(self.weights_, expansion)
-        self._forget_cache()
+        self.forget_cache()
 
     def _step_size(self, schedule: StepSizeSchedule, phi: SparseFeatures) -> float:
         """α_t of ``schedule`` for this episode and φ(s) (k_t = |φ(s)|₁ only if it is used)."""
@@ -196,7 +250,11 @@ class LinearTDAgent(Agent):
 
     # ------------------------------------------------------------------ the act/learn cache
 
-    def _forget_cache(self) -> None:
+    def forget_cache(self) -> None:
+        """Drop the features and Q-values ``act`` cached: θ or φ changed outside ``learn``.
+
+        The compiled loop (`conjure.compiled`) calls it after it updated θ in place.
+        """
         self._weights_version = 0
         self._last = (None, None, None, -1)
         self._before_last = (None, None, None, -1)
@@ -277,7 +335,7 @@ class LinearTDAgent(Agent):
         self.weights_ = saved.array(
             "weights", (self.representation_.num_features_, self.weights_.shape[1])
         )
-        self._forget_cache()
+        self.forget_cache()
 
 
 #: The largest weight table a learner allocates (θ is n_features x |A| float64 numbers).

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from conjure.agents import _kernels
 from conjure.agents.linear_td import LinearTDAgent
 from conjure.core.interfaces import Policy, Representation, Transition
 from conjure.core.schedules import StepSizeSchedule
@@ -68,6 +69,10 @@ class QLearning(LinearTDAgent):
         self.policy = policy
         self.step_size = step_size
         self.initial_weight = initial_weight
+
+    def compiled_form(self) -> _kernels.AgentKernel | None:
+        """Q-Learning for the compiled loop (no parameters beyond the shared ones)."""
+        return self._kernel(_kernels.Q_LEARNING)
 
     def _bootstrap(self, transition: Transition) -> float:
         q_next = self._next_q_values(transition.next_state)

@@ -16,7 +16,7 @@ from conjure.core.interfaces import (
 )
 from conjure.core.params import Interval, Options
 from conjure.core.schedules import StepSizeSchedule
-from conjure.representations.weights import append_rows
+from conjure.representations.weights import append_rows, with_room
 
 __all__ = ["SARSA"]
 
@@ -119,6 +119,35 @@ class SARSA(LinearTDAgent):
             self._make_traces()
         return self
 
+    def compiled_form(self) -> _kernels.AgentKernel | None:
+        """SARSA(λ) for the compiled loop: γλ, the trace kind and the smallest trace kept."""
+        if not self._has_traces:
+            return self._kernel(_kernels.SARSA)
+        kind = _kernels.REPLACING if self.trace_kind == "replacing" else _kernels.ACCUMULATING
+        return self._kernel(_kernels.SARSA, kind, self._trace_factor, float(self.min_trace))
+
+    def compiled_arrays(self, rows: int = 0) -> _kernels.LearnerArrays:
+        """θ and, with λ > 0, the sparse traces (their slots with room for ``rows`` features)."""
+        arrays = super().compiled_arrays(rows)
+        if not self._has_traces:
+            return arrays
+        slots = with_room(self.trace_slots_, rows)
+        return arrays._replace(
+            trace_slots=slots,
+            trace_features=self.trace_features_,
+            trace_actions=self.trace_actions_,
+            trace_values=self.trace_values_,
+            trace_count=self.trace_count_,
+        )
+
+    def load_compiled_arrays(
+        self, arrays: _kernels.LearnerArrays, num_features: int | None = None
+    ) -> None:
+        rows = self.weights_.shape[0] if num_features is None else num_features
+        super().load_compiled_arrays(arrays, rows)
+        if self._has_traces:
+            self.trace_slots_ = arrays.trace_slots[:rows]
+
     def _bootstrap(self, transition: Transition) -> float:
         return self._next_q_values(transition.next_state)[transition.next_action]  # Q(s', a')
 
@@ -167,9 +196,10 @@ class SARSA(LinearTDAgent):
             )
             if not np.isnan(delta):
                 return delta
-            self._grow_trace_capacity()
+            self.grow_trace_capacity()
 
-    def _grow_trace_capacity(self) -> None:
+    def grow_trace_capacity(self) -> None:
+        """Double the room of the sparse traces (the compiled loop asks before it overflows)."""
         extra = self.trace_values_.shape[0]
         self.trace_features_ = np.concatenate([self.trace_features_, np.zeros(extra, np.int64)])
         self.trace_actions_ = np.concatenate([self.trace_actions_, np.zeros(extra, np.int64)])
@@ -215,7 +245,7 @@ class SARSA(LinearTDAgent):
         if np.unique(features * num_actions + actions).shape[0] != count:
             raise saved.damaged("arrays.npz", "two eligibility traces share a (feature, action)")
         while self.trace_values_.shape[0] < count:
-            self._grow_trace_capacity()
+            self.grow_trace_capacity()
         self.trace_features_[:count] = features
         self.trace_actions_[:count] = actions
         self.trace_values_[:count] = values

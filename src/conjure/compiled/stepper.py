@@ -1,7 +1,7 @@
 """The compiled learning stepper: ``advance(n)`` runs n learning steps in one numba call.
 
 `for_combination` returns a `CompiledStepper` when the domain, representation, agent, policy
-and step-size schedule all have compiled kernels (see `conjure.compiled.combination`), and
+and step-size schedule all have compiled kernels (see `conjure.compiled.selection`), and
 ``None`` otherwise, so that the caller keeps the Python path. The stepper is a drop-in for
 `conjure.experiments.loop.LearningLoop` (same counters, same pausable episodes) whose
 ``advance`` also returns the episodes that ended.
@@ -39,25 +39,16 @@ Notes
 from __future__ import annotations
 
 import time
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import numpy as np
 from numba.core import types
 
-from conjure.compiled import _adaptive_kernel as ak
-from conjure.compiled import _kernels as k
-from conjure.compiled.combination import (
-    EMPTY_FLOAT_TABLE,
-    EMPTY_FLOATS,
-    EMPTY_INT_TABLE,
-    EMPTY_INTS,
-    Combination,
-    pack_combination,
-)
+from conjure.compiled import loop as lp
+from conjure.compiled.selection import Selection, agent_form, representation_form, select
 from conjure.core.errors import DivergenceError, InvalidParameterError
 from conjure.core.interfaces import Agent, Domain
-from conjure.representations._ifdd_kernels import I_NUM_FEATURES
-from conjure.representations.weights import _is_leading_view
+from conjure.representations.ifdd_form import num_features
 
 __all__ = [
     "AdvanceStats",
@@ -68,18 +59,13 @@ __all__ = [
     "warm_up",
 ]
 
-#: Stand-ins of `OnlineIFDD`'s `activate` and `discover` argument tuples (same types) for
-#: the indicators alone, so both run in one compilation of the adaptive kernel.
-_I1, _I2, _F1, _F2 = EMPTY_INTS, EMPTY_INT_TABLE, EMPTY_FLOATS, EMPTY_FLOAT_TABLE
-_NO_ACTIVATE = (_I1, _I1, _I1, _I1, _I2, _I2, _I2, _I2, _I1, _I2, _I1)
-_NO_DISCOVER = (_I1, _I1, _I1, _I1, _I2, _I1, _I1, _I1, _I1, _I2, _F2, _I1, _I1, _I1, _I1, _F1)
 #: Steps per kernel call at most: a fraction of a second on the fast combinations, a few
 #: seconds on the slowest (online iFDD on the UAV missions, about 10⁵ steps/s).
 MAX_KERNEL_STEPS = 2**18
-#: The first call's seconds (compile or cache load) of each kernel, by `_kernel_name`.
+#: The first call's seconds (compile or cache load) of each compilation, by `_kernel_name`.
 _COMPILE_SECONDS: dict[str, float] = {}
-#: Position of the representation tuple among ``advance_kernel``'s arguments.
-_REP_ARGUMENT = 8
+#: Position of the representation among `learning_loop`'s arguments.
+_REP_ARGUMENT = 3
 
 
 class AdvanceStats(NamedTuple):
@@ -112,8 +98,8 @@ class CompiledStepper:
         The learning domain.
     agent : Agent
         The set-up learner.
-    combination : Combination
-        Its packed constants (`conjure.compiled.combination.pack_combination`).
+    selection : Selection
+        What `conjure.compiled.selection.select` found for them.
     seed : int or None, default None
         Passed to the first ``domain.reset(seed=...)``.
 
@@ -129,25 +115,23 @@ class CompiledStepper:
     path = "compiled"
 
     def __init__(
-        self, domain: Domain, agent: Agent, combination: Combination, *, seed: int | None = None
+        self, domain: Domain, agent: Agent, selection: Selection, *, seed: int | None = None
     ):
         self.domain = domain
         self.agent = agent
-        self.combination = combination
+        self.selection = selection
         self.total_steps = 0
         self.num_episodes = 0
         self.num_failures = 0
         self._seed = seed
         self._started = False
-        spec = domain.domain_spec
-        self._obs = np.zeros(spec.num_dims)
-        self._loop = np.zeros(6, dtype=np.int64)
-        self._loop_f = np.zeros(3)
+        self._obs = np.zeros(domain.domain_spec.num_dims)
+        self._state = lp.new_loop_state()
 
     @property
     def is_mid_episode(self) -> bool:
         """Whether an episode is in progress."""
-        return bool(self._loop[k.L_PHASE] == k.IN_EPISODE)
+        return bool(self._state.phase[0] == lp.IN_EPISODE)
 
     @property
     def num_completed_episodes(self) -> int:
@@ -167,46 +151,38 @@ class CompiledStepper:
             raise InvalidParameterError(f"`num_steps` must be an int; got {num_steps!r}.")
         if num_steps < 0:
             raise InvalidParameterError(f"`num_steps` must be >= 0; got {num_steps!r}.")
-        combo, domain, agent, loop = self.combination, self.domain, self.agent, self._loop
+        domain, agent, state = self.domain, self.agent, self._state
         if not self._started and num_steps > 0:
             self._obs[:] = domain.reset(seed=self._seed)[0]
             self._started = True
-            loop[k.L_PHASE] = k.NEEDS_BEGIN
-        dstate = combo.read_domain(domain)
-        loop[k.L_EPISODE] = agent.episode_
-        loop[k.L_LEARNING_STEPS] = agent.num_learning_steps_
+            state.phase[0] = lp.NEEDS_BEGIN
+        domain_form = domain.compiled_form()  # the domain's current state
+        state.episode[0] = agent.episode_
+        state.learning_steps[0] = agent.num_learning_steps_
         chunks: list[tuple[np.ndarray, np.ndarray]] = []
         done = failures = 0
         diverged: float | None = None
         try:
             while done < num_steps:
-                before = int(loop[k.L_EPISODE])
-                status, steps, fails, delta, ep_float, ep_int = _call_kernel(
-                    min(num_steps - done, MAX_KERNEL_STEPS),
-                    combo,
-                    dstate,
-                    domain,
-                    agent,
-                    self._obs,
-                    loop,
-                    self._loop_f,
+                before = int(state.episode[0])
+                status, steps, fails, delta, ep_float, ep_int = self._call(
+                    min(num_steps - done, MAX_KERNEL_STEPS), domain_form
                 )
-                self.num_episodes += int(loop[k.L_EPISODE]) - before
+                self.num_episodes += int(state.episode[0]) - before
                 done += steps
                 failures += fails
                 chunks.append((ep_float, ep_int))
-                if status == k.GROW_TRACES:
-                    agent._grow_trace_capacity()
-                elif combo.is_adaptive and status == ak.GROW_REPRESENTATION:
-                    agent.representation_._grow()
-                elif status == k.DIVERGED:
+                if status == lp.GROW_TRACES:
+                    agent.grow_trace_capacity()
+                elif status == lp.GROW_REPRESENTATION:
+                    agent.representation_.grow()
+                elif status == lp.DIVERGED:
                     diverged = delta
                     break
         finally:
-            combo.write_domain(domain, dstate)
-            agent.episode_ = int(loop[k.L_EPISODE])
-            agent.num_learning_steps_ = int(loop[k.L_LEARNING_STEPS])
-            agent._forget_cache()
+            domain.load_compiled_form(domain_form)
+            agent.episode_ = int(state.episode[0])
+            agent.num_learning_steps_ = int(state.learning_steps[0])
             self.total_steps += done
             self.num_failures += failures
         if diverged is not None:
@@ -217,116 +193,31 @@ class CompiledStepper:
             done, failures, ep_float[:, 0], ep_float[:, 1], ep_int[:, 0], ep_int[:, 1]
         )
 
-
-def _call_kernel(
-    num_steps: int,
-    combo: Combination,
-    dstate: np.ndarray,
-    domain: Domain,
-    agent: Agent,
-    obs: np.ndarray,
-    loop: np.ndarray,
-    loop_f: np.ndarray,
-) -> tuple:
-    """One call of the combination's kernel with the agent's current arrays (they may grow)."""
-    if combo.is_adaptive:
-        kernel, buffers, middle = ak.adaptive_kernel, *_adaptive_arguments(combo, agent)
-        states = (EMPTY_INTS, dstate) if dstate.dtype == np.float64 else (dstate, EMPTY_FLOATS)
-        middle = (*combo.domain_arrays, *states, domain.np_random, *middle)
-    else:
-        kernel, buffers, middle = k.advance_kernel, None, _fixed_arguments(combo, agent)
-        middle = (*combo.domain_arrays, dstate, domain.np_random, *middle)
-    args = (combo.ints, combo.floats, *middle, agent.rng_, obs, loop, loop_f)
-    name = _kernel_name(combo)
-    if name not in _COMPILE_SECONDS:  # a zero-step call: compile (or load the cache) alone
-        started = time.perf_counter()
-        kernel(0, *args)
-        _COMPILE_SECONDS[name] = time.perf_counter() - started
-    try:
-        return kernel(num_steps, *args)
-    finally:
-        if buffers is not None:  # θ, ω, slots: the first n_t rows of the buffers it grew
-            weights, actor, slots = buffers
-            rep = agent.representation_
-            rep.num_features_ = int(rep._ints[I_NUM_FEATURES])
-            agent.weights_ = weights[: rep.num_features_]
-            if actor is not weights:
-                agent.actor_weights_ = actor[: rep.num_features_]
-            if slots is not None:
-                agent.trace_slots_ = slots[: rep.num_features_]
+    def _call(self, num_steps: int, domain_form: Any) -> tuple:
+        """One call of the loop with the learner's current arrays (iFDD may have grown them)."""
+        agent, representation = self.agent, self.agent.representation_
+        rep = representation_form(agent)
+        assert rep is not None  # `select` checked it
+        rows = representation.capacity_ if rep.is_ifdd else 0
+        arrays = agent.compiled_arrays(rows)
+        args = (domain_form, self.domain.np_random, rep, agent_form(agent), arrays, agent.rng_,
+                self.selection.max_episode_steps, self._obs, self._state)  # fmt: skip
+        name = _kernel_name(self.selection)
+        if name not in _COMPILE_SECONDS:  # a zero-step call: compile (or load the cache) alone
+            started = time.perf_counter()
+            lp.learning_loop(0, *args)
+            _COMPILE_SECONDS[name] = time.perf_counter() - started
+        try:
+            return lp.learning_loop(num_steps, *args)
+        finally:
+            if rep.is_ifdd:
+                representation.load_compiled_form(rep)
+            agent.load_compiled_arrays(arrays, int(num_features(rep)) if rep.is_ifdd else None)
 
 
-def _is_real_valued(combo: Combination) -> bool:
-    """Whether φ has real values (`RBF`): ``advance_kernel``'s second compilation."""
-    return not combo.is_adaptive and combo.representation_arrays[-1] is not None
-
-
-def _kernel_name(combo: Combination) -> str:
-    """The kernel compilation ``combo`` runs in (the `_COMPILE_SECONDS` key)."""
-    if combo.is_adaptive:
-        return ak.adaptive_kernel.__name__
-    return k.advance_kernel.__name__ + ("[real-valued]" if _is_real_valued(combo) else "")
-
-
-def _fixed_arguments(combo: Combination, agent: Agent) -> tuple:
-    """``advance_kernel``'s representation, weight and trace arguments."""
-    return (
-        combo.representation_arrays,
-        agent.weights_,
-        _actor(combo, agent),
-        *_traces(combo, agent),
-    )
-
-
-def _actor(combo: Combination, agent: Agent) -> np.ndarray:
-    """Actor-Critic's ω, or θ for the other learners (the kernels' ``actor_weights``)."""
-    return agent.actor_weights_ if combo.ints[k.I_AGENT] == k.ACTOR_CRITIC else agent.weights_
-
-
-def _traces(combo: Combination, agent: Agent, slots: np.ndarray | None = None) -> tuple:
-    """The sparse trace arguments (``slots`` replaces ``trace_slots_``), or stand-ins."""
-    if combo.ints[k.I_TRACES] == k.NO_TRACES:
-        return (EMPTY_INT_TABLE, EMPTY_INTS, EMPTY_INTS, EMPTY_FLOATS, EMPTY_INTS)
-    return (
-        agent.trace_slots_ if slots is None else slots,
-        agent.trace_features_,
-        agent.trace_actions_,
-        agent.trace_values_,
-        agent.trace_count_,
-    )
-
-
-def _adaptive_arguments(combo: Combination, agent: Agent) -> tuple:
-    """(buffers if iFDD may grow them else None, ``adaptive_kernel``'s tables).
-
-    The buffers (θ, ω, trace slots; ω is θ itself but for Actor-Critic) get room for every
-    feature the iFDD tables can hold, so no discovery outgrows them.
-    """
-    base = combo.representation_arrays
-    if not combo.ints[k.I_IFDD]:
-        weights = (agent.weights_, _actor(combo, agent))
-        return None, (base, _NO_ACTIVATE, _NO_DISCOVER, *weights, *_traces(combo, agent))
-    rep = agent.representation_
-    capacity = rep._discover_args[2].shape[0]  # feat_start: the most features it holds
-    weights = _row_buffer(agent.weights_, capacity)
-    actor = _actor(combo, agent)
-    actor = weights if actor is agent.weights_ else _row_buffer(actor, capacity)
-    has_traces = combo.ints[k.I_TRACES] != k.NO_TRACES
-    slots = _row_buffer(agent.trace_slots_, capacity) if has_traces else None
-    traces = _traces(combo, agent, slots)
-    tables = (rep._activate_args, rep._discover_args, weights, actor, *traces)
-    return (weights, actor, slots), (base, *tables)
-
-
-def _row_buffer(array: np.ndarray, rows: int) -> np.ndarray:
-    """``array`` or the buffer it leads (`append_rows`) if it has ``rows`` rows, else a copy."""
-    if array.shape[0] >= rows and array.flags.c_contiguous:
-        return array
-    if _is_leading_view(array) and array.base.shape[0] >= rows:
-        return array.base
-    buffer = np.empty((max(rows, 2 * array.shape[0]), *array.shape[1:]), dtype=array.dtype)
-    buffer[: array.shape[0]] = array
-    return buffer
+def _kernel_name(selection: Selection) -> str:
+    """The loop compilation ``selection`` runs in (the `_COMPILE_SECONDS` key)."""
+    return lp.learning_loop.__name__ + ("[real-valued]" if selection.is_real_valued else "")
 
 
 def _divergence(agent: Agent, delta: float) -> DivergenceError:
@@ -343,26 +234,20 @@ def compile_seconds() -> float | None:
 
 
 def is_warm(stepper: CompiledStepper | None = None) -> bool:
-    """Whether ``stepper``'s kernel (default ``advance_kernel``, binary φ) runs without compiling.
+    """Whether ``stepper``'s loop compilation (default: binary φ) runs without compiling.
 
-    Warm means called in this process or found in numba's on-disk cache (for
-    ``advance_kernel``, the compilation of ``stepper``'s binary or real-valued φ). Reads
-    numba's cache index (a private numba API); if that API changes the kernel is treated as
-    cold, which only costs speed.
+    Warm means called in this process or found in numba's on-disk cache (the compilation for
+    ``stepper``'s binary or real-valued φ). Reads numba's cache index (a private numba API);
+    if that API changes the loop is treated as cold, which only costs speed.
     """
-    combo = None if stepper is None else stepper.combination
-    is_adaptive = combo is not None and combo.is_adaptive
-    kernel = ak.adaptive_kernel if is_adaptive else k.advance_kernel
-    name = kernel.__name__ if combo is None else _kernel_name(combo)
+    real_valued = stepper is not None and stepper.selection.is_real_valued
+    name = lp.learning_loop.__name__ + ("[real-valued]" if real_valued else "")
     if name in _COMPILE_SECONDS:
         return True
-    real_valued = combo is not None and _is_real_valued(combo)
     try:
-        index = kernel._cache._cache_file._load_index()
-        if is_adaptive:
-            return bool(index)
+        index = lp.learning_loop._cache._cache_file._load_index()
         return any(
-            (signature[_REP_ARGUMENT].types[-1] != types.none) == real_valued
+            (signature[_REP_ARGUMENT].types[0].types[-1] != types.none) == real_valued
             for signature, *_ in index
         )
     except (AttributeError, OSError, EOFError, ValueError, IndexError, TypeError):
@@ -370,28 +255,24 @@ def is_warm(stepper: CompiledStepper | None = None) -> bool:
 
 
 def warm_up() -> float:
-    """Compile both kernels (or load them from the disk cache) and return `compile_seconds`.
+    """Compile the loop (or load it from the disk cache) and return `compile_seconds`.
 
-    Each kernel serves all its combinations (``advance_kernel`` in its binary and real-valued
-    compilations), so a parent process can call this once before starting workers, which
-    then load the cached code.
+    One compilation serves every combination of binary φ and one every real-valued φ, so a
+    parent process can call this once before starting workers, which then load the cached
+    code.
     """
     from conjure.agents.sarsa import SARSA
-    from conjure.domains.blocksworld import BlocksWorld
     from conjure.domains.chain import ChainMDP
-    from conjure.representations import RBF, BinaryIndicators, OnlineIFDD, Tabular
+    from conjure.representations import RBF, Tabular
 
-    for domain, representation in (
-        (ChainMDP(), Tabular()),
-        (ChainMDP(), RBF()),
-        (BlocksWorld(num_blocks=2), OnlineIFDD(base=BinaryIndicators())),
-    ):
+    for representation in (Tabular(), RBF()):
+        domain = ChainMDP()
         agent = SARSA(representation=representation).setup(domain.domain_spec, 0)
         stepper = for_combination(domain, agent, seed=0)
         assert stepper is not None  # both combinations are compiled ones
         stepper.advance(1)
     seconds = compile_seconds()
-    assert seconds is not None  # the advances above called the kernels
+    assert seconds is not None  # the advances above called the loop
     return seconds
 
 
@@ -416,7 +297,7 @@ def for_combination(
     >>> stepper.total_steps, int(stats.episode_lengths.sum()) <= 1000
     (1000, True)
     """
-    combination = pack_combination(domain, agent)
-    if combination is None:
+    selection = select(domain, agent)
+    if isinstance(selection, str):
         return None
-    return CompiledStepper(domain, agent, combination, seed=seed)
+    return CompiledStepper(domain, agent, selection, seed=seed)

@@ -4,15 +4,49 @@ Geramifard (2012) uses two decaying schedules: Section 4.1.4 (online iFDD experi
 Section 5.3.5 (iCCA experiments). Each schedule is a small `Configurable` whose ``value`` the
 agent calls once per learning step with the current episode number and the number of active
 features k_t.
+
+The expressions are the module functions `feature_normalized_rate` and `episodic_rate`: the
+schedules' ``value`` runs them in Python and the compiled loop runs the same source compiled
+by numba (`conjure.agents._kernels.step_size`), so both paths round alike. ``compiled_form()``
+gives a schedule's kind and constants (`ScheduleKernel`).
 """
 
 from __future__ import annotations
 
-from typing import ClassVar
+from typing import ClassVar, NamedTuple
 
 from conjure.core.params import Configurable, Interval
 
-__all__ = ["ConstantStepSize", "EpisodicDecay", "FeatureNormalizedDecay", "StepSizeSchedule"]
+__all__ = [
+    "ConstantStepSize",
+    "EpisodicDecay",
+    "FeatureNormalizedDecay",
+    "ScheduleKernel",
+    "StepSizeSchedule",
+    "episodic_rate",
+    "feature_normalized_rate",
+]
+
+#: Schedule kinds of `ScheduleKernel`.
+CONSTANT, FEATURE_NORMALIZED, EPISODIC = 0, 1, 2
+
+
+class ScheduleKernel(NamedTuple):
+    """A schedule as the compiled loop reads it: its kind, α_0 and N_0 (0 when unused)."""
+
+    kind: int
+    alpha_0: float
+    n_0: float
+
+
+def feature_normalized_rate(alpha_0: float, n_0: float, episode: int, num_active: float) -> float:
+    """α_0 / k_t · (N_0 + 1) / (N_0 + episode^1.1), Section 4.1.4."""
+    return alpha_0 / num_active * (n_0 + 1.0) / (n_0 + float(episode) ** 1.1)
+
+
+def episodic_rate(alpha_0: float, n_0: float, episode: int) -> float:
+    """α_0 (N_0 + 1) / (N_0 + episode), Section 5.3.5."""
+    return alpha_0 * (n_0 + 1.0) / (n_0 + episode)
 
 
 class StepSizeSchedule(Configurable):
@@ -23,6 +57,8 @@ class StepSizeSchedule(Configurable):
     """
 
     uses_num_active: ClassVar[bool] = True
+    #: The method the compiled form stands in for (`conjure.core.compiled_form`).
+    compiled_methods: ClassVar[tuple[str, ...]] = ("value",)
 
     def value(self, episode: int, num_active: float) -> float:
         """Return α_t for 1-based ``episode`` and ``num_active`` = k_t (> 0)."""
@@ -52,6 +88,10 @@ class ConstantStepSize(StepSizeSchedule):
     def value(self, episode: int, num_active: float) -> float:
         """Return α_0."""
         return self.alpha_0
+
+    def compiled_form(self) -> ScheduleKernel:
+        """α_0 for the compiled loop."""
+        return ScheduleKernel(CONSTANT, float(self.alpha_0), 0.0)
 
 
 class FeatureNormalizedDecay(StepSizeSchedule):
@@ -88,7 +128,11 @@ class FeatureNormalizedDecay(StepSizeSchedule):
 
     def value(self, episode: int, num_active: float) -> float:
         """Return α_0 / k_t · (N_0 + 1) / (N_0 + episode^1.1)."""
-        return self.alpha_0 / num_active * (self.n_0 + 1.0) / (self.n_0 + episode**1.1)
+        return feature_normalized_rate(self.alpha_0, self.n_0, episode, num_active)
+
+    def compiled_form(self) -> ScheduleKernel:
+        """α_0 and N_0 for the compiled loop."""
+        return ScheduleKernel(FEATURE_NORMALIZED, float(self.alpha_0), float(self.n_0))
 
 
 class EpisodicDecay(StepSizeSchedule):
@@ -119,4 +163,8 @@ class EpisodicDecay(StepSizeSchedule):
 
     def value(self, episode: int, num_active: float) -> float:
         """Return α_0 (N_0 + 1) / (N_0 + episode)."""
-        return self.alpha_0 * (self.n_0 + 1.0) / (self.n_0 + episode)
+        return episodic_rate(self.alpha_0, self.n_0, episode)
+
+    def compiled_form(self) -> ScheduleKernel:
+        """α_0 and N_0 for the compiled loop."""
+        return ScheduleKernel(EPISODIC, float(self.alpha_0), float(self.n_0))

@@ -2,15 +2,29 @@
 
 Only scalar arithmetic lives here; parameters are validated at the domain boundary, never in a
 kernel (STYLE section 7).
+
+The transitions of the chain, the grid world and the pendulum are plain functions of numbers,
+indexable tables and a generator (`chain_move`, `gridworld_move`, `pendulum_transition`,
+`pendulum_start`): the domains' Python ``step``/``reset`` run them as they are, and the compiled
+loop runs the same source compiled by numba (`conjure.domains.compiled_form`), so both paths
+draw and round alike.
 """
 
 from __future__ import annotations
 
 import math
+from typing import Any
 
+import numpy as np
 from numba import njit
 
-__all__ = ["pendulum_step"]
+__all__ = [
+    "chain_move",
+    "gridworld_move",
+    "pendulum_start",
+    "pendulum_step",
+    "pendulum_transition",
+]
 
 # Inverted pendulum constants, Geramifard (2012) Section 3.3.1 after Lagoudakis and Parr (2003).
 GRAVITY = 9.8  # g, m/s^2
@@ -20,6 +34,7 @@ HALF_LENGTH = 0.5  # l, m (half of the 1 m pole)
 ALPHA = 1.0 / (PENDULUM_MASS + CART_MASS)  # α = 1 / (m + M)
 TIME_STEP = 0.1  # dt, s
 MAX_ANGULAR_RATE = 2.0  # |θ̇| is clipped to 2 rad/s
+HALF_PI = math.pi / 2.0  # the pendulum falls at |θ| = π/2
 
 
 @njit(cache=True)
@@ -60,3 +75,64 @@ def pendulum_step(theta: float, theta_dot: float, force: float) -> tuple[float, 
     elif new_rate < -MAX_ANGULAR_RATE:
         new_rate = -MAX_ANGULAR_RATE
     return new_theta, new_rate
+
+
+def pendulum_start(start_noise: float, rng: np.random.Generator) -> tuple[float, float]:
+    """(θ, θ̇) at an episode's start: (0, 0), or uniform in [−x, x]² (two draws) for x > 0.
+
+    Each draw is −x + 2x·u, numpy's ``uniform(-x, x)``.
+    """
+    if start_noise <= 0.0:
+        return 0.0, 0.0
+    span = start_noise - -start_noise
+    theta = -start_noise + span * rng.random()
+    return theta, -start_noise + span * rng.random()
+
+
+def pendulum_transition(
+    theta: float, theta_dot: float, action: int, force_noise: float, rng: np.random.Generator
+) -> tuple[float, float, float, float, bool]:
+    """One pendulum step from action 0/1/2 (−50, 0, +50 N) plus one uniform of force noise.
+
+    Returns (θ', θ̇', the observed θ' clipped to ±π/2, reward, terminated): −1 and terminated
+    once |θ'| >= π/2.
+    """
+    force = 50.0 * (action - 1)
+    if force_noise > 0.0:
+        force += force_noise * (2.0 * rng.random() - 1.0)
+    theta, theta_dot = pendulum_step(theta, theta_dot, force)
+    if -HALF_PI < theta < HALF_PI:
+        return theta, theta_dot, theta, 0.0, False
+    return theta, theta_dot, (HALF_PI if theta > 0.0 else -HALF_PI), -1.0, True
+
+
+def gridworld_move(
+    next_cell: Any,
+    moves: Any,
+    move_counts: Any,
+    is_noisy: Any,
+    noise: float,
+    cell: int,
+    action: int,
+    rng: np.random.Generator,
+) -> int:
+    """The grid world's next cell: with probability η (in a noisy cell) a random feasible move.
+
+    ``next_cell[c][a]`` is the cell move a leads to; ``moves[c][:move_counts[c]]`` lists c's
+    feasible moves; ``is_noisy[c]`` whether the wind blows in c. Two draws when it blows.
+    """
+    if noise > 0.0 and is_noisy[cell] and rng.random() < noise:
+        count = move_counts[cell]
+        if count > 0:
+            action = moves[cell][int(rng.random() * count)]
+    return next_cell[cell][action]
+
+
+def chain_move(
+    last: int, step_reward: float, slip: float, state: int, action: int, rng: np.random.Generator
+) -> tuple[int, float]:
+    """The chain's (next state, reward): action 0 moves right unless it slips (one draw)."""
+    if state < last and action == 0:
+        if slip == 0.0 or rng.random() >= slip:
+            return state + 1, step_reward
+    return state, 0.0

@@ -14,6 +14,7 @@ from conjure.core.params import Constraint, Interval
 from conjure.domains._blocks_kernels import blocks_legal_actions, blocks_legal_mask
 from conjure.domains._legal_space import LegalDiscrete
 from conjure.domains.action_masking import ActionMasking
+from conjure.domains.compiled_form import BLOCKS, DomainKernel, domain_kernel
 
 __all__ = ["BlocksWorld", "blocks_world_state_action_count"]
 
@@ -185,6 +186,26 @@ class BlocksWorld(ActionMasking, Domain):
     def state_action_count(self) -> int:
         """Return the thesis's tabular size |S × A| (368,316 for 6 blocks), Section 4.1.4."""
         return blocks_world_state_action_count(self._n)
+
+    compiled_methods = ("step", "reset", "legal_actions")
+
+    def compiled_form(self) -> DomainKernel:
+        """BlocksWorld for the compiled loop (`blocks_step`).
+
+        params (n, drop probability, step reward, goal reward); state the On(·,·) indicators,
+        then each block's support and the block above each block.
+        """
+        n = self._n
+        params = np.array([float(n), self._drop, self._step_reward, self._goal_reward])
+        state = np.concatenate([self._obs.astype(np.int64), self._on, self._above])
+        return domain_kernel(BLOCKS, n * n, params=params, state=state, num_units=n)
+
+    def load_compiled_form(self, form: DomainKernel) -> None:
+        """Take the state back from the compiled loop."""
+        n = self._n
+        self._obs[:] = form.state[: n * n]
+        self._on = form.state[n * n : n * n + n].tolist()
+        self._above = form.state[n * n + n :].tolist()
 
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None

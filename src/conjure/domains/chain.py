@@ -9,6 +9,8 @@ from gymnasium import spaces
 
 from conjure.core.interfaces import Domain, DomainSpec
 from conjure.core.params import Constraint, Interval, Options
+from conjure.domains._kernels import chain_move
+from conjure.domains.compiled_form import CHAIN, DomainKernel, domain_kernel
 
 if TYPE_CHECKING:  # the model and SciPy load when `model` is first called
     from conjure.models.tabular_model import TabularModel
@@ -125,12 +127,22 @@ class ChainMDP(Domain):
         """Move right (action 0) or stay (action 1)."""
         a = self.check_action(action)
         last = self.num_states - 1
-        state, reward = self._state, 0.0
-        if state < last and a == 0:
-            if self._slip == 0.0 or self.np_random.random() >= self._slip:
-                state, reward = state + 1, self._step_reward
+        state, reward = chain_move(
+            last, self._step_reward, self._slip, self._state, a, self.np_random
+        )
         self._state = state
         return np.array([float(state)]), reward, state == last, False, {}
+
+    compiled_methods = ("step", "reset")
+
+    def compiled_form(self) -> DomainKernel:
+        """The chain for the compiled loop: params (n, step reward, slip), the state."""
+        params = np.array([float(self.num_states), self._step_reward, self._slip])
+        return domain_kernel(CHAIN, int(self.num_actions), params=params, state=[self._state])
+
+    def load_compiled_form(self, form: DomainKernel) -> None:
+        """Take the state back from the compiled loop."""
+        self._state = int(form.state[0])
 
     def start_states(self) -> list[tuple[float, np.ndarray]]:
         """Return [(1, state 0)]: the start distribution, for `enumerate_model`."""

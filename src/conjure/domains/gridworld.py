@@ -13,6 +13,8 @@ from conjure.core.cooperative import NoisyDomain
 from conjure.core.errors import InvalidParameterError
 from conjure.core.interfaces import DomainSpec
 from conjure.core.params import Constraint, InstanceOf, Interval, Options, did_you_mean
+from conjure.domains._kernels import gridworld_move
+from conjure.domains.compiled_form import GRIDWORLD, DomainKernel, domain_kernel
 
 if TYPE_CHECKING:  # the model and SciPy load when `model` is first called
     from conjure.models.tabular_model import TabularModel
@@ -315,6 +317,7 @@ class GridWorld(NoisyDomain):
         flat_feasible = feasible.reshape(-1, len(MOVES))
         self._next_cell = self._targets.tolist()
         self._feasible = [tuple(a for a in range(4) if row[a]) for row in flat_feasible.tolist()]
+        self._num_feasible = [len(moves) for moves in self._feasible]
         reward = np.where(codes == GOAL, 1.0, np.where(codes == PIT, -1.0, self.step_reward))
         self._reward = reward.astype(np.float64).tolist()
         self._terminal = ((codes == GOAL) | (codes == PIT)).tolist()
@@ -366,11 +369,37 @@ class GridWorld(NoisyDomain):
 
     def _next(self, cell: int, action: int, noise: float, rng: np.random.Generator) -> int:
         """The next cell; with probability ``noise`` (in a noisy cell) a random feasible move."""
-        if noise > 0.0 and self._is_noisy[cell] and rng.random() < noise:
-            moves = self._feasible[cell]
-            if moves:
-                action = moves[int(rng.random() * len(moves))]
-        return self._next_cell[cell][action]
+        return gridworld_move(
+            self._next_cell, self._feasible, self._num_feasible, self._is_noisy, noise, cell,
+            action, rng,
+        )  # fmt: skip
+
+    compiled_methods = ("step", "reset", "_next")
+
+    def compiled_form(self) -> DomainKernel:
+        """The grid for the compiled loop (layout in `conjure.domains.compiled_form`).
+
+        params (η, start cell); table[c] the 4 moves' targets, the number of feasible moves
+        and those moves; cells[c] reward, terminal, pit, noisy, row, column; state the cell.
+        """
+        num_cells = len(self._next_cell)
+        table = np.zeros((num_cells, 9), dtype=np.int64)
+        table[:, :4] = self._targets
+        table[:, 4] = self._num_feasible
+        for cell, moves in enumerate(self._feasible):
+            table[cell, 5 : 5 + len(moves)] = moves
+        rows, cols = zip(*self._coords, strict=True)
+        cells = np.column_stack(
+            [self._reward, self._terminal, self._is_pit, self._is_noisy, rows, cols]
+        )
+        params = np.array([self._noise, float(self._start_cell)])
+        return domain_kernel(
+            GRIDWORLD, len(MOVES), params=params, table=table, cells=cells, state=[self._cell]
+        )
+
+    def load_compiled_form(self, form: DomainKernel) -> None:
+        """Take the cell back from the compiled loop."""
+        self._cell = int(form.state[0])
 
     def _cell_of(self, state: Any) -> int:
         row, col = (round(float(x)) for x in np.asarray(state).reshape(-1)[:2])

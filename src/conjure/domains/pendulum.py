@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import math
 from typing import Any, ClassVar
 
 import numpy as np
@@ -11,12 +10,12 @@ from gymnasium import spaces
 from conjure.core.errors import InvalidParameterError
 from conjure.core.interfaces import Domain, DomainSpec
 from conjure.core.params import Constraint, Interval
-from conjure.domains._kernels import MAX_ANGULAR_RATE, pendulum_step
+from conjure.domains._kernels import HALF_PI, MAX_ANGULAR_RATE, pendulum_start, pendulum_transition
+from conjure.domains.compiled_form import PENDULUM, DomainKernel, domain_kernel
 
 __all__ = ["InvertedPendulum"]
 
-_HALF_PI = math.pi / 2.0
-_FORCES = (-50.0, 0.0, 50.0)  # u for actions 0, 1, 2 (N)
+_NUM_ACTIONS = 3  # forces −50, 0, +50 N (`pendulum_transition`)
 
 
 class InvertedPendulum(Domain):
@@ -85,7 +84,7 @@ class InvertedPendulum(Domain):
 
     parameter_constraints: ClassVar[dict[str, Constraint]] = {
         "force_noise": Interval(float, 0.0, None),
-        "start_noise": Interval(float, 0.0, _HALF_PI, closed="left"),
+        "start_noise": Interval(float, 0.0, HALF_PI, closed="left"),
     }
 
     def __init__(self, *, force_noise: float = 10.0, start_noise: float = 0.0) -> None:
@@ -96,16 +95,16 @@ class InvertedPendulum(Domain):
     def _build(self) -> None:
         """Validate the parameters and build the spaces and the spec."""
         self.validate_params()
-        low = np.array([-_HALF_PI, -MAX_ANGULAR_RATE], dtype=np.float64)
-        high = np.array([_HALF_PI, MAX_ANGULAR_RATE], dtype=np.float64)
+        low = np.array([-HALF_PI, -MAX_ANGULAR_RATE], dtype=np.float64)
+        high = np.array([HALF_PI, MAX_ANGULAR_RATE], dtype=np.float64)
         self.observation_space = spaces.Box(low=low, high=high, dtype=np.float64)
-        self.action_space = spaces.Discrete(len(_FORCES))
+        self.action_space = spaces.Discrete(_NUM_ACTIONS)
         self.domain_spec = DomainSpec(
             name="InvertedPendulum",
             low=low,
             high=high,
             is_discrete=[False, False],
-            num_actions=len(_FORCES),
+            num_actions=_NUM_ACTIONS,
             discount=0.95,
             max_episode_steps=3000,
         )
@@ -118,24 +117,33 @@ class InvertedPendulum(Domain):
     ) -> tuple[np.ndarray, dict[str, Any]]:
         """Start an episode at (0, 0), or uniformly in [−x, x]² with ``start_noise = x``."""
         super().reset(seed=seed)
-        x = float(self.start_noise)
-        if x > 0.0:
-            self._theta, self._theta_dot = self.np_random.uniform(-x, x, size=2).tolist()
-        else:
-            self._theta, self._theta_dot = 0.0, 0.0
+        self._theta, self._theta_dot = pendulum_start(float(self.start_noise), self.np_random)
         return np.array((self._theta, self._theta_dot), dtype=np.float64), {}
 
     def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
         """Apply force ``action`` (0: −50 N, 1: 0 N, 2: +50 N) plus noise for 0.1 s."""
-        force = _FORCES[self.check_action(action)]
-        if self._force_noise > 0.0:
-            force += self._force_noise * (2.0 * self.np_random.random() - 1.0)
-        theta, theta_dot = pendulum_step(self._theta, self._theta_dot, force)
+        theta, theta_dot, shown, reward, terminated = pendulum_transition(
+            self._theta, self._theta_dot, self.check_action(action), self._force_noise,
+            self.np_random,
+        )  # fmt: skip
         self._theta, self._theta_dot = theta, theta_dot
-        if -_HALF_PI < theta < _HALF_PI:
-            return np.array((theta, theta_dot)), 0.0, False, False, {"cost": 0.0}
-        shown = _HALF_PI if theta > 0.0 else -_HALF_PI  # clip into observation_space
-        return np.array((shown, theta_dot)), -1.0, True, False, {"cost": 1.0}
+        info = {"cost": 1.0 if terminated else 0.0}
+        return np.array((shown, theta_dot)), reward, terminated, False, info
+
+    compiled_methods = ("step", "reset")
+
+    def compiled_form(self) -> DomainKernel:
+        """The pendulum for the compiled loop: params (force noise, start noise), (θ, θ̇)."""
+        return domain_kernel(
+            PENDULUM,
+            3,
+            params=np.array([self._force_noise, float(self.start_noise)]),
+            fstate=np.array([self._theta, self._theta_dot]),
+        )
+
+    def load_compiled_form(self, form: DomainKernel) -> None:
+        """Take (θ, θ̇) back from the compiled loop."""
+        self._theta, self._theta_dot = float(form.fstate[0]), float(form.fstate[1])
 
     def is_constrained(self, state: np.ndarray) -> bool:
         """Whether the pendulum has fallen, |θ| >= π/2 (the failure that ends the episode)."""
@@ -145,4 +153,4 @@ class InvertedPendulum(Domain):
                 f"InvertedPendulum.is_constrained expects a state (θ, θ̇) of shape (2,); got "
                 f"shape {array.shape}."
             )
-        return bool(abs(array[0]) >= _HALF_PI)
+        return bool(abs(array[0]) >= HALF_PI)

@@ -20,6 +20,7 @@ from conjure.domains._uav_kernels import (
     pst_step,
 )
 from conjure.domains.action_masking import ActionMasking
+from conjure.domains.compiled_form import PERSISTENT_SURVEILLANCE, DomainKernel, domain_kernel
 
 __all__ = ["PersistentSurveillance", "persistent_surveillance_state_action_count"]
 
@@ -243,6 +244,25 @@ class PersistentSurveillance(ActionMasking, Domain):
     def state_action_count(self) -> int:
         """Return |S × A| (147,197,952 for the thesis's 3 UAVs), Section 4.1.4."""
         return persistent_surveillance_state_action_count(self._n, int(self.max_fuel))
+
+    compiled_methods = ("step", "reset", "legal_actions")
+
+    def compiled_form(self) -> DomainKernel:
+        """The mission for the compiled loop: params `pst_step`'s scalars, state the UAVs'."""
+        params = np.array([float(x) for x in self._args])
+        return domain_kernel(
+            PERSISTENT_SURVEILLANCE,
+            self._num_actions,
+            params=params,
+            state=self._state,
+            num_units=self._n,
+            num_uniforms=2 * self._n,
+        )
+
+    def load_compiled_form(self, form: DomainKernel) -> None:
+        """Take the UAVs' state back from the compiled loop (and its legal-action mask)."""
+        self._state[:] = form.state
+        pst_fill_legal_mask(self._state, self._n, self._mask)
 
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None

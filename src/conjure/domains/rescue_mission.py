@@ -20,6 +20,7 @@ from conjure.domains._uav_kernels import (
     rescue_step,
 )
 from conjure.domains.action_masking import ActionMasking
+from conjure.domains.compiled_form import RESCUE, DomainKernel, domain_kernel
 
 __all__ = ["RescueMission", "rescue_mission_state_action_count"]
 
@@ -232,6 +233,30 @@ class RescueMission(ActionMasking, Domain):
     def state_action_count(self) -> int:
         """Return |S × A| of the reconstruction (3.96e8 by default), Section 4.1.4."""
         return rescue_mission_state_action_count(int(self.max_fuel), int(self.horizon))
+
+    compiled_methods = ("step", "reset", "legal_actions")
+
+    def compiled_form(self) -> DomainKernel:
+        """The mission for the compiled loop (`rescue_step`).
+
+        params (horizon, fuel penalty, failure penalty, s₀); table the neighbours and degree
+        of each node; cells the one-edge-away table, the people and the success probability.
+        """
+        horizon, fuel_penalty, failure_penalty = self._scalars
+        start = self._start_state()
+        return domain_kernel(
+            RESCUE,
+            NUM_ACTIONS,
+            params=np.array([float(horizon), fuel_penalty, failure_penalty, *start]),
+            table=np.column_stack([self.neighbours_, self._degrees]),
+            cells=np.column_stack([self._is_near, self._people, self._success]),
+            state=self._state,
+        )
+
+    def load_compiled_form(self, form: DomainKernel) -> None:
+        """Take the state back from the compiled loop (and its legal-action mask)."""
+        self._state[:] = form.state
+        rescue_fill_legal_mask(self._state, self.neighbours_, self._degrees, self._mask)
 
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None

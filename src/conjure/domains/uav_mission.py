@@ -37,6 +37,7 @@ from conjure.domains._mission_kernels import (
     state_from_observation,
 )
 from conjure.domains.action_masking import ActionMasking
+from conjure.domains.compiled_form import UAV_MISSION, DomainKernel, domain_kernel
 from conjure.domains.mission_graph import (
     MissionGraph,
     uav_7_2,
@@ -257,6 +258,32 @@ class UAVMission(ActionMasking, NoisyDomain):
             ) from None
 
     # ------------------------------------------------------------------ episode
+
+    compiled_methods = ("step", "reset", "legal_actions")
+
+    def compiled_form(self) -> DomainKernel:
+        """The mission for the compiled loop (`mission_step`).
+
+        params (traverse failure, s₀); table[0] the state layout, table[1:] the adjacency;
+        cells the node table.
+        """
+        layout, adjacency = self._layout, self._adjacency
+        nodes = adjacency.shape[0]
+        table = np.zeros((nodes + 1, max(nodes, layout.shape[0])), dtype=np.int64)
+        table[0, : layout.shape[0]] = layout
+        table[1:, :nodes] = adjacency
+        return domain_kernel(
+            UAV_MISSION,
+            int(self.domain_spec.num_actions),
+            params=np.array([self._eta, *self.graph_.initial_state()]),
+            table=table,
+            cells=self._tables[3],
+            state=self._state,
+        )
+
+    def load_compiled_form(self, form: DomainKernel) -> None:
+        """Take the state back from the compiled loop."""
+        self._state = form.state.astype(np.float64)
 
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None

@@ -6,7 +6,7 @@ import numpy as np
 
 from conjure.core.interfaces import Policy
 from conjure.core.params import Interval
-from conjure.policies._kernels import epsilon_greedy_action
+from conjure.policies._kernels import EPSILON_GREEDY, PolicyKernel, epsilon_greedy_action
 
 __all__ = ["EpsilonGreedy"]
 
@@ -43,7 +43,14 @@ class EpsilonGreedy(Policy):
     def select(
         self, values: np.ndarray, rng: np.random.Generator, legal_actions: np.ndarray
     ) -> int:
+        """One uniform draw; the kernel `select_action` of the compiled loop draws the same."""
         return epsilon_greedy_action(values, legal_actions, self.epsilon, rng.random())
+
+    compiled_methods = ("select",)
+
+    def compiled_form(self) -> PolicyKernel:
+        """ε for the compiled loop (`conjure.policies._kernels.select_action`)."""
+        return PolicyKernel(EPSILON_GREEDY, float(self.epsilon))
 
     def probabilities(self, values: np.ndarray, legal_actions: np.ndarray) -> np.ndarray:
         probs = np.zeros(values.shape[0])

@@ -6,7 +6,13 @@ import numpy as np
 
 from conjure.core.interfaces import Policy
 from conjure.core.params import Interval
-from conjure.policies._kernels import gibbs_action, gibbs_probabilities, greedy_action
+from conjure.policies._kernels import (
+    GIBBS,
+    PolicyKernel,
+    gibbs_action,
+    gibbs_probabilities,
+    greedy_action,
+)
 
 __all__ = ["Gibbs"]
 
@@ -44,6 +50,12 @@ class Gibbs(Policy):
         if self.temperature == 0:
             return greedy_action(values, legal_actions)
         return gibbs_action(values, legal_actions, self.temperature, u)
+
+    compiled_methods = ("select",)
+
+    def compiled_form(self) -> PolicyKernel:
+        """τ for the compiled loop (`conjure.policies._kernels.select_action`)."""
+        return PolicyKernel(GIBBS, float(self.temperature))
 
     def probabilities(self, values: np.ndarray, legal_actions: np.ndarray) -> np.ndarray:
         if self.temperature == 0:

@@ -214,7 +214,7 @@ class ARiFDD(OnlineIFDD):
             self.num_features_ + num_new > self._arrays["feat_start"].shape[0]
             or self._ints[_k.I_POOL_USED] + num_new > self._arrays["pool"].shape[0]
         ):
-            self._grow()
+            self.grow()
 
     # ------------------------------------------------------------------ Algorithm 22
 

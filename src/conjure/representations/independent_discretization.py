@@ -7,10 +7,13 @@ import numpy as np
 from conjure.core.interfaces import DomainSpec, Representation, check_is_set_up
 from conjure.core.seeding import as_seed_sequence
 from conjure.representations._kernels import (
+    INDEPENDENT,
+    RepresentationKernel,
     dimension_table,
     independent_features,
     per_dimension,
     positive_ints,
+    representation_kernel,
 )
 
 __all__ = ["IndependentDiscretization"]
@@ -91,6 +94,14 @@ class IndependentDiscretization(Representation):
         self.num_features_ = int(sizes.sum())
         self.is_set_up_ = True
         return self
+
+    compiled_methods = ("active_features", "encode")
+
+    def compiled_form(self) -> RepresentationKernel:
+        """The bucket table and offsets for the compiled loop (`independent_features`)."""
+        check_is_set_up(self, "compiled_form")
+        offsets = self.offsets_
+        return representation_kernel(INDEPENDENT, offsets.shape[0], dims=self._dims, vector=offsets)
 
     def active_features(self, state: np.ndarray) -> np.ndarray:
         """Return φ(s): the sorted int64 indices of the d active buckets, one per dimension."""

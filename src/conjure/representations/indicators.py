@@ -9,6 +9,11 @@ import numpy as np
 from conjure.core.errors import InvalidParameterError
 from conjure.core.interfaces import DomainSpec, Representation, check_is_set_up
 from conjure.core.seeding import as_seed_sequence
+from conjure.representations._kernels import (
+    INDICATORS,
+    RepresentationKernel,
+    representation_kernel,
+)
 
 __all__ = ["BinaryIndicators"]
 
@@ -79,6 +84,13 @@ class BinaryIndicators(Representation):
         self.num_features_ = int(spec.num_dims)
         self.is_set_up_ = True
         return self
+
+    compiled_methods = ("active_features", "encode")
+
+    def compiled_form(self) -> RepresentationKernel:
+        """The nonzero dimensions are φ(s): nothing to pack (`encode_into`'s last case)."""
+        check_is_set_up(self, "compiled_form")
+        return representation_kernel(INDICATORS, self._num_dims)
 
     def active_features(self, state: np.ndarray) -> np.ndarray:
         """Return the sorted int64 indices of the nonzero dimensions of ``state`` (maybe empty)."""

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from conjure.core.compiled_form import compiled_form
 from conjure.core.errors import InvalidParameterError
 from conjure.core.interfaces import (
     DomainSpec,
@@ -16,6 +17,7 @@ from conjure.core.params import InstanceOf, Interval, Options
 from conjure.core.seeding import make_rng, split_seed
 from conjure.representations import _ifdd_kernels as _k
 from conjure.representations._max_features import OPTIONAL_MAX_FEATURES, check_max_features
+from conjure.representations.ifdd_form import IFDDKernel
 
 __all__ = ["OnlineIFDD"]
 
@@ -267,8 +269,35 @@ class OnlineIFDD(Representation):
         self._encode_base = self.base_.active_features
         self.num_features_ = int(self._ints[_k.I_NUM_FEATURES])
 
-    def _grow(self) -> None:
-        """Double the node, feature and pool capacities and rebuild the hash table."""
+    compiled_methods = ("active_features", "encode", "discover", "activate_initial")
+
+    def compiled_form(self) -> IFDDKernel | None:
+        """The base's kernel with iFDD's own tables (updated in place), or None.
+
+        None when the base has no compiled kernel or real-valued φ (iFDD needs binary φ⁰).
+        """
+        check_is_set_up(self, "compiled_form")
+        base = compiled_form(self.base_)
+        if base is None or base.rbf is not None:
+            return None
+        return IFDDKernel(base, True, self._activate_args, self._discover_args)
+
+    def load_compiled_form(self, form: IFDDKernel) -> None:
+        """Count the features the compiled loop discovered in the tables (updated in place)."""
+        self.num_features_ = int(self._ints[_k.I_NUM_FEATURES])
+
+    @property
+    def capacity_(self) -> int:
+        """The most features the tables hold before `grow`."""
+        check_is_set_up(self, "capacity_")
+        return int(self._discover_args[2].shape[0])
+
+    def grow(self) -> None:
+        """Double the node, feature and pool capacities and rebuild the hash table.
+
+        ``discover`` grows them when a discovery would not fit; the compiled loop asks first
+        (`conjure.representations.ifdd_form.has_room`) and calls this.
+        """
         a = dict(self._arrays)
         n0 = self.num_initial_features_
         node_capacity = 2 * a["node_key"].shape[0]
@@ -324,7 +353,7 @@ class OnlineIFDD(Representation):
             added = _k.discover(active, float(td_error), *self._discover_args)
             if added >= 0:
                 break
-            self._grow()
+            self.grow()
         if added == 0:
             return None
         self.num_features_ = before + added

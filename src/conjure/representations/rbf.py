@@ -8,7 +8,14 @@ from conjure.core.errors import InvalidParameterError
 from conjure.core.interfaces import DomainSpec, Representation, SparseFeatures, check_is_set_up
 from conjure.core.params import InstanceOf, Interval, Options, Predicate
 from conjure.core.seeding import make_rng
-from conjure.representations._kernels import per_dimension, positive_ints, rbf_values
+from conjure.representations._kernels import RBF as RBF_KIND
+from conjure.representations._kernels import (
+    RepresentationKernel,
+    per_dimension,
+    positive_ints,
+    rbf_values,
+    representation_kernel,
+)
 
 __all__ = ["RBF"]
 
@@ -162,6 +169,16 @@ class RBF(Representation):
         self._indices = np.arange(self.num_features_, dtype=np.int64)
         self._indices.flags.writeable = False
         self.is_set_up_ = True
+
+    compiled_methods = ("encode", "active_features")
+
+    def compiled_form(self) -> RepresentationKernel:
+        """The Gaussians for the compiled loop: φ(s) lists every feature with `rbf_values`."""
+        check_is_set_up(self, "compiled_form")
+        rbf = (self._affine, self._scaled_centers)
+        return representation_kernel(
+            RBF_KIND, self.num_features_, vector=self._indices.copy(), rbf=rbf
+        )
 
     def encode(self, state: np.ndarray) -> SparseFeatures:
         """Return φ(s) as every index 0 .. n − 1 with a fresh float64 array of values."""

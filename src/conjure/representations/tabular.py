@@ -9,9 +9,12 @@ from conjure.core.interfaces import DomainSpec, Representation, check_is_set_up
 from conjure.core.seeding import as_seed_sequence
 from conjure.representations._kernels import (
     MAX_FEATURES,
+    TABULAR,
+    RepresentationKernel,
     dimension_table,
     per_dimension,
     positive_ints,
+    representation_kernel,
     tabular_feature,
 )
 
@@ -97,6 +100,13 @@ class Tabular(Representation):
         self.num_features_ = int(num_features)
         self.is_set_up_ = True
         return self
+
+    compiled_methods = ("active_features", "encode")
+
+    def compiled_form(self) -> RepresentationKernel:
+        """The bucket table and strides for the compiled loop (`tabular_feature`)."""
+        check_is_set_up(self, "compiled_form")
+        return representation_kernel(TABULAR, 1, dims=self._dims, vector=self._strides)
 
     def active_features(self, state: np.ndarray) -> np.ndarray:
         """Return φ(s) as the one-element sorted int64 array of the cell holding ``state``."""

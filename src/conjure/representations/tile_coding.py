@@ -12,11 +12,15 @@ from conjure.core.params import InstanceOf, Interval, Predicate
 from conjure.core.seeding import as_seed_sequence
 from conjure.representations._kernels import (
     EMPTY_SLOT,
+    HASHED_TILES,
     MAX_FEATURES,
+    TILES,
+    RepresentationKernel,
     dimension_table,
     hashed_tile_features,
     per_dimension,
     positive_ints,
+    representation_kernel,
     tile_features,
 )
 
@@ -220,6 +224,19 @@ class TileCoding(Representation):
 
     # -----------------------------------------------------------------------------------------
     # φ(s)
+
+    compiled_methods = ("active_features", "encode")
+
+    def compiled_form(self) -> RepresentationKernel:
+        """The tile layout for the compiled loop (with the hash table when hashed)."""
+        check_is_set_up(self, "compiled_form")
+        tables = {"dims": self._dims, "layout": self._layout, "groups": self._group_table}
+        if self._is_hashed:
+            tables.update(hash_table=self._hash_table, hash_counts=self._hash_counts)
+        kind = HASHED_TILES if self._is_hashed else TILES
+        return representation_kernel(
+            kind, self.num_active_, num_tilings=self._num_tilings, **tables
+        )
 
     def active_features(self, state: np.ndarray) -> np.ndarray:
         """Return φ(s): the sorted, unique int64 indices of the active tiles."""

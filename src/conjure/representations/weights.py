@@ -3,11 +3,12 @@
 from __future__ import annotations
 
 import numpy as np
+from numba import njit
 
 from conjure.core.errors import InvalidParameterError
 from conjure.core.interfaces import Expansion
 
-__all__ = ["append_rows", "grow_weights"]
+__all__ = ["append_rows", "grow_weights", "parent_sum_row", "with_room"]
 
 
 def append_rows(array: np.ndarray, num_new: int, fill: float = 0.0) -> np.ndarray:
@@ -35,6 +36,23 @@ def append_rows(array: np.ndarray, num_new: int, fill: float = 0.0) -> np.ndarra
         buffer[:num_rows] = array
     buffer[num_rows : num_rows + num_new] = fill
     return buffer[: num_rows + num_new]
+
+
+def with_room(array: np.ndarray, rows: int) -> np.ndarray:
+    """A C-contiguous array of at least ``rows`` rows whose leading rows are ``array``.
+
+    ``array`` itself when it is contiguous and has the rows, else the buffer it leads (see
+    `append_rows`) when that has the rows, else a new buffer (doubling). The compiled loop
+    (`conjure.compiled`) writes new features' rows there; the learner then keeps the leading
+    rows in use, which `append_rows` goes on growing in place.
+    """
+    if array.shape[0] >= rows and array.flags.c_contiguous:
+        return array
+    if _is_leading_view(array) and array.base.shape[0] >= rows:
+        return array.base
+    buffer = np.empty((max(rows, 2 * array.shape[0]), *array.shape[1:]), dtype=array.dtype)
+    buffer[: array.shape[0]] = array
+    return buffer
 
 
 def _is_leading_view(array: np.ndarray) -> bool:
@@ -115,8 +133,22 @@ def grow_weights(weights: np.ndarray, expansion: Expansion | None) -> np.ndarray
             f"or -1; got {parents.tolist()}."
         )
     grown = append_rows(weights, num_new)
+    as_table = grown.reshape(grown.shape[0], -1)  # a view: rows stay rows
     for i in range(num_new):
-        for parent in parents[i]:
-            if parent >= 0:
-                grown[num_rows + i] += grown[parent]
+        parent_sum_row(as_table, parents[i, 0], parents[i, 1], num_rows + i)
     return grown
+
+
+@njit(cache=True)
+def parent_sum_row(weights: np.ndarray, g: int, h: int, f: int) -> None:
+    """Row f ← (0 + θ_g) + θ_h, a parent of −1 adding nothing (Section 4.1.1).
+
+    The one kernel of new features' weights: `grow_weights` and the compiled loop
+    (`conjure.compiled`) both call it.
+    """
+    for a in range(weights.shape[1]):
+        weights[f, a] = 0.0
+        if g >= 0:
+            weights[f, a] += weights[g, a]
+        if h >= 0:
+            weights[f, a] += weights[h, a]

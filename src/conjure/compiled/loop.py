@@ -1,0 +1,264 @@
+"""The compiled learning loop: n steps of domain, features, action choice and TD update.
+
+`learning_loop` is `conjure.experiments.loop.Stepper`'s step order (Algorithms 10-12 as an
+interaction loop) in one numba function. It owns no dynamics, features, schedule or update
+arithmetic: every step calls the components' own kernels through their compiled forms
+(`conjure.core.compiled_form`):
+
+- the domain (`conjure.domains.compiled_form`): `reset_into`, `step_into`, `legal_into`;
+- the representation (`conjure.representations.ifdd_form`): `active_into`, and with online
+  iFDD `has_room`, `discover_from` and `parent_sum_row` for new features' weights
+  (Section 4.1.1);
+- the learner (`conjure.agents._kernels`): `q_values_into`, `bootstrap`, `td_learn`,
+  `clear_learner_traces`, and the policy's `select_action`.
+
+Per step: a = π(s) was chosen; s', r = step(a); unless terminal, φ(s') and a' = π(s') over the
+legal actions of s'; Q⁺(s, a); δ and the updates; with iFDD, discovery on φ(s) with δ and the
+new features' rows; then s ← s', a ← a' (φ(s) recomputed after a discovery, as the Python
+learner re-encodes). Random numbers come from the same `numpy.random.Generator` objects in the
+same order as the Python path (numba shares their state): the domain's draws per step and one
+uniform per action choice.
+
+The loop's own state (phase, action, counters, return so far) is `LoopState`, resumable
+between calls; an episode may span calls.
+
+Compilation: one function serves every combination (the compiled forms have fixed field
+types), with a second compilation for real-valued φ (`RBF`), so binary φ never reads a value.
+It is cached on disk (``cache=True``).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import NamedTuple
+
+import numpy as np
+from numba import njit
+
+from conjure.agents._kernels import (
+    ACTOR_CRITIC,
+    AgentKernel,
+    LearnerArrays,
+    bootstrap,
+    clear_learner_traces,
+    q_values_into,
+    td_learn,
+)
+from conjure.domains.compiled_form import DomainKernel, legal_into, reset_into, step_into
+from conjure.policies._kernels import select_action
+from conjure.representations._kernels import TILES, values_of
+from conjure.representations.ifdd_form import (
+    IFDDKernel,
+    active_into,
+    discover_from,
+    has_room,
+)
+from conjure.representations.weights import parent_sum_row
+
+__all__ = ["LoopState", "learning_loop"]
+
+#: Status codes of `learning_loop`.
+DONE, GROW_TRACES, DIVERGED, GROW_REPRESENTATION = 0, 1, 2, 3
+#: Phases of `LoopState`.
+NEEDS_RESET, NEEDS_BEGIN, IN_EPISODE = 0, 1, 2
+
+
+class LoopState(NamedTuple):
+    """The loop's resumable state: one-element arrays, updated in place by `learning_loop`.
+
+    ``phase`` (`NEEDS_RESET`, `NEEDS_BEGIN`, `IN_EPISODE`), the chosen ``action``, the
+    episode's ``episode_steps``, ``episode_failures``, return ``total``, ``discounted`` return
+    and γ^t ``weight``; the learner's ``episode`` count and ``learning_steps``.
+    """
+
+    phase: np.ndarray
+    action: np.ndarray
+    episode_steps: np.ndarray
+    episode: np.ndarray
+    learning_steps: np.ndarray
+    episode_failures: np.ndarray
+    total: np.ndarray
+    discounted: np.ndarray
+    weight: np.ndarray
+
+
+def new_loop_state() -> LoopState:
+    """A `LoopState` before the first reset."""
+    ints = [np.zeros(1, dtype=np.int64) for _ in range(6)]
+    return LoopState(*ints, np.zeros(1), np.zeros(1), np.ones(1))
+
+
+@njit(cache=True, inline="always")
+def _record_episode(
+    ep_float: np.ndarray,
+    ep_int: np.ndarray,
+    index: int,
+    total: float,
+    discounted: float,
+    length: int,
+    failures: int,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Write an ended episode's statistics at row ``index`` (doubling the arrays when full)."""
+    if index == ep_float.shape[0]:
+        grown_float = np.empty((2 * index, 2))
+        grown_int = np.empty((2 * index, 2), dtype=np.int64)
+        for i in range(index):
+            for j in range(2):
+                grown_float[i, j] = ep_float[i, j]
+                grown_int[i, j] = ep_int[i, j]
+        ep_float, ep_int = grown_float, grown_int
+    ep_float[index, 0] = total
+    ep_float[index, 1] = discounted
+    ep_int[index, 0] = length
+    ep_int[index, 1] = failures
+    return ep_float, ep_int
+
+
+@njit(cache=True, inline="always")
+def _copy(target: np.ndarray, source: np.ndarray) -> None:
+    """``target[:n] = source`` as a loop.
+
+    A slice assignment would link numba's error formatting, whose code a cached kernel loads
+    on every start (``benchmarks/startup.py``).
+    """
+    for i in range(source.shape[0]):
+        target[i] = source[i]
+
+
+@njit(cache=True)
+def learning_loop(
+    num_steps: int,
+    domain: DomainKernel,
+    domain_rng: np.random.Generator,
+    rep: IFDDKernel,
+    agent: AgentKernel,
+    arrays: LearnerArrays,
+    agent_rng: np.random.Generator,
+    cap: int,
+    obs: np.ndarray,
+    state: LoopState,
+) -> tuple[int, int, int, float, np.ndarray, np.ndarray]:
+    """Take up to ``num_steps`` learning steps; stop early on a status other than `DONE`.
+
+    ``cap``: the episode cap; ``obs``: s, updated in place. Returns (status, steps taken,
+    failures, last δ, episodes (m, 2) float64 [return, discounted return], episodes (m, 2)
+    int64 [length, failures]) for the m episodes that ended during the call.
+
+    `GROW_REPRESENTATION` and `GROW_TRACES` stop before a step whose discovery or traces
+    might not fit (the caller grows them with the component's own method and calls again);
+    `DIVERGED` stops after an update whose δ is not finite (that step is not counted).
+    θ (and ω, the trace slots) must have a row for every feature iFDD's tables can hold.
+    """
+    num_actions = arrays.weights.shape[1]
+    has_traces = arrays.trace_values.shape[0] > 0
+    is_actor_critic = agent.kind == ACTOR_CRITIC
+    # The actor's preferences choose actions for Actor-Critic (shared features), θ otherwise.
+    chooser = arrays.actor_weights
+    # Scratch: φ(s) and φ(s') buffers of tile coding, legal-action lists, Q(s', ·).
+    max_active = max(rep.base.max_active, 1)
+    quanta = np.empty(obs.shape[0], dtype=np.int64)
+    phi_buffer = np.empty(max_active, dtype=np.int64)
+    next_buffer = np.empty(max_active, dtype=np.int64)
+    legal_buffer = np.arange(num_actions)
+    next_legal_buffer = np.arange(num_actions)
+    next_obs = np.empty_like(obs)
+    q = np.empty(num_actions)
+    critic_q = np.empty(num_actions)
+    ep_float = np.empty((16, 2))
+    ep_int = np.empty((16, 2), dtype=np.int64)
+    is_buffered = rep.base.kind == TILES and not rep.is_ifdd  # φ(s) lives in phi_buffer
+    num_ended = done = failures = 0
+    delta = 0.0
+    status = DONE
+    # The loop state, in locals while running (LLVM keeps them in registers).
+    phase, action, episode_steps = state.phase[0], state.action[0], state.episode_steps[0]
+    episode, learning_steps = state.episode[0], state.learning_steps[0]
+    episode_failures, total = state.episode_failures[0], state.total[0]
+    discounted, weight = state.discounted[0], state.weight[0]
+    phi = phi_buffer
+    values = values_of(rep.base, obs)  # φ(s)'s values (None: binary φ)
+    if phase == IN_EPISODE:
+        phi = active_into(rep, obs, quanta, phi_buffer)
+    while done < num_steps:
+        if phase == NEEDS_RESET:
+            reset_into(domain, obs, domain_rng)
+            phase = NEEDS_BEGIN
+        if phase == NEEDS_BEGIN:  # the learner's begin_episode, then a = π(s)
+            episode += 1
+            clear_learner_traces(agent, arrays)
+            phi = active_into(rep, obs, quanta, phi_buffer)
+            values = values_of(rep.base, obs)
+            q_values_into(chooser, phi, values, q)
+            legal = legal_into(domain, False, legal_buffer)
+            action = select_action(agent.policy, q, legal, agent_rng)
+            episode_steps = episode_failures = 0
+            total, discounted, weight = 0.0, 0.0, 1.0
+            phase = IN_EPISODE
+        if not has_room(rep, phi):
+            status = GROW_REPRESENTATION
+            break
+        if has_traces and arrays.trace_count[0] + phi.shape[0] > arrays.trace_values.shape[0]:
+            status = GROW_TRACES
+            break
+        reward, terminated, cost = step_into(domain, action, next_obs, domain_rng)
+        episode_steps += 1
+        next_phi, next_values = phi, values
+        next_action = 0
+        target = reward
+        if not terminated:  # φ(s'), a' = π(s') and Q⁺(s, a) (Algorithms 10-12, lines 4-5)
+            next_phi = active_into(rep, next_obs, quanta, next_buffer)
+            next_values = values_of(rep.base, next_obs)
+            q_values_into(chooser, next_phi, next_values, q)
+            next_legal = legal_into(domain, True, next_legal_buffer)
+            next_action = select_action(agent.policy, q, next_legal, agent_rng)
+            if is_actor_critic:
+                q_values_into(arrays.weights, next_phi, next_values, critic_q)
+            target = bootstrap(agent, reward, q, next_action, next_legal, critic_q)
+        delta = td_learn(agent, arrays, phi, values, action, target, episode)
+        learning_steps += 1
+        if not math.isfinite(delta):
+            status = DIVERGED
+            phase = NEEDS_RESET
+            break
+        grew = False
+        if rep.is_ifdd:  # Algorithm 20/21; new features start at θ_g + θ_h (Section 4.1.1)
+            first, added, parents = discover_from(rep, phi, delta)
+            for f in range(first, first + added):
+                parent_sum_row(arrays.weights, parents[f, 0], parents[f, 1], f)
+                if is_actor_critic:
+                    parent_sum_row(arrays.actor_weights, parents[f, 0], parents[f, 1], f)
+                if has_traces:  # a new feature has no trace yet (SARSA's own growth)
+                    for a in range(num_actions):
+                        arrays.trace_slots[f, a] = -1
+            grew = added > 0
+        if terminated:
+            clear_learner_traces(agent, arrays)
+        done += 1
+        if cost > 0.0:  # a failure step (`info["cost"] > 0`)
+            failures += 1
+            episode_failures += 1
+        total += reward
+        discounted += weight * reward
+        weight *= agent.discount
+        if terminated or episode_steps >= cap:
+            ep_float, ep_int = _record_episode(
+                ep_float, ep_int, num_ended, total, discounted, episode_steps, episode_failures
+            )
+            num_ended += 1
+            phase = NEEDS_RESET
+        else:
+            _copy(obs, next_obs)
+            if grew:  # φ(s) with the new features, as the Python learner re-encodes
+                phi = active_into(rep, obs, quanta, phi_buffer)
+            elif is_buffered:  # φ(s) ← φ(s'): copy, so that φ(s) stays in its buffer
+                _copy(phi_buffer, next_phi)
+                phi = phi_buffer
+            else:
+                phi = next_phi
+            values = next_values
+            action = next_action
+    state.phase[0], state.action[0], state.episode_steps[0] = phase, action, episode_steps
+    state.episode[0], state.learning_steps[0] = episode, learning_steps
+    state.episode_failures[0], state.total[0] = episode_failures, total
+    state.discounted[0], state.weight[0] = discounted, weight
+    return status, done, failures, delta, ep_float[:num_ended], ep_int[:num_ended]

@@ -1,0 +1,91 @@
+"""Which (domain, agent) pairs the compiled loop runs, read from the components' compiled forms.
+
+Every part must give a compiled form (`conjure.core.compiled_form`): the domain, the agent
+(which asks its policy and step-size schedules), and the agent's representation. A part with
+none, or a subclass that overrides a method its kernel stands in for, sends the run to the
+Python path; `why_not_compiled` names the first such part.
+
+Covered today (Geramifard 2012): the domains `InvertedPendulum`, `GridWorld`, `ChainMDP`,
+`BlocksWorld`, `PersistentSurveillance`, `RescueMission`, `UAVMission`; the representations
+`TileCoding` (hashed or not), `Tabular`, `IndependentDiscretization`, `BinaryIndicators`, `RBF`
+(real-valued φ, Section 3.1.2) and online iFDD (`OnlineIFDD` and `RandomExpansion`, Algorithms
+19-21) over a binary base; the learners `SARSA` (with or without traces), `QLearning` and
+`ActorCritic` as printed (Algorithm 12); the policies `EpsilonGreedy`, `Gibbs`; the schedules
+`ConstantStepSize`, `FeatureNormalizedDecay`, `EpisodicDecay`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from conjure.agents._kernels import AgentKernel
+from conjure.core.compiled_form import compiled_form
+from conjure.core.interfaces import Agent, Domain, check_is_set_up
+from conjure.representations.ifdd_form import IFDDKernel, fixed
+
+__all__ = ["Selection", "representation_form", "select", "why_not_compiled"]
+
+
+@dataclass(frozen=True)
+class Selection:
+    """A pair the compiled loop runs.
+
+    ``max_episode_steps``: the episode cap; ``is_real_valued``: whether φ has real values
+    (`RBF`: the loop's second compilation).
+    """
+
+    max_episode_steps: int
+    is_real_valued: bool
+
+
+def select(domain: Domain, agent: Agent) -> Selection | str:
+    """The `Selection` of a set-up ``agent`` on ``domain``, or why a part has no kernel.
+
+    Raises
+    ------
+    NotSetUpError
+        If ``agent.setup`` has not run.
+    """
+    domain_form = compiled_form(domain)
+    if domain_form is None:
+        return f"the domain {type(domain).__name__} has no compiled kernel"
+    if not hasattr(agent, "compiled_form"):
+        return f"the agent {type(agent).__name__} has no compiled kernel"
+    check_is_set_up(agent, "select")
+    for part, component in (("policy", agent.policy_), ("step-size schedule", agent.schedule_)):
+        if compiled_form(component) is None:
+            return f"the {part} {type(component).__name__} has no compiled kernel"
+    if compiled_form(agent) is None:
+        variant = getattr(agent, "compiled_variant", "")
+        return f"{type(agent).__name__} with these parameters has no compiled kernel" + (
+            f" ({variant})" if variant else ""
+        )
+    rep = representation_form(agent)
+    if rep is None:
+        name = type(agent.representation_).__name__
+        return f"the representation {name} has no compiled kernel here"
+    return Selection(domain.domain_spec.max_episode_steps, rep.base.rbf is not None)
+
+
+def why_not_compiled(domain: Domain, agent: Agent) -> str | None:
+    """Name the first part of a set-up ``agent`` on ``domain`` with no compiled kernel.
+
+    ``None`` when every part has one (then `select` returns a `Selection`).
+    """
+    selected = select(domain, agent)
+    return None if isinstance(selected, Selection) else selected
+
+
+def representation_form(agent: Agent) -> IFDDKernel | None:
+    """The agent's representation as the loop's growing-representation argument, or None."""
+    form = compiled_form(agent.representation_)
+    if form is None or isinstance(form, IFDDKernel):
+        return form
+    return fixed(form)
+
+
+def agent_form(agent: Agent) -> AgentKernel:
+    """The agent's compiled form (selected agents always have one)."""
+    form = compiled_form(agent)
+    assert form is not None  # `select` checked it
+    return form

@@ -1,0 +1,234 @@
+"""The domains as the compiled learning loop reads them (`conjure.core.compiled_form`).
+
+A domain's ``compiled_form()`` returns a `DomainKernel`: its kind, its constants and a copy of
+its internal state; ``load_compiled_form`` writes the state back after the loop ran. The three
+kernels here, `reset_into`, `step_into` and `legal_into`, choose the domain's own kernel by
+kind: the shared-source transitions of `conjure.domains._kernels` (chain, grid world,
+pendulum) and the mission kernels (`blocks_step`, `pst_step`, `rescue_step`, `mission_step`)
+that the Python ``step`` methods call too, with the same draws in the same order.
+
+Choice: one named tuple type serves every domain (unused fields are empty arrays), so the loop
+compiles once for all of them; the per-domain layout of ``params``, ``table`` and ``cells`` is
+written beside each domain's ``compiled_form``.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+from numba import njit
+
+from conjure.domains._blocks_kernels import blocks_reset, blocks_step, legal_moves_into
+from conjure.domains._kernels import chain_move, gridworld_move, pendulum_start, pendulum_transition
+from conjure.domains._mission_kernels import legal_actions, mission_step
+from conjure.domains._uav_kernels import (
+    BASE,
+    pst_fill_legal_mask,
+    pst_step,
+    rescue_fill_legal_mask,
+    rescue_step,
+)
+
+__all__ = ["DomainKernel", "domain_kernel", "legal_into", "reset_into", "step_into"]
+
+#: Domain kinds of `DomainKernel`.
+PENDULUM, GRIDWORLD, CHAIN, BLOCKS, PERSISTENT_SURVEILLANCE, RESCUE, UAV_MISSION = range(7)
+#: Grid world: ``cells`` columns; ``table[c]`` is the 4 moves' targets, the number of feasible
+#: moves, then those moves.
+C_REWARD, C_TERMINAL, C_PIT, C_NOISY, C_ROW, C_COL = range(6)
+#: Rescue Mission: where s₀ starts in ``params`` (after horizon, fuel and failure penalties);
+#: ``cells[:, :n]`` the one-edge-away table, then the people and success probability per node.
+RESCUE_START, RESCUE_PEOPLE, RESCUE_SUCCESS = 3, 8, 9
+#: UAV mission: s₀ starts in ``params`` after the traverse failure probability.
+UAV_START = 1
+#: Persistent Surveillance's start state of one UAV: full fuel (from ``params``), BASE, healthy.
+_PST_START = (0, BASE, 1, 1)
+
+_chain_move = njit(cache=True, inline="always")(chain_move)
+_gridworld_move = njit(cache=True, inline="always")(gridworld_move)
+_pendulum_start = njit(cache=True, inline="always")(pendulum_start)
+_pendulum_transition = njit(cache=True, inline="always")(pendulum_transition)
+
+
+class DomainKernel(NamedTuple):
+    """A domain as the compiled loop reads it; fields a domain does not use are empty.
+
+    ``state`` (int64) or ``fstate`` (float64) is a copy of the domain's internal state, updated
+    in place by the kernels; ``mask`` the legal-action mask of the domains whose step writes
+    one; ``uniforms`` room for a step's draws; ``num_units`` the blocks or UAVs.
+    """
+
+    kind: int
+    params: np.ndarray
+    table: np.ndarray
+    cells: np.ndarray
+    state: np.ndarray
+    fstate: np.ndarray
+    mask: np.ndarray
+    uniforms: np.ndarray
+    num_units: int
+
+
+def domain_kernel(
+    kind: int,
+    num_actions: int,
+    *,
+    params: np.ndarray | None = None,
+    table: np.ndarray | None = None,
+    cells: np.ndarray | None = None,
+    state: np.ndarray | None = None,
+    fstate: np.ndarray | None = None,
+    num_units: int = 0,
+    num_uniforms: int = 0,
+) -> DomainKernel:
+    """A `DomainKernel` with C-contiguous copies of the given arrays, empty ones for the rest."""
+
+    def array(value: np.ndarray | None, dtype: type, ndim: int) -> np.ndarray:
+        empty = np.zeros((0,) * ndim, dtype=dtype)
+        return empty if value is None else np.array(value, dtype=dtype, order="C", ndmin=ndim)
+
+    return DomainKernel(
+        kind,
+        array(params, np.float64, 1),
+        array(table, np.int64, 2),
+        array(cells, np.float64, 2),
+        array(state, np.int64, 1),
+        array(fstate, np.float64, 1),
+        np.zeros(num_actions, dtype=np.int8),
+        np.empty(num_uniforms),
+        num_units,
+    )
+
+
+@njit(cache=True)
+def reset_into(domain: DomainKernel, obs: np.ndarray, rng: np.random.Generator) -> None:
+    """The domain's ``reset(seed=None)`` with its draws; writes s into ``obs``."""
+    kind, params, state, fstate = domain.kind, domain.params, domain.state, domain.fstate
+    if kind == PENDULUM:
+        fstate[0], fstate[1] = _pendulum_start(params[1], rng)
+        obs[0], obs[1] = fstate[0], fstate[1]
+    elif kind == GRIDWORLD:
+        cell = int(params[1])
+        state[0] = cell
+        obs[0], obs[1] = domain.cells[cell, C_ROW], domain.cells[cell, C_COL]
+    elif kind == CHAIN:
+        state[0] = 0
+        obs[0] = 0.0
+    elif kind == BLOCKS:
+        blocks_reset(domain.num_units, state, obs)
+    else:
+        if kind == PERSISTENT_SURVEILLANCE:
+            for i in range(domain.num_units):
+                for j in range(4):
+                    state[4 * i + j] = _PST_START[j]
+                state[4 * i] = int(params[2])
+        else:  # the missions: s₀ is packed after their scalars
+            start = RESCUE_START if kind == RESCUE else UAV_START
+            for i in range(state.shape[0]):
+                state[i] = int(params[start + i])
+        for i in range(state.shape[0]):
+            obs[i] = state[i]
+
+
+@njit(cache=True)
+def step_into(
+    domain: DomainKernel, action: int, obs: np.ndarray, rng: np.random.Generator
+) -> tuple[float, bool, float]:
+    """One domain step with the Python domain's draws; writes s' into ``obs``.
+
+    Returns (reward, terminated, cost); the cost is the step's failure (``info["cost"]``).
+    """
+    kind, params, table, cells, state = (
+        domain.kind, domain.params, domain.table, domain.cells, domain.state,
+    )  # fmt: skip
+    if kind == PENDULUM:
+        fstate = domain.fstate
+        theta, theta_dot, shown, reward, terminated = _pendulum_transition(
+            fstate[0], fstate[1], action, params[0], rng
+        )
+        fstate[0], fstate[1] = theta, theta_dot
+        obs[0], obs[1] = shown, theta_dot
+        return reward, terminated, 1.0 if terminated else 0.0
+    if kind == GRIDWORLD:
+        cell = _gridworld_move(
+            table, table[:, 5:], table[:, 4], cells[:, C_NOISY], params[0], state[0], action, rng
+        )
+        state[0] = cell
+        obs[0], obs[1] = cells[cell, C_ROW], cells[cell, C_COL]
+        return cells[cell, C_REWARD], cells[cell, C_TERMINAL] > 0.0, cells[cell, C_PIT]
+    if kind == CHAIN:
+        last = int(params[0]) - 1
+        next_state, reward = _chain_move(last, params[1], params[2], state[0], action, rng)
+        state[0] = next_state
+        obs[0] = next_state
+        return reward, next_state == last, 0.0
+    if kind == BLOCKS:
+        reward, terminated = blocks_step(params, state, action, obs, rng)
+        return reward, terminated, 0.0
+    if kind == RESCUE:  # one uniform per step, as `RescueMission.step`
+        u = rng.random()
+        nodes = cells.shape[0]
+        next_obs, reward, terminated, failed = rescue_step(
+            state, action, u, table[:, :3], table[:, 3], cells[:, :nodes],
+            cells[:, RESCUE_PEOPLE], cells[:, RESCUE_SUCCESS], int(params[0]), params[1],
+            params[2], domain.mask,
+        )  # fmt: skip
+        _copy(obs, next_obs)
+        return reward, terminated, 1.0 if failed else 0.0
+    if kind == UAV_MISSION:  # 2n uniforms per step, as `UAVMission.step`
+        next_state, reward, terminated, cost = mission_step(
+            state, action, table[0], cells, params[0], rng
+        )
+        _copy(state, next_state)
+        _copy(obs, next_state)
+        return reward, terminated, cost
+    uniforms = domain.uniforms
+    for i in range(uniforms.shape[0]):  # as np_random.random(2n)
+        uniforms[i] = rng.random()
+    next_obs, reward, terminated = pst_step(
+        state, action, uniforms, int(params[0]), int(params[1]), int(params[2]), params[3],
+        params[4], params[5], params[6], params[7] != 0.0, params[8] != 0.0, domain.mask,
+    )  # fmt: skip
+    _copy(obs, next_obs)
+    return reward, terminated, 1.0 if terminated else 0.0
+
+
+@njit(cache=True, inline="always")
+def legal_into(domain: DomainKernel, is_filled: bool, out: np.ndarray) -> np.ndarray:
+    """The sorted legal actions of the current state (a view of ``out``).
+
+    Every action is legal in the pendulum, the grid world and the chain: ``out`` then already
+    lists them all. ``domain.mask`` holds Rescue's and Persistent Surveillance's mask when
+    ``is_filled`` (their step writes it), else it is filled here.
+    """
+    kind, table, state, mask = domain.kind, domain.table, domain.state, domain.mask
+    if kind < BLOCKS:
+        return out
+    if kind == BLOCKS:
+        n = domain.num_units
+        nn = n * n
+        count = legal_moves_into(state[nn : nn + n], state[nn + n :], n, out)
+        return out[:count]
+    if kind == UAV_MISSION:
+        nodes = table.shape[0] - 1
+        legal = legal_actions(state, table[0], table[1:, :nodes])
+        _copy(out, legal)
+        return out[: legal.shape[0]]
+    if not is_filled and kind == RESCUE:
+        rescue_fill_legal_mask(state, table[:, :3], table[:, 3], mask)
+    elif not is_filled:
+        pst_fill_legal_mask(state, domain.num_units, mask)
+    count = 0
+    for a in range(mask.shape[0]):
+        if mask[a]:
+            out[count] = a
+            count += 1
+    return out[:count]
+
+
+@njit(cache=True, inline="always")
+def _copy(target: np.ndarray, source: np.ndarray) -> None:
+    """``target[:n] = source`` as a loop (a slice assignment links numba's error formatting)."""
+    for i in range(source.shape[0]):
+        target[i] = source[i]
