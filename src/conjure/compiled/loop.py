@@ -6,9 +6,10 @@ arithmetic: every step calls the components' own kernels through their compiled 
 (`conjure.core.compiled_form`):
 
 - the domain (`conjure.domains.compiled_form`): `reset_into`, `step_into`, `legal_into`;
-- the representation (`conjure.representations.ifdd_form`): `active_into`, and with online
-  iFDD `has_room`, `discover_from` and `parent_sum_row` for new features' weights
-  (Section 4.1.1);
+- the representation (`conjure.representations._kernels`): `encode_into` and `values_of` for
+  φ(s), and with online iFDD (`conjure.representations.ifdd_form`) `sparsify` (Algorithm
+  19), `has_room`, `discover_from` and `parent_sum_row` for new features' weights (Section
+  4.1.1);
 - the learner (`conjure.agents._kernels`): `q_values_into`, `bootstrap`, `td_learn`,
   `clear_learner_traces`, and the policy's `select_action`.
 
@@ -21,6 +22,11 @@ uniform per action choice.
 
 The loop's own state (phase, action, counters, return so far) is `LoopState`, resumable
 between calls; an episode may span calls.
+
+Choice: the iFDD tables (about thirty arrays) are passed to a kernel only inside the loop's
+iFDD branches: numba counts a reference per array wherever a tuple of more than about ten
+arrays is passed (it prunes the counts of smaller ones), a cost the fixed representations'
+steps should not pay.
 
 Compilation: one function serves every combination (the compiled forms have fixed field
 types), with a second compilation for real-valued φ (`RBF`), so binary φ never reads a value.
@@ -46,13 +52,8 @@ from conjure.agents._kernels import (
 )
 from conjure.domains.compiled_form import DomainKernel, legal_into, reset_into, step_into
 from conjure.policies._kernels import select_action
-from conjure.representations._kernels import TILES, values_of
-from conjure.representations.ifdd_form import (
-    IFDDKernel,
-    active_into,
-    discover_from,
-    has_room,
-)
+from conjure.representations._kernels import TILES, encode_into, values_of
+from conjure.representations.ifdd_form import IFDDKernel, discover_from, has_room, sparsify
 from conjure.representations.weights import parent_sum_row
 
 __all__ = ["LoopState", "learning_loop"]
@@ -155,18 +156,21 @@ def learning_loop(
     # The actor's preferences choose actions for Actor-Critic (shared features), θ otherwise.
     chooser = arrays.actor_weights
     # Scratch: φ(s) and φ(s') buffers of tile coding, legal-action lists, Q(s', ·).
-    max_active = max(rep.base.max_active, 1)
+    base, is_ifdd = rep.base, rep.is_ifdd
+    max_active = max(base.max_active, 1)
     quanta = np.empty(obs.shape[0], dtype=np.int64)
     phi_buffer = np.empty(max_active, dtype=np.int64)
     next_buffer = np.empty(max_active, dtype=np.int64)
+    all_actions = np.arange(num_actions)
     legal_buffer = np.arange(num_actions)
     next_legal_buffer = np.arange(num_actions)
+    is_masked = domain.has_action_constraints
     next_obs = np.empty_like(obs)
     q = np.empty(num_actions)
     critic_q = np.empty(num_actions)
     ep_float = np.empty((16, 2))
     ep_int = np.empty((16, 2), dtype=np.int64)
-    is_buffered = rep.base.kind == TILES and not rep.is_ifdd  # φ(s) lives in phi_buffer
+    is_buffered = base.kind == TILES and not is_ifdd  # φ(s) lives in phi_buffer
     num_ended = done = failures = 0
     delta = 0.0
     status = DONE
@@ -176,9 +180,11 @@ def learning_loop(
     episode_failures, total = state.episode_failures[0], state.total[0]
     discounted, weight = state.discounted[0], state.weight[0]
     phi = phi_buffer
-    values = values_of(rep.base, obs)  # φ(s)'s values (None: binary φ)
+    values = values_of(base, obs)  # φ(s)'s values (None: binary φ)
     if phase == IN_EPISODE:
-        phi = active_into(rep, obs, quanta, phi_buffer)
+        phi = encode_into(base, obs, quanta, phi_buffer)
+        if is_ifdd:  # `rep` is read only with iFDD (see `sparsify`)
+            phi = sparsify(rep, phi)
     while done < num_steps:
         if phase == NEEDS_RESET:
             reset_into(domain, obs, domain_rng)
@@ -186,15 +192,17 @@ def learning_loop(
         if phase == NEEDS_BEGIN:  # the learner's begin_episode, then a = π(s)
             episode += 1
             clear_learner_traces(agent, arrays)
-            phi = active_into(rep, obs, quanta, phi_buffer)
-            values = values_of(rep.base, obs)
+            phi = encode_into(base, obs, quanta, phi_buffer)
+            if is_ifdd:
+                phi = sparsify(rep, phi)
+            values = values_of(base, obs)
             q_values_into(chooser, phi, values, q)
-            legal = legal_into(domain, False, legal_buffer)
+            legal = legal_into(domain, False, legal_buffer) if is_masked else all_actions
             action = select_action(agent.policy, q, legal, agent_rng)
             episode_steps = episode_failures = 0
             total, discounted, weight = 0.0, 0.0, 1.0
             phase = IN_EPISODE
-        if not has_room(rep, phi):
+        if is_ifdd and not has_room(rep, phi):
             status = GROW_REPRESENTATION
             break
         if has_traces and arrays.trace_count[0] + phi.shape[0] > arrays.trace_values.shape[0]:
@@ -206,10 +214,12 @@ def learning_loop(
         next_action = 0
         target = reward
         if not terminated:  # φ(s'), a' = π(s') and Q⁺(s, a) (Algorithms 10-12, lines 4-5)
-            next_phi = active_into(rep, next_obs, quanta, next_buffer)
-            next_values = values_of(rep.base, next_obs)
+            next_phi = encode_into(base, next_obs, quanta, next_buffer)
+            if is_ifdd:
+                next_phi = sparsify(rep, next_phi)
+            next_values = values_of(base, next_obs)
             q_values_into(chooser, next_phi, next_values, q)
-            next_legal = legal_into(domain, True, next_legal_buffer)
+            next_legal = legal_into(domain, True, next_legal_buffer) if is_masked else all_actions
             next_action = select_action(agent.policy, q, next_legal, agent_rng)
             if is_actor_critic:
                 q_values_into(arrays.weights, next_phi, next_values, critic_q)
@@ -221,7 +231,7 @@ def learning_loop(
             phase = NEEDS_RESET
             break
         grew = False
-        if rep.is_ifdd:  # Algorithm 20/21; new features start at θ_g + θ_h (Section 4.1.1)
+        if is_ifdd:  # Algorithm 20/21; new features start at θ_g + θ_h (Section 4.1.1)
             first, added, parents = discover_from(rep, phi, delta)
             for f in range(first, first + added):
                 parent_sum_row(arrays.weights, parents[f, 0], parents[f, 1], f)
@@ -249,10 +259,9 @@ def learning_loop(
         else:
             _copy(obs, next_obs)
             if grew:  # φ(s) with the new features, as the Python learner re-encodes
-                phi = active_into(rep, obs, quanta, phi_buffer)
-            elif is_buffered:  # φ(s) ← φ(s'): copy, so that φ(s) stays in its buffer
+                phi = sparsify(rep, encode_into(base, obs, quanta, phi_buffer))
+            elif is_buffered:  # φ(s) ← φ(s'): copy; φ(s) stays in its buffer (phi is phi_buffer)
                 _copy(phi_buffer, next_phi)
-                phi = phi_buffer
             else:
                 phi = next_phi
             values = next_values

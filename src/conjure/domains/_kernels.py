@@ -106,26 +106,25 @@ def pendulum_transition(
     return theta, theta_dot, (HALF_PI if theta > 0.0 else -HALF_PI), -1.0, True
 
 
+#: Columns of a grid world's move table row (`gridworld_move`): the 4 moves' target cells,
+#: the number of feasible moves, those moves (4 columns), then 1 if the wind blows there.
+GW_COUNT, GW_MOVES, GW_NOISY = 4, 5, 9
+
+
 def gridworld_move(
-    next_cell: Any,
-    moves: Any,
-    move_counts: Any,
-    is_noisy: Any,
-    noise: float,
-    cell: int,
-    action: int,
-    rng: np.random.Generator,
+    table: Any, noise: float, cell: int, action: int, rng: np.random.Generator
 ) -> int:
     """The grid world's next cell: with probability η (in a noisy cell) a random feasible move.
 
-    ``next_cell[c][a]`` is the cell move a leads to; ``moves[c][:move_counts[c]]`` lists c's
-    feasible moves; ``is_noisy[c]`` whether the wind blows in c. Two draws when it blows.
+    ``table[c]`` is cell c's move table row (`GW_COUNT`, `GW_MOVES`, `GW_NOISY`): a list of
+    lists in Python, an int64 array in the compiled loop. Two draws when the wind blows.
     """
-    if noise > 0.0 and is_noisy[cell] and rng.random() < noise:
-        count = move_counts[cell]
+    row = table[cell]
+    if noise > 0.0 and row[GW_NOISY] and rng.random() < noise:
+        count = row[GW_COUNT]
         if count > 0:
-            action = moves[cell][int(rng.random() * count)]
-    return next_cell[cell][action]
+            action = row[GW_MOVES + int(rng.random() * count)]
+    return row[action]
 
 
 def chain_move(

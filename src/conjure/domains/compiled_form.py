@@ -34,8 +34,7 @@ __all__ = ["DomainKernel", "domain_kernel", "legal_into", "reset_into", "step_in
 
 #: Domain kinds of `DomainKernel`.
 PENDULUM, GRIDWORLD, CHAIN, BLOCKS, PERSISTENT_SURVEILLANCE, RESCUE, UAV_MISSION = range(7)
-#: Grid world: ``cells`` columns; ``table[c]`` is the 4 moves' targets, the number of feasible
-#: moves, then those moves.
+#: Grid world: ``cells`` columns; ``table`` is `gridworld_move`'s.
 C_REWARD, C_TERMINAL, C_PIT, C_NOISY, C_ROW, C_COL = range(6)
 #: Rescue Mission: where s₀ starts in ``params`` (after horizon, fuel and failure penalties);
 #: ``cells[:, :n]`` the one-edge-away table, then the people and success probability per node.
@@ -56,7 +55,8 @@ class DomainKernel(NamedTuple):
 
     ``state`` (int64) or ``fstate`` (float64) is a copy of the domain's internal state, updated
     in place by the kernels; ``mask`` the legal-action mask of the domains whose step writes
-    one; ``uniforms`` room for a step's draws; ``num_units`` the blocks or UAVs.
+    one; ``uniforms`` room for a step's draws; ``num_units`` the blocks or UAVs;
+    ``has_action_constraints`` whether some actions are illegal somewhere (`legal_into`).
     """
 
     kind: int
@@ -68,6 +68,7 @@ class DomainKernel(NamedTuple):
     mask: np.ndarray
     uniforms: np.ndarray
     num_units: int
+    has_action_constraints: bool
 
 
 def domain_kernel(
@@ -98,6 +99,7 @@ def domain_kernel(
         np.zeros(num_actions, dtype=np.int8),
         np.empty(num_uniforms),
         num_units,
+        kind >= BLOCKS,
     )
 
 
@@ -131,64 +133,115 @@ def reset_into(domain: DomainKernel, obs: np.ndarray, rng: np.random.Generator) 
             obs[i] = state[i]
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def step_into(
     domain: DomainKernel, action: int, obs: np.ndarray, rng: np.random.Generator
 ) -> tuple[float, bool, float]:
     """One domain step with the Python domain's draws; writes s' into ``obs``.
 
     Returns (reward, terminated, cost); the cost is the step's failure (``info["cost"]``).
+    Each branch reads only its domain's fields (a field read outside the branch that uses it
+    costs the loop a reference count per step).
     """
-    kind, params, table, cells, state = (
-        domain.kind, domain.params, domain.table, domain.cells, domain.state,
-    )  # fmt: skip
+    kind = domain.kind
     if kind == PENDULUM:
-        fstate = domain.fstate
-        theta, theta_dot, shown, reward, terminated = _pendulum_transition(
-            fstate[0], fstate[1], action, params[0], rng
-        )
-        fstate[0], fstate[1] = theta, theta_dot
-        obs[0], obs[1] = shown, theta_dot
-        return reward, terminated, 1.0 if terminated else 0.0
+        return _pendulum(domain.params, domain.fstate, action, obs, rng)
     if kind == GRIDWORLD:
-        cell = _gridworld_move(
-            table, table[:, 5:], table[:, 4], cells[:, C_NOISY], params[0], state[0], action, rng
-        )
-        state[0] = cell
-        obs[0], obs[1] = cells[cell, C_ROW], cells[cell, C_COL]
-        return cells[cell, C_REWARD], cells[cell, C_TERMINAL] > 0.0, cells[cell, C_PIT]
+        return _gridworld(domain.params, domain.table, domain.cells, domain.state, action, obs, rng)
     if kind == CHAIN:
-        last = int(params[0]) - 1
-        next_state, reward = _chain_move(last, params[1], params[2], state[0], action, rng)
-        state[0] = next_state
-        obs[0] = next_state
-        return reward, next_state == last, 0.0
+        return _chain(domain.params, domain.state, action, obs, rng)
     if kind == BLOCKS:
-        reward, terminated = blocks_step(params, state, action, obs, rng)
+        reward, terminated = blocks_step(domain.params, domain.state, action, obs, rng)
         return reward, terminated, 0.0
-    if kind == RESCUE:  # one uniform per step, as `RescueMission.step`
-        u = rng.random()
-        nodes = cells.shape[0]
-        next_obs, reward, terminated, failed = rescue_step(
-            state, action, u, table[:, :3], table[:, 3], cells[:, :nodes],
-            cells[:, RESCUE_PEOPLE], cells[:, RESCUE_SUCCESS], int(params[0]), params[1],
-            params[2], domain.mask,
-        )  # fmt: skip
-        _copy(obs, next_obs)
-        return reward, terminated, 1.0 if failed else 0.0
-    if kind == UAV_MISSION:  # 2n uniforms per step, as `UAVMission.step`
-        next_state, reward, terminated, cost = mission_step(
-            state, action, table[0], cells, params[0], rng
-        )
-        _copy(state, next_state)
-        _copy(obs, next_state)
-        return reward, terminated, cost
-    uniforms = domain.uniforms
-    for i in range(uniforms.shape[0]):  # as np_random.random(2n)
+    if kind == RESCUE:
+        return _rescue(domain, action, obs, rng)
+    if kind == UAV_MISSION:
+        return _uav_mission(domain, action, obs, rng)
+    return _persistent_surveillance(domain, action, obs, rng)
+
+
+@njit(cache=True, inline="always")
+def _pendulum(
+    params: np.ndarray, fstate: np.ndarray, action: int, obs: np.ndarray, rng: np.random.Generator
+) -> tuple[float, bool, float]:
+    theta, theta_dot, shown, reward, terminated = _pendulum_transition(
+        fstate[0], fstate[1], action, params[0], rng
+    )
+    fstate[0], fstate[1] = theta, theta_dot
+    obs[0], obs[1] = shown, theta_dot
+    return reward, terminated, 1.0 if terminated else 0.0
+
+
+@njit(cache=True, inline="always")
+def _gridworld(
+    params: np.ndarray,
+    table: np.ndarray,
+    cells: np.ndarray,
+    state: np.ndarray,
+    action: int,
+    obs: np.ndarray,
+    rng: np.random.Generator,
+) -> tuple[float, bool, float]:
+    cell = _gridworld_move(table, params[0], state[0], action, rng)
+    state[0] = cell
+    obs[0], obs[1] = cells[cell, C_ROW], cells[cell, C_COL]
+    return cells[cell, C_REWARD], cells[cell, C_TERMINAL] > 0.0, cells[cell, C_PIT]
+
+
+@njit(cache=True, inline="always")
+def _chain(
+    params: np.ndarray, state: np.ndarray, action: int, obs: np.ndarray, rng: np.random.Generator
+) -> tuple[float, bool, float]:
+    last = int(params[0]) - 1
+    next_state, reward = _chain_move(last, params[1], params[2], state[0], action, rng)
+    state[0] = next_state
+    obs[0] = next_state
+    return reward, next_state == last, 0.0
+
+
+@njit(cache=True)
+def _rescue(
+    domain: DomainKernel, action: int, obs: np.ndarray, rng: np.random.Generator
+) -> tuple[float, bool, float]:
+    """One uniform per step, as `RescueMission.step`."""
+    params, table, cells = domain.params, domain.table, domain.cells
+    u = rng.random()
+    nodes = cells.shape[0]
+    next_obs, reward, terminated, failed = rescue_step(
+        domain.state, action, u, table[:, :3], table[:, 3], cells[:, :nodes],
+        cells[:, RESCUE_PEOPLE], cells[:, RESCUE_SUCCESS], int(params[0]), params[1],
+        params[2], domain.mask,
+    )  # fmt: skip
+    _copy(obs, next_obs)
+    return reward, terminated, 1.0 if failed else 0.0
+
+
+@njit(cache=True)
+def _uav_mission(
+    domain: DomainKernel, action: int, obs: np.ndarray, rng: np.random.Generator
+) -> tuple[float, bool, float]:
+    """2n uniforms per step, as `UAVMission.step`."""
+    state = domain.state
+    next_state, reward, terminated, cost = mission_step(
+        state, action, domain.table[0], domain.cells, domain.params[0], rng
+    )
+    _copy(state, next_state)
+    _copy(obs, next_state)
+    return reward, terminated, cost
+
+
+@njit(cache=True)
+def _persistent_surveillance(
+    domain: DomainKernel, action: int, obs: np.ndarray, rng: np.random.Generator
+) -> tuple[float, bool, float]:
+    """2n uniforms per step (``np_random.random(2n)``), as `PersistentSurveillance.step`."""
+    params, uniforms = domain.params, domain.uniforms
+    for i in range(uniforms.shape[0]):
         uniforms[i] = rng.random()
     next_obs, reward, terminated = pst_step(
-        state, action, uniforms, int(params[0]), int(params[1]), int(params[2]), params[3],
-        params[4], params[5], params[6], params[7] != 0.0, params[8] != 0.0, domain.mask,
+        domain.state, action, uniforms, int(params[0]), int(params[1]), int(params[2]),
+        params[3], params[4], params[5], params[6], params[7] != 0.0, params[8] != 0.0,
+        domain.mask,
     )  # fmt: skip
     _copy(obs, next_obs)
     return reward, terminated, 1.0 if terminated else 0.0

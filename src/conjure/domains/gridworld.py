@@ -13,7 +13,7 @@ from conjure.core.cooperative import NoisyDomain
 from conjure.core.errors import InvalidParameterError
 from conjure.core.interfaces import DomainSpec
 from conjure.core.params import Constraint, InstanceOf, Interval, Options, did_you_mean
-from conjure.domains._kernels import gridworld_move
+from conjure.domains._kernels import GW_COUNT, GW_MOVES, GW_NOISY, gridworld_move
 from conjure.domains.compiled_form import GRIDWORLD, DomainKernel, domain_kernel
 
 if TYPE_CHECKING:  # the model and SciPy load when `model` is first called
@@ -317,7 +317,6 @@ class GridWorld(NoisyDomain):
         flat_feasible = feasible.reshape(-1, len(MOVES))
         self._next_cell = self._targets.tolist()
         self._feasible = [tuple(a for a in range(4) if row[a]) for row in flat_feasible.tolist()]
-        self._num_feasible = [len(moves) for moves in self._feasible]
         reward = np.where(codes == GOAL, 1.0, np.where(codes == PIT, -1.0, self.step_reward))
         self._reward = reward.astype(np.float64).tolist()
         self._terminal = ((codes == GOAL) | (codes == PIT)).tolist()
@@ -325,6 +324,7 @@ class GridWorld(NoisyDomain):
         self._is_noisy = (
             np.ones(codes.size, dtype=bool) if self.noise_cells == "all" else codes == WINDY
         ).tolist()
+        self._moves = self._move_table(flat_feasible, codes).tolist()
         self._coords = list(
             zip(
                 (np.arange(rows * cols) // cols).astype(np.float64).tolist(),
@@ -369,25 +369,27 @@ class GridWorld(NoisyDomain):
 
     def _next(self, cell: int, action: int, noise: float, rng: np.random.Generator) -> int:
         """The next cell; with probability ``noise`` (in a noisy cell) a random feasible move."""
-        return gridworld_move(
-            self._next_cell, self._feasible, self._num_feasible, self._is_noisy, noise, cell,
-            action, rng,
-        )  # fmt: skip
+        return gridworld_move(self._moves, noise, cell, action, rng)
+
+    def _move_table(self, feasible: np.ndarray, codes: np.ndarray) -> np.ndarray:
+        """`gridworld_move`'s table: targets, feasible count, feasible moves, noisy flag."""
+        table = np.zeros((codes.size, GW_NOISY + 1), dtype=np.int64)
+        table[:, :4] = self._targets
+        table[:, GW_COUNT] = feasible.sum(axis=1)
+        order = np.argsort(~feasible, axis=1, kind="stable")  # feasible moves first, in order
+        table[:, GW_MOVES:GW_NOISY] = np.where(np.sort(~feasible, axis=1), 0, order)
+        table[:, GW_NOISY] = self._is_noisy
+        return table
 
     compiled_methods = ("step", "reset", "_next")
 
     def compiled_form(self) -> DomainKernel:
         """The grid for the compiled loop (layout in `conjure.domains.compiled_form`).
 
-        params (η, start cell); table[c] the 4 moves' targets, the number of feasible moves
-        and those moves; cells[c] reward, terminal, pit, noisy, row, column; state the cell.
+        params (η, start cell); table `gridworld_move`'s; cells[c] reward, terminal, pit,
+        noisy, row, column; state the cell.
         """
-        num_cells = len(self._next_cell)
-        table = np.zeros((num_cells, 9), dtype=np.int64)
-        table[:, :4] = self._targets
-        table[:, 4] = self._num_feasible
-        for cell, moves in enumerate(self._feasible):
-            table[cell, 5 : 5 + len(moves)] = moves
+        table = np.array(self._moves, dtype=np.int64)
         rows, cols = zip(*self._coords, strict=True)
         cells = np.column_stack(
             [self._reward, self._terminal, self._is_pit, self._is_noisy, rows, cols]

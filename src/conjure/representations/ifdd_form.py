@@ -3,8 +3,8 @@
 `IFDDKernel` is a representation the loop can grow: the base's `RepresentationKernel` (φ⁰)
 with `OnlineIFDD`'s own tables, or the base alone (``is_ifdd`` False, empty tables of the same
 types, so that one compilation of the loop serves both). The kernels here are the
-representation's ``active_features`` (Algorithm 19) and ``discover`` (Algorithms 20/21, or the
-fixed rate of Eq. 4.6) over those tables; they call `activate` and `discover` of
+representation's ``active_features`` after φ⁰ (Algorithm 19) and ``discover`` (Algorithms
+20/21, or the fixed rate of Eq. 4.6) over those tables; they call `activate` and `discover` of
 `conjure.representations._ifdd_kernels`, as `OnlineIFDD`'s Python methods do.
 """
 
@@ -16,9 +16,9 @@ import numpy as np
 from numba import njit
 
 from conjure.representations._ifdd_kernels import I_NUM_FEATURES, activate, discover, discover_room
-from conjure.representations._kernels import RepresentationKernel, encode_into
+from conjure.representations._kernels import RepresentationKernel
 
-__all__ = ["IFDDKernel", "active_into", "discover_from", "fixed", "has_room"]
+__all__ = ["IFDDKernel", "discover_from", "fixed", "has_room", "num_features", "sparsify"]
 
 _I1 = np.zeros(0, dtype=np.int64)
 _I2 = np.zeros((0, 0), dtype=np.int64)
@@ -48,21 +48,17 @@ def fixed(base: RepresentationKernel) -> IFDDKernel:
 
 
 @njit(cache=True, inline="always")
-def active_into(
-    rep: IFDDKernel, state: np.ndarray, quanta: np.ndarray, out: np.ndarray
-) -> np.ndarray:
-    """φ(s): the base's φ⁰(s) (`encode_into`), sparsified by iFDD (Algorithm 19) if any."""
-    initial = encode_into(rep.base, state, quanta, out)
-    if rep.is_ifdd:
-        return activate(initial, *rep.activation)
-    return initial
+def sparsify(rep: IFDDKernel, initial: np.ndarray) -> np.ndarray:
+    """φ̇(s) from φ⁰(s)'s indices (Algorithm 19, `OnlineIFDD.active_features`).
+
+    The loop encodes φ⁰ with the base's `encode_into` and calls this when ``rep.is_ifdd``.
+    """
+    return activate(initial, *rep.activation)
 
 
 @njit(cache=True, inline="always")
 def has_room(rep: IFDDKernel, phi: np.ndarray) -> bool:
     """Whether a discovery from φ(s) fits in the tables (else the representation grows)."""
-    if not rep.is_ifdd:
-        return True
     d = rep.discovery
     return discover_room(phi, d[3], d[1], d[5], d[12], d[14]) >= 0
 
