@@ -3,7 +3,7 @@ import pytest
 
 from conjure.core.errors import InvalidParameterError
 from conjure.domains import GridWorld
-from conjure.planners import QAVI, ValueIteration
+from conjure.planners import QAVI, ValueIteration, _kernels
 from conjure.representations import IndependentDiscretization
 from conjure.testing.planner_checks import chain_walk_model, check_planner, three_state_model
 
@@ -37,6 +37,32 @@ def test_linear_features_run():
     plan = QAVI(representation=IndependentDiscretization(), step_size=0.1, max_iterations=50)
     plan = plan.plan(model)
     assert plan.weights.shape == (17, 4) and np.all(np.isfinite(plan.weights))
+
+
+def test_one_pass_serves_algorithms_7_and_8():
+    # Algorithm 8 is Algorithm 7 on sampled pairs with sampled successors (Section 2.5.3):
+    # on a deterministic model, "samples" of every pair in sweep order give the same pass.
+    model = GridWorld(noise=0.0).model()
+    rep = _kernels.setup_representation(IndependentDiscretization(), model.domain_spec, 0)
+    phi = _kernels.state_features(model, rep)
+    exact = _kernels.model_backups(model, phi)
+    successors = model.state_major_transitions[exact.states * model.num_actions + exact.actions]
+    assert np.all(successors.getnnz(axis=1) == 1)  # deterministic
+    drawn = {
+        "phi": phi[exact.states],
+        "phi_next": phi[successors.indices],
+        "actions": exact.actions,
+        "rewards": exact.rewards.reshape(-1, 1),
+    }
+    start = _kernels.initial_weights(np.random.default_rng(0), rep.num_features_, 4)
+    swept, sampled = start.copy(), start.copy()
+    for _ in range(3):
+        one = _kernels.q_avi_pass(swept, _kernels.sparse_rows(phi), exact, 0.9, 0.1)
+        two = _kernels.q_avi_pass(
+            sampled, _kernels.sparse_rows(drawn["phi"]), _kernels.drawn_backups(drawn), 0.9, 0.1
+        )
+        assert one == two and np.array_equal(swept, sampled)
+    assert not np.array_equal(swept, start)
 
 
 def test_bad_step_size():

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import warnings
 from collections.abc import Callable
-from typing import Any
+from typing import Any, NamedTuple
 
 import numba
 import numpy as np
@@ -256,42 +256,6 @@ def _gradient_step(
 
 
 @numba.njit(cache=True)
-def q_avi_sweep(
-    weights: np.ndarray,
-    phi_indptr: np.ndarray,
-    phi_indices: np.ndarray,
-    phi_data: np.ndarray,
-    p_indptr: np.ndarray,
-    p_indices: np.ndarray,
-    p_data: np.ndarray,
-    rewards: np.ndarray,
-    is_terminal: np.ndarray,
-    discount: float,
-    step_size: float,
-) -> float:
-    """One sweep of Algorithm 7 over every (s, a), updating θ in place; returns max |δ|."""
-    num_actions, num_states = rewards.shape
-    largest = 0.0
-    for s in range(num_states):
-        if is_terminal[s]:
-            continue
-        for a in range(num_actions):
-            row = a * num_states + s
-            target = rewards[a, s]  # line 5: Q⁺(s, a)
-            for k in range(p_indptr[row], p_indptr[row + 1]):
-                s2 = p_indices[k]
-                if is_terminal[s2]:
-                    continue
-                best = _row_max_q(weights, phi_indptr, phi_indices, phi_data, s2)
-                target += discount * p_data[k] * best
-            change = _gradient_step(  # lines 6-7: δ, θ += αδφ(s, a)
-                weights, phi_indptr, phi_indices, phi_data, s, a, target, step_size
-            )
-            largest = max(largest, change)
-    return largest
-
-
-@numba.njit(cache=True)
 def bellman_sweep(
     indptr: np.ndarray,
     indices: np.ndarray,
@@ -372,34 +336,109 @@ def sampled_backups(data: dict[str, Any], weights: np.ndarray, discount: float) 
     return (data["rewards"] + discount * best).mean(axis=1)
 
 
+class SparseRows(NamedTuple):
+    """A CSR matrix as the kernels read it: row r holds ``data[indptr[r]:indptr[r + 1]]``.
+
+    The values sit at the columns ``indices[indptr[r]:indptr[r + 1]]``, in stored order.
+    """
+
+    indptr: np.ndarray
+    indices: np.ndarray
+    data: np.ndarray
+
+
+def sparse_rows(matrix: sp.spmatrix) -> SparseRows:
+    """The `SparseRows` of ``matrix`` (its own arrays when it is already CSR)."""
+    rows = sp.csr_matrix(matrix)
+    return SparseRows(rows.indptr, rows.indices, rows.data)
+
+
+class Backups(NamedTuple):
+    """The pairs ⟨s_i, a_i⟩ one Q-AVI pass updates, with what their Q⁺ reads (Algorithms 7, 8).
+
+    Q⁺_i = (R_i + Σ_k [r_k + γ w_k max_a' Q(s'_k, a')]) / L₂ over the successors k in row i of
+    ``successors`` (column: the row of ``next_phi`` holding φ(s'_k); value: w_k). An empty row
+    of ``next_phi`` (a terminal s') has max_a' Q = 0.
+    """
+
+    states: np.ndarray  # row of φ per pair
+    actions: np.ndarray
+    rewards: np.ndarray  # R_i
+    successors: SparseRows
+    successor_rewards: np.ndarray  # r_k
+    next_phi: SparseRows
+    num_draws: int  # L₂
+
+
+def model_backups(model: TabularModel, phi: sp.csr_matrix) -> Backups:
+    """Every non-terminal (s, a), s-major, with Q⁺ = R(s, a) + Σ_s' γP^a_{ss'} max_a' Q (Alg 7).
+
+    Lines 3-5 of Algorithm 7; ``phi`` is Φ over the model's states (`state_features`).
+    """
+    num_actions = model.num_actions
+    pairs = np.flatnonzero(np.repeat(~model.is_terminal, num_actions))  # row s·|A| + a
+    states, actions = pairs // num_actions, pairs % num_actions
+    successors = sparse_rows(model.state_major_transitions[pairs])
+    return Backups(
+        states=states,
+        actions=actions,
+        rewards=np.ascontiguousarray(model.rewards[states, actions]),
+        successors=successors,
+        successor_rewards=np.zeros(successors.data.shape[0]),
+        next_phi=sparse_rows(phi),
+        num_draws=1,
+    )
+
+
+def drawn_backups(data: dict[str, Any]) -> Backups:
+    """The L₁ sampled pairs, Q⁺ = (1/L₂) Σ_j [r_ij + γ max_a' Q(s'_ij, a')] (Alg 8, line 6).
+
+    ``data`` is an `encode_samples` batch: sample i is row i of Φ̃, its draws rows
+    i·L₂ .. i·L₂ + L₂ − 1 of Φ(s').
+    """
+    num_samples, num_next = data["rewards"].shape
+    draws = np.arange(num_samples * num_next)
+    return Backups(
+        states=np.arange(num_samples),
+        actions=data["actions"],
+        rewards=np.zeros(num_samples),
+        successors=SparseRows(np.arange(0, draws.size + 1, num_next), draws, np.ones(draws.size)),
+        successor_rewards=np.ascontiguousarray(data["rewards"]).reshape(-1),
+        next_phi=sparse_rows(data["phi_next"]),
+        num_draws=num_next,
+    )
+
+
 @numba.njit(cache=True)
-def sampled_q_avi_pass(
-    weights: np.ndarray,
-    phi_indptr: np.ndarray,
-    phi_indices: np.ndarray,
-    phi_data: np.ndarray,
-    actions: np.ndarray,
-    next_indptr: np.ndarray,
-    next_indices: np.ndarray,
-    next_data: np.ndarray,
-    rewards: np.ndarray,
-    discount: float,
-    step_size: float,
+def q_avi_pass(
+    weights: np.ndarray, phi: SparseRows, backups: Backups, discount: float, step_size: float
 ) -> float:
-    """One pass of Algorithm 8 over the L₁ samples in order, θ updated in place; max |δ|."""
-    num_samples, num_next = rewards.shape
+    """One pass of Q-AVI over ``backups``' pairs in order, θ̄ updated in place; max |δ|.
+
+    Geramifard (2012), Algorithm 7 lines 3-7 (every pair, Q⁺ over P) and Algorithm 8 lines
+    4-8 (sampled pairs, Q⁺ over L₂ draws): Q⁺ as in `Backups`, δ = Q⁺ − Q(s_i, a_i), and
+    θ̄ ← θ̄ + αδφ(s_i, a_i) (Eq. 2.30), each pair reading the θ̄ its predecessors updated.
+    """
+    successors, next_phi = backups.successors, backups.next_phi
     largest = 0.0
-    for i in range(num_samples):
-        target = 0.0
-        for j in range(num_next):  # line 6: Q⁺ from L₂ draws s' ~ P(s_i, a_i)
-            row = i * num_next + j
-            best = 0.0  # a terminal s' (empty row) has max_a' Q = 0
-            if next_indptr[row + 1] > next_indptr[row]:
-                best = _row_max_q(weights, next_indptr, next_indices, next_data, row)
-            target += rewards[i, j] + discount * best
-        target /= num_next
-        change = _gradient_step(  # lines 7-8: δ, θ += αδφ(s, a)
-            weights, phi_indptr, phi_indices, phi_data, i, actions[i], target, step_size
+    for i in range(backups.actions.shape[0]):
+        target = backups.rewards[i]
+        for k in range(successors.indptr[i], successors.indptr[i + 1]):  # Q⁺ (Alg 7 line 5)
+            row = successors.indices[k]
+            best = 0.0
+            if next_phi.indptr[row + 1] > next_phi.indptr[row]:
+                best = _row_max_q(weights, next_phi.indptr, next_phi.indices, next_phi.data, row)
+            target += backups.successor_rewards[k] + discount * successors.data[k] * best
+        target /= backups.num_draws
+        change = _gradient_step(  # δ, θ̄ += αδφ(s, a) (Alg 7 lines 6-7, Eq. 2.30)
+            weights,
+            phi.indptr,
+            phi.indices,
+            phi.data,
+            backups.states[i],
+            backups.actions[i],
+            target,
+            step_size,
         )
         largest = max(largest, change)
     return largest

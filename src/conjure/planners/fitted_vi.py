@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from typing import Any
 
+import numpy as np
 import scipy.sparse as sp
 
 from conjure.core.interfaces import Representation
@@ -11,7 +12,7 @@ from conjure.core.linalg import solve_regularized
 from conjure.core.params import InstanceOf, Interval
 from conjure.planners import _kernels
 from conjure.planners._sampling import Sampling, weight_change
-from conjure.planners.base import Iterations, Plan, Planner
+from conjure.planners.base import Plan, Planner
 
 __all__ = ["FittedValueIteration"]
 
@@ -108,14 +109,10 @@ class FittedValueIteration(Planner):
         self.seed = seed
 
     def _plan(self, source: Any) -> Plan:
-        sampling = Sampling(self, source)
+        sampling = Sampling(*self._generative(source), self.representation, self.seed)
         num_actions = sampling.num_actions
-        weights = sampling.initial_weights()  # line 1
-        loop = Iterations(self.max_iterations)
-        for _ in loop:  # line 2: while time left
-            data = sampling.follow(  # lines 3-5
-                weights, self.epsilon, self.num_samples, self.num_next_samples
-            )
+
+        def fit(data: dict[str, Any], weights: np.ndarray) -> tuple[np.ndarray, float]:
             targets = _kernels.sampled_backups(data, weights, sampling.spec.discount)  # line 6: Q⁺
             phi_bar = _kernels.action_features(data["phi"], data["actions"], num_actions)
             phi_t = sp.csr_matrix(phi_bar.T)
@@ -123,8 +120,13 @@ class FittedValueIteration(Planner):
             rhs = (phi_t @ targets) / self.num_samples
             theta = solve_regularized(gram, rhs, float(self.regularization))  # line 7, Eq. 2.31
             fitted = _kernels.weights_by_action(theta, num_actions)
-            change = weight_change(fitted, weights)
-            weights = fitted
-            if loop.record(change) < self.tolerance:
-                break
-        return sampling.plan(weights, loop)
+            return fitted, weight_change(fitted, weights)
+
+        return sampling.iterate(  # lines 1-5
+            fit,
+            epsilon=self.epsilon,
+            num_samples=self.num_samples,
+            num_next=self.num_next_samples,
+            tolerance=self.tolerance,
+            max_iterations=self.max_iterations,
+        )

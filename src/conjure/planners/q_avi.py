@@ -4,8 +4,6 @@ from __future__ import annotations
 
 from typing import Any
 
-import numpy as np
-
 from conjure.core.interfaces import Representation
 from conjure.core.params import InstanceOf, Interval
 from conjure.core.seeding import make_rng
@@ -92,25 +90,15 @@ class QAVI(Planner):
         model = self._tabular(source)
         rep = _kernels.setup_representation(self.representation, model.domain_spec, self.seed)
         phi = _kernels.state_features(model, rep)
-        stacked = model.stacked_transitions  # row a·|S| + s is P^a_{s·}
-        rewards = np.ascontiguousarray(model.rewards_by_action)  # (|A|, |S|)
+        backups = _kernels.model_backups(model, phi)  # lines 3-5: every (s, a), Q⁺ over P
         weights = _kernels.initial_weights(
             make_rng(self.seed), rep.num_features_, model.num_actions
         )  # line 1
+        phi_rows = _kernels.sparse_rows(phi)
         loop = Iterations(self.max_iterations)
         for _ in loop:  # line 2: while time left
-            change = _kernels.q_avi_sweep(  # lines 3-7 for every (s, a)
-                weights,
-                phi.indptr,
-                phi.indices,
-                phi.data,
-                stacked.indptr,
-                stacked.indices,
-                stacked.data,
-                rewards,
-                model.is_terminal,
-                model.discount,
-                float(self.step_size),
+            change = _kernels.q_avi_pass(  # lines 3-7
+                weights, phi_rows, backups, model.discount, float(self.step_size)
             )
             if loop.record(change) < self.tolerance:
                 break

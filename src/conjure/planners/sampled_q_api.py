@@ -9,7 +9,6 @@ import scipy.sparse as sp
 
 from conjure.core.interfaces import Representation
 from conjure.core.params import InstanceOf, Interval, Options
-from conjure.core.seeding import make_rng
 from conjure.models.generative import ModelSampler
 from conjure.planners import _kernels
 from conjure.planners._sampling import Sampling, solve_q_weights
@@ -124,9 +123,8 @@ class SampledQAPI1(Planner):
     def _plan(self, source: Any) -> Plan:
         model = self._tabular(source)
         num_states, num_actions = model.num_states, model.num_actions
-        rng = make_rng(self.seed)
-        sampler = ModelSampler(model)
-        rep = _kernels.setup_representation(self.representation, model.domain_spec, self.seed)
+        sampling = Sampling(ModelSampler(model), model, self.representation, self.seed)
+        sampler, rng, rep = sampling.sampler, sampling.rng, sampling.representation
         phi = _kernels.state_features(model, rep)
         stacked = model.stacked_transitions
         policy = _kernels.initial_policy(model, rng)  # line 2
@@ -247,23 +245,20 @@ class SampledQAPI2(Planner):
         self.seed = seed
 
     def _plan(self, source: Any) -> Plan:
-        sampling = Sampling(self, source)
+        sampling = Sampling(*self._generative(source), self.representation, self.seed)
         num_actions = sampling.num_actions
-        weights = sampling.initial_weights()  # line 1
-        check_phi = None
-        loop = Iterations(self.max_iterations)
-        for _ in loop:  # line 2
-            data = sampling.follow(  # lines 4-5
-                weights, self.epsilon, self.num_samples, self.num_next_samples
-            )
-            if check_phi is None:
-                check_phi = data["phi"]
-            before = _kernels.q_from_weights(check_phi, weights).argmax(axis=1)
+        fixed_phi = None  # φ of the fixed set of states (the first batch's)
+
+        def evaluate(data: dict[str, Any], weights: np.ndarray) -> tuple[np.ndarray, float]:
+            nonlocal fixed_phi
+            if fixed_phi is None:
+                fixed_phi = data["phi"]
+            before = _kernels.q_from_weights(fixed_phi, weights).argmax(axis=1)
             phi_bar = _kernels.action_features(data["phi"], data["actions"], num_actions)
             p_phi = _kernels.greedy_next_features(  # Eq. 2.28 with π on demand
                 data["phi_next"], weights, data["num_next"]
             )
-            weights = solve_q_weights(  # lines 6-7
+            fitted = solve_q_weights(  # lines 6-7
                 self.evaluation,
                 phi_bar,
                 p_phi,
@@ -272,7 +267,14 @@ class SampledQAPI2(Planner):
                 self.regularization,
                 num_actions,
             )
-            after = _kernels.q_from_weights(check_phi, weights).argmax(axis=1)
-            if loop.record(np.count_nonzero(after != before)) == 0:
-                break
-        return sampling.plan(weights, loop)
+            after = _kernels.q_from_weights(fixed_phi, fitted).argmax(axis=1)
+            return fitted, np.count_nonzero(after != before)
+
+        return sampling.iterate(  # lines 1-5
+            evaluate,
+            epsilon=self.epsilon,
+            num_samples=self.num_samples,
+            num_next=self.num_next_samples,
+            tolerance=1,  # stop when no state of the fixed set changes action
+            max_iterations=self.max_iterations,
+        )

@@ -10,7 +10,7 @@ from conjure.core.interfaces import Representation
 from conjure.core.params import InstanceOf, Interval
 from conjure.planners import _kernels
 from conjure.planners._sampling import Sampling
-from conjure.planners.base import Iterations, Plan, Planner
+from conjure.planners.base import Plan, Planner
 
 __all__ = ["SampledQAVI"]
 
@@ -109,27 +109,23 @@ class SampledQAVI(Planner):
         self.seed = seed
 
     def _plan(self, source: Any) -> Plan:
-        sampling = Sampling(self, source)
-        weights = sampling.initial_weights()  # line 1
-        loop = Iterations(self.max_iterations)
-        for _ in loop:  # line 2: while time left
-            data = sampling.follow(  # lines 3 and 5
-                weights, self.epsilon, self.num_samples, self.num_next_samples
-            )
-            phi, nxt = data["phi"], data["phi_next"]
-            change = _kernels.sampled_q_avi_pass(  # lines 4-8
+        sampling = Sampling(*self._generative(source), self.representation, self.seed)
+
+        def descend(data: dict[str, Any], weights: np.ndarray) -> tuple[np.ndarray, float]:
+            change = _kernels.q_avi_pass(  # lines 4-8, θ̄ updated in place
                 weights,
-                phi.indptr,
-                phi.indices,
-                phi.data,
-                data["actions"],
-                nxt.indptr,
-                nxt.indices,
-                nxt.data,
-                np.ascontiguousarray(data["rewards"]),
+                _kernels.sparse_rows(data["phi"]),
+                _kernels.drawn_backups(data),
                 sampling.spec.discount,
                 float(self.step_size),
             )
-            if loop.record(change) < self.tolerance:
-                break
-        return sampling.plan(weights, loop)
+            return weights, change
+
+        return sampling.iterate(  # lines 1-3
+            descend,
+            epsilon=self.epsilon,
+            num_samples=self.num_samples,
+            num_next=self.num_next_samples,
+            tolerance=self.tolerance,
+            max_iterations=self.max_iterations,
+        )

@@ -10,7 +10,7 @@ from conjure.core.interfaces import Representation
 from conjure.core.params import InstanceOf, Interval
 from conjure.planners import _kernels
 from conjure.planners._sampling import Sampling, solve_q_weights, weight_change
-from conjure.planners.base import Iterations, Plan, Planner
+from conjure.planners.base import Plan, Planner
 
 __all__ = ["TrajectoryQAPI"]
 
@@ -117,12 +117,10 @@ class TrajectoryQAPI(Planner):
         return next_actions
 
     def _plan(self, source: Any) -> Plan:
-        sampling = Sampling(self, source)
+        sampling = Sampling(*self._generative(source), self.representation, self.seed)
         num_actions = sampling.num_actions
-        weights = sampling.initial_weights()  # line 1
-        loop = Iterations(self.max_iterations)
-        for _ in loop:  # line 2: while time left
-            data = sampling.follow(weights, self.epsilon, self.num_samples)  # line 3
+
+        def evaluate(data: dict[str, Any], weights: np.ndarray) -> tuple[np.ndarray, float]:
             choose = sampling.policy(weights, self.epsilon)  # the π^ε that drew the batch
             next_actions = self._next_actions(data, choose, sampling.rng)
             phi_bar = _kernels.action_features(data["phi"], data["actions"], num_actions)
@@ -136,8 +134,12 @@ class TrajectoryQAPI(Planner):
                 self.regularization,
                 num_actions,
             )
-            change = weight_change(fitted, weights)
-            weights = fitted
-            if loop.record(change) < self.tolerance:
-                break
-        return sampling.plan(weights, loop)
+            return fitted, weight_change(fitted, weights)
+
+        return sampling.iterate(  # lines 1-3
+            evaluate,
+            epsilon=self.epsilon,
+            num_samples=self.num_samples,
+            tolerance=self.tolerance,
+            max_iterations=self.max_iterations,
+        )
