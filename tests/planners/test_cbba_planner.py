@@ -381,3 +381,40 @@ def test_bad_states_are_rejected(bad):
 def test_bad_parameters(name, value):
     with pytest.raises(InvalidParameterError, match=name):
         CBBAPlanner(**{name: value}).setup(model_of(uav_7_2()), seed=0)
+
+
+@pytest.mark.parametrize("make_graph", [uav_7_2_spec, uav_10_2_spec])
+def test_no_uav_is_planned_with_more_than_its_reserved_fuel_or_its_way_home(make_graph):
+    # Issue 22: read as "Plan[u] = ∅ (an empty bundle) gets fuel", Algorithm 27 hands an idle
+    # UAV its whole reserve, late in a mission with nothing left to do as anywhere else. The
+    # default reading gives fuel back only to bring a UAV home: in any state, each UAV is
+    # planned with at most max(fuel - reserve, its distance home), never its reserve.
+    graph = make_graph()
+    rng = np.random.default_rng(0)
+    reserve, n = 3, graph.num_uavs
+    exceeded = {"home": 0, "empty_plan": 0}
+    for _ in range(300):
+        locations = rng.integers(graph.num_nodes, size=n)
+        fuels = [int(rng.integers(0, f + 1)) for f in graph.fuel]
+        time = int(rng.integers(0, graph.horizon + 1))
+        visited = np.flatnonzero(rng.random(graph.num_nodes) < 0.3)
+        s = state(graph, locations, fuels, time, visited)
+        for refuel in exceeded:
+            planned = planner(graph, refuel=refuel, fuel_reserve=reserve).plan(s).fuel
+            for i in range(n):
+                home = graph.distances[locations[i], graph.base]
+                allowed = min(fuels[i], max(fuels[i] - reserve, home))
+                exceeded[refuel] += int(planned[i] > allowed)
+    assert exceeded["home"] == 0
+    assert exceeded["empty_plan"] > 0  # the printed test alone spends the reserve
+
+
+def test_an_idle_uav_at_the_base_late_in_the_mission_keeps_its_reserve():
+    # Every target's window has closed: both UAVs are idle at the base with full tanks.
+    graph = uav_7_2_spec()
+    late = state(graph, [0, 0], list(graph.fuel), time=graph.horizon - 1)
+    kept = planner(graph).plan(late)
+    assert [p.tolist() for p in kept.paths] == [[], []] and kept.cbba_runs == 1
+    assert kept.fuel.tolist() == [f - 3.0 for f in graph.fuel]
+    spent = planner(graph, refuel="empty_plan").plan(late)
+    assert spent.fuel.tolist() == [float(f) for f in graph.fuel]  # the reserve handed back

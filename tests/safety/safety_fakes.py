@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from conjure.core.cooperative import RiskAnalyzer
+from conjure.core.cooperative import CooperativePlanner, RiskAnalyzer
 from conjure.core.interfaces import Agent
 from conjure.core.params import Interval
 from conjure.domains import GridWorld
@@ -42,13 +42,44 @@ class FakeLearner(Agent):
 class FixedRiskAnalyzer(RiskAnalyzer):
     """risk(s, a) = ``value`` for every action but the planner's (1.0: nothing else is safe)."""
 
-    parameter_constraints = {"value": Interval(float, 0.0, 1.0)}
+    parameter_constraints = {
+        "value": Interval(float, 0.0, 1.0),
+        "risk_tolerance": Interval(float, 0.0, 1.0, closed="right"),
+    }
 
-    def __init__(self, *, value: float = 1.0):
+    def __init__(self, *, value: float = 1.0, risk_tolerance: float = 1.0):
         self.value = value
+        self.risk_tolerance = risk_tolerance
+
+    def update(self, *, is_policy_changed=True):
+        """Count the calls (``setup`` makes the first) and keep the last flag."""
+        self.num_updates_ = getattr(self, "num_updates_", 0) + 1
+        self.last_update_ = is_policy_changed
 
     def risk(self, state, action, rng=None):
         return self.value
+
+
+class CountingPlanner(CooperativePlanner):
+    """Delegates to ``planner`` and counts the calls of ``action`` and ``update``."""
+
+    def __init__(self, *, planner):
+        self.planner = planner
+
+    def setup(self, model, seed):
+        self.planner_ = self.planner.clone().setup(model, seed)
+        self.num_actions_ = 0
+        self.num_updates_ = 0
+        self.is_set_up_ = True
+        return self
+
+    def action(self, state):
+        self.num_actions_ += 1
+        return self.planner_.action(state)
+
+    def update(self, model):
+        self.num_updates_ += 1
+        return self.planner_.update(model)
 
 
 def gridworld_model(domain=None, **params):

@@ -2,29 +2,30 @@ import tempfile
 
 import numpy as np
 import pytest
+from safety_fakes import CountingPlanner, FixedRiskAnalyzer
 
 from conjure.agents import SARSA
 from conjure.domains import GridWorld
 from conjure.experiments.loop import LearningLoop
 from conjure.models.approximate_model import ApproximateModel
-from conjure.planners import ShortestPathPlanner, SwitchingPlanner
+from conjure.planners import ModelPlanner, ShortestPathPlanner, SwitchingPlanner
 from conjure.representations import Tabular
 from conjure.safety import AdaptiveCooperativeLearner, MonteCarloRiskAnalyzer
 
 
 def am_icca(**params):
-    return AdaptiveCooperativeLearner(
-        learner=SARSA(representation=Tabular()),
-        planner=SwitchingPlanner(
+    parts = {
+        "learner": SARSA(representation=Tabular()),
+        "planner": SwitchingPlanner(
             conservative=ShortestPathPlanner.conservative(),
             aggressive=ShortestPathPlanner.aggressive(),
         ),
-        risk=MonteCarloRiskAnalyzer(),
-        model=ApproximateModel(
+        "risk": MonteCarloRiskAnalyzer(),
+        "model": ApproximateModel(
             domain=GridWorld.gridworld_2(), initial_noise=0.4, prior_weight=100.0, is_adaptive=True
         ),
-        **params,
-    )
+    }
+    return AdaptiveCooperativeLearner(**{**parts, **params})
 
 
 def learn_in_calm_gridworld2(agent, seed=0):
@@ -109,3 +110,43 @@ def test_am_icca_on_a_noisy_uav_mission_switches_to_aggressive_cbba():
     assert model.num_moves_ > 1000
     expected = (model.num_unintended_ + 100 * 0.4) / (model.num_moves_ + 100)
     assert model.noise_ == pytest.approx(expected) and 0.03 < model.noise_ < 0.1
+
+
+def test_the_analyser_is_updated_whenever_the_model_changes():
+    # Issue 22: `RiskAnalyzer.update` is for a change of π^p *or* T̂; it used to run only when
+    # π^p changed. In calm GridWorld-2 every move lowers η̂ = 40 / (100 + m); π^p switches once.
+    agent = am_icca(risk=FixedRiskAnalyzer(value=0.0))
+    loop = learn_in_calm_gridworld2(agent)
+    assert agent.risk_.num_updates_ == 1  # setup's
+    flags = []
+    for _ in range(70):
+        noise, updates = agent.model_.noise_, agent.risk_.num_updates_
+        loop.advance(1)
+        assert agent.model_.noise_ != noise
+        assert agent.risk_.num_updates_ == updates + 1
+        flags.append(agent.risk_.last_update_)
+    assert flags == [False] * 60 + [True] + [False] * 9  # π^p switched at m = 61
+
+
+def test_a_static_model_never_replans_or_updates_the_analyser():
+    agent = am_icca(risk=FixedRiskAnalyzer(value=0.0))
+    agent.set_params(planner=CountingPlanner(planner=agent.planner), model__is_adaptive=False)
+    loop = learn_in_calm_gridworld2(agent)
+    loop.advance(100)
+    assert agent.planner_.num_updates_ == 0 and agent.risk_.num_updates_ == 1
+
+
+def test_a_model_planner_replans_exactly_when_the_estimate_moves():
+    # ΔT = 0: a ModelPlanner plans (value iteration at η̂) once per change of η̂, and a step
+    # that leaves η̂ where it was (none counted by the model) plans nothing.
+    agent = am_icca(planner=CountingPlanner(planner=ModelPlanner()))
+    loop = learn_in_calm_gridworld2(agent)
+    changes = 0
+    for _ in range(30):
+        noise = agent.model_.noise_
+        loop.advance(1)
+        changes += int(agent.model_.noise_ != noise)
+    assert agent.planner_.num_updates_ == changes == 30
+    agent.model_.is_adaptive = False  # T̂ frozen from here on
+    loop.advance(20)
+    assert agent.planner_.num_updates_ == 30

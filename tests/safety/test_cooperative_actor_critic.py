@@ -1,6 +1,6 @@
 import numpy as np
 import pytest
-from safety_fakes import FixedRiskAnalyzer, cell, gridworld_model
+from safety_fakes import CountingPlanner, FixedRiskAnalyzer, cell, gridworld_model
 
 from conjure.agents import SARSA, ActorCritic
 from conjure.core.errors import InvalidParameterError
@@ -224,3 +224,22 @@ def test_the_default_icca_learns_past_its_planner_on_gridworld1_and_the_printed_
     printed = [final_return(cooperative("q", bias=100.0, bias_half_life=None), s) for s in seeds]
     assert printed == planner
     assert np.mean(learned) > np.mean(planner) + 0.15  # measured: 0.59 vs 0.26 on 60 seeds
+
+
+@pytest.mark.parametrize("greedy", [False, True])
+def test_the_planner_is_asked_once_per_step(greedy):
+    # Issue 22: `is_safe` asked π^p again for the action `act` already had.
+    domain = GridWorld(map_name="4x5", noise=0.0)
+    agent = CooperativeActorCritic(
+        learner=ActorCritic(representation=Tabular()),
+        planner=CountingPlanner(planner=ShortestPathPlanner()),
+        risk=FixedRiskAnalyzer(value=0.0),
+        model=gridworld_model(),
+        bias=0.0,
+    ).setup(domain.domain_spec, seed=0)
+    proposals = set()
+    for _ in range(20):
+        before = agent.planner_.num_actions_
+        proposals.add(agent.act(START, greedy=greedy))
+        assert agent.planner_.num_actions_ == before + 1
+    assert proposals - {PLANNER_ACTION} or greedy  # learning proposes other actions too

@@ -1,6 +1,6 @@
 import numpy as np
 import pytest
-from safety_fakes import FakeLearner, FixedRiskAnalyzer, cell, gridworld_model
+from safety_fakes import CountingPlanner, FakeLearner, FixedRiskAnalyzer, cell, gridworld_model
 
 from conjure.agents import SARSA, ActorCritic, QLearning
 from conjure.core.errors import InvalidParameterError
@@ -12,7 +12,7 @@ from conjure.experiments.loop import LearningLoop
 from conjure.models.approximate_model import ApproximateModel
 from conjure.planners import ModelPlanner, ShortestPathPlanner
 from conjure.policies import EpsilonGreedy
-from conjure.representations import Tabular
+from conjure.representations import HashedTabular, Tabular
 from conjure.safety import (
     AdaptiveCooperativeLearner,
     CooperativeLearner,
@@ -315,3 +315,34 @@ def test_trusted_knownness_skips_the_safety_check_in_algorithms_24_and_26(kind):
             model=gridworld_model(),
             trusted_knownness=1.5,
         ).setup(domain.domain_spec, seed=0)
+
+
+@pytest.mark.parametrize("greedy", [False, True])
+def test_the_planner_is_asked_once_per_step(greedy):
+    # Issue 22: `is_safe` asked π^p again for the action `act` already had (two CBBA plans per
+    # step on UAV missions). K = 1: the learner's right (3) is proposed from the second visit.
+    agent = CooperativeLearner(
+        learner=FakeLearner(action=3),
+        planner=CountingPlanner(planner=ShortestPathPlanner()),
+        risk=FixedRiskAnalyzer(value=0.0),
+        model=gridworld_model(),
+        num_known_visits=1,
+    )
+    agent.setup(GridWorld(map_name="4x5", noise=0.0).domain_spec, seed=0)
+    agent.act(START)  # the first visit makes the pair known
+    for _ in range(5):
+        before = agent.planner_.num_actions_
+        assert agent.act(START, greedy=greedy) == 3  # consulted, safe, executed
+        assert agent.planner_.num_actions_ == before + 1
+
+
+def test_knownness_of_an_unseen_state_stores_no_row_in_a_hashed_index():
+    # Issue 22: inspecting knownness inserted the state into the lazily indexed table.
+    agent = csarsa(index=HashedTabular())
+    agent.act(START)
+    stored = agent.index_.num_stored_
+    unseen = cell(3, 4)
+    assert agent.knownness(unseen, PLANNER_ACTION) == 0.0
+    assert agent.index_.num_stored_ == stored
+    assert agent.state_row(unseen, store=False) == -1
+    assert agent.knownness(START, PLANNER_ACTION) == 0.1  # a seen state: count 1 of 10

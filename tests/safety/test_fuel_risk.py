@@ -1,7 +1,7 @@
 import numpy as np
 import pytest
 
-from conjure.core.errors import IncompatibleComponentsError
+from conjure.core.errors import IncompatibleComponentsError, InvalidParameterError
 from conjure.domains import GridWorld, UAVMission
 from conjure.models.approximate_model import ApproximateModel
 from conjure.planners import CBBAPlanner
@@ -92,3 +92,19 @@ def crashes_flying_home(domain, hops, state, action, rng):
         home = [hops[node, graph.base] for node in graph.locations(state)]
         state, _, terminated = domain.simulate(state, graph.encode_action(home), 0.0, rng)
     return domain.is_constrained(state)
+
+
+def test_the_risk_tolerance_is_a_parameter_checked_in_setup():
+    # Issue 22: ε was a class attribute standing in for a parameter.
+    assert FuelRiskAnalyzer().get_params() == {"risk_tolerance": 1.0}
+    domain = UAVMission()
+    model = ApproximateModel(domain=domain).setup(domain.domain_spec, seed=0)
+    planner = CBBAPlanner().setup(model, seed=0)
+    with pytest.raises(InvalidParameterError, match=r"risk_tolerance` must be .*; got -0\.2\."):
+        FuelRiskAnalyzer(risk_tolerance=-0.2).setup(model, planner, seed=0)
+    graph = domain.graph_
+    farther = mission_state(graph, [3, 0], [2, 6], time=2)
+    moves = [graph.encode_action(move) for move in ([5, 0], [1, 0], [3, 0])]
+    for tolerance in (0.5, 1.0):  # risk is 0 or 1: every ε in (0, 1] judges alike
+        analyser = FuelRiskAnalyzer(risk_tolerance=tolerance).setup(model, planner, seed=0)
+        assert [analyser.is_safe(farther, a) for a in moves] == [False, True, False]

@@ -110,6 +110,8 @@ def test_a_changed_planner_is_tabulated_again_after_update():
     assert analyser.risk(state, RIGHT) == 0.0
     analyser.planner_.direction_ = LEFT
     assert analyser.risk(state, RIGHT) == 0.0  # still the tabulated π^p
+    analyser.update(is_policy_changed=False)  # only T̂ changed: the rollouts read η̂ anew
+    assert analyser.risk(state, RIGHT) == 0.0
     analyser.update()
     assert analyser.risk(state, RIGHT) == 1.0  # right, then left three times into the pit
 

@@ -1,5 +1,9 @@
-import numpy as np
+import re
 
+import numpy as np
+import pytest
+
+from conjure.core.errors import InvalidParameterError
 from conjure.domains import GridWorld
 from conjure.models.approximate_model import ApproximateModel
 from conjure.planners import ModelPlanner
@@ -38,3 +42,14 @@ def test_the_planners_action_beside_a_pit_is_safe():
     analyser = NominalRiskAnalyzer().setup(model, planner, seed=0)
     beside = np.array([6.0, 1.0])  # the pit (6, 2) is to the right
     assert analyser.is_safe(beside, planner.action(beside))
+
+
+def test_the_risk_tolerance_is_a_parameter():
+    # Issue 22: ε was a class attribute standing in for a parameter.
+    analyser = NominalRiskAnalyzer()
+    assert analyser.get_params() == {"risk_tolerance": 1.0}
+    assert analyser.clone().set_params(risk_tolerance=0.5).risk_tolerance == 0.5
+    for bad in (0.0, 1.5, "1"):
+        message = f"`NominalRiskAnalyzer.risk_tolerance` must be a float in (0, 1]; got {bad!r}."
+        with pytest.raises(InvalidParameterError, match=re.escape(message)):
+            NominalRiskAnalyzer(risk_tolerance=bad).validate_params()

@@ -81,3 +81,21 @@ def test_misuse_is_refused():
         SafetyShield(gym.make("CliffWalking-v1"), **{**kwargs, "risk": "safe"})
     with pytest.raises(gym.error.ResetNeeded):
         SafetyShield(GridWorld.from_grid(CLIFF), **kwargs).step(0)
+
+
+def test_the_planner_is_asked_once_per_step():
+    # Issue 22: the shield asked π^p inside `is_safe` and again for the replacement.
+    from safety_fakes import CountingPlanner
+
+    shield = SafetyShield(
+        GridWorld.gridworld_1(noise=0.0),
+        model=ApproximateModel(domain=GridWorld.gridworld_1(noise=0.0)),
+        planner=CountingPlanner(planner=ShortestPathPlanner()),
+        risk=NominalRiskAnalyzer(),
+    )
+    shield.reset(seed=0)
+    for action in (1, 1, 3):  # down, then down into the pit (shielded), then right
+        before = shield.planner_.num_actions_
+        shield.step(action)
+        assert shield.planner_.num_actions_ == before + 1
+    assert shield.num_shielded_ == 1

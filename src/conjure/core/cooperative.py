@@ -34,10 +34,14 @@ from typing import Any, ClassVar
 import numpy as np
 
 from conjure.core.interfaces import Domain, check_is_set_up
-from conjure.core.params import Configurable
+from conjure.core.params import Configurable, Interval
 from conjure.core.seeding import make_rng
 
-__all__ = ["CooperativePlanner", "NoisyDomain", "RiskAnalyzer"]
+__all__ = ["RISK_TOLERANCE", "CooperativePlanner", "NoisyDomain", "RiskAnalyzer"]
+
+#: The constraint on ε (``risk_tolerance``) every `RiskAnalyzer` declares: a float in (0, 1];
+#: an action other than π^p(s) is safe iff risk(s, a) < ε (Algorithm 25).
+RISK_TOLERANCE = Interval(float, 0.0, 1.0, closed="right")
 
 
 class NoisyDomain(Domain):
@@ -118,8 +122,9 @@ class RiskAnalyzer(Configurable):
     follows π^p after the first action) and seeds its generator ``rng_``; ``risk(s, a)``
     estimates the probability of reaching a constrained state; ``is_safe(s, a)`` is the
     ``safe`` test of Algorithms 23-26: the planner's own action always is, any other action is
-    safe iff its risk is below ``risk_tolerance``. ``update()`` is called after π^p changed
-    (Algorithm 26, line 13) so that analysers can refresh what they derived from it. An
+    safe iff its risk is below ε, the ``risk_tolerance`` parameter every analyser declares
+    (`RISK_TOLERANCE`). ``update(is_policy_changed=...)`` is called after T̂ or π^p changed
+    (Algorithm 26, lines 10-13) so that analysers can refresh what they derived from them. An
     analyser that cannot judge the model's domain raises `IncompatibleComponentsError` in
     ``setup`` (from `_bind`).
 
@@ -128,9 +133,7 @@ class RiskAnalyzer(Configurable):
     policy checks never perturb learning).
     """
 
-    #: ε of Algorithm 25: safe iff risk < risk_tolerance. Deterministic analysers return a risk
-    #: of 0 or 1, so 1.0 makes them safe exactly when the risk is 0.
-    risk_tolerance: float = 1.0
+    risk_tolerance: float  # ε, a constructor parameter of every analyser (`RISK_TOLERANCE`)
 
     def setup(
         self, model: Any, planner: CooperativePlanner, seed: int | np.random.SeedSequence
@@ -151,18 +154,33 @@ class RiskAnalyzer(Configurable):
         Raises `IncompatibleComponentsError` naming the domain and what the analyser needs.
         """
 
-    def update(self) -> None:
-        """π^p or T̂ changed: refresh anything derived from them (nothing by default)."""
+    def update(self, *, is_policy_changed: bool = True) -> None:
+        """T̂ or π^p changed: refresh anything derived from them (nothing by default).
+
+        ``is_policy_changed`` False: only T̂ changed (η̂ moved), π^p is the one judged before.
+        """
 
     def risk(self, state: np.ndarray, action: int, rng: np.random.Generator | None = None) -> float:
         """The estimated probability that ``action`` in ``state`` leads to a constrained state."""
         raise NotImplementedError
 
     def is_safe(
-        self, state: np.ndarray, action: int, rng: np.random.Generator | None = None
+        self,
+        state: np.ndarray,
+        action: int,
+        rng: np.random.Generator | None = None,
+        *,
+        planner_action: int | None = None,
     ) -> bool:
-        """safe(s, a): a = π^p(s), or risk(s, a) < ``risk_tolerance``."""
+        """safe(s, a): a = π^p(s), or risk(s, a) < ``risk_tolerance``.
+
+        ``planner_action``: π^p(s) when the caller already has it (the cooperative learners
+        ask π^p first, Algorithms 23-24, line 1), so that the planner is not asked twice;
+        ``None`` asks the planner.
+        """
         check_is_set_up(self, "is_safe")
-        if action == self.planner_.action(state):  # the planner's own action (Section 5.5.1)
+        if planner_action is None:
+            planner_action = self.planner_.action(state)
+        if action == planner_action:  # the planner's own action (Section 5.5.1)
             return True
         return self.risk(state, action, rng) < self.risk_tolerance

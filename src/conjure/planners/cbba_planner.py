@@ -140,7 +140,9 @@ class CBBAPlanner(CooperativePlanner):
       have their fuels incremented". A UAV with no target but enough reduced fuel to fly home
       has a feasible plan, going home, and is ok; fuel comes back one unit at a time, capped
       at the real fuel, only while a UAV cannot even reach the base within its reduced fuel.
-      The reserve is therefore never spent on targets. π^p is replanned at every step
+      The reserve is therefore never spent on targets: each UAV is planned with at most
+      max(fuel − reserve, its distance home), and an idle UAV (no target left, late in a
+      mission) keeps its reserve. π^p is replanned at every step
       (Section 5.5.2) from the current fuel, so under the printed test alone ("empty_plan")
       a UAV without a plan regains the reserve and spends it on a target at the next replan,
       and the reserve erodes to nothing: on spec 2.2's UAV 7-2 (``uav_7_2_spec``) at 5%

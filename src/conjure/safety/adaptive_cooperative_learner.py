@@ -37,6 +37,7 @@ class AdaptiveCooperativeLearner(CooperativeLearner):
         if ‖T̂^p − T̂‖ > ΔT:                              # line 11
             T̂^p ← T̂; planner.update()                   # lines 12-13
             if π^p changed: reset all counts to zero    # lines 14-15
+        if T̂ changed: risk.update(π^p changed?)         # the analyser judges with T̂ and π^p
 
     Parameters
     ----------
@@ -59,8 +60,15 @@ class AdaptiveCooperativeLearner(CooperativeLearner):
     -----
     - Choice: ‖T̂^p − T̂‖ = |η̂^p − η̂|: the model's only parameter is the noise η̂ (spec 5).
     - Choice: ΔT defaults to 0, so a `SwitchingPlanner` switches on the very step η̂ crosses
-      its threshold (spec 5: "recompute when the estimate crosses 25%"); with a
-      `ModelPlanner` every replan costs a planning run, so raise ΔT (e.g. 0.01) there.
+      its threshold (spec 5: "recompute when the estimate crosses 25%"). The planner is
+      asked to replan only on a step that moved η̂ (a static model, or a step whose move the
+      model does not count, plans nothing). A `ModelPlanner`'s policy depends on η̂ itself,
+      and every counted move moves η̂, so at ΔT = 0 it runs value iteration once per move:
+      raise ΔT (e.g. 0.01) there. (A `SwitchingPlanner` of fixed policies, as in the shipped
+      configs, only compares η̂ with its threshold.)
+    - Choice: the risk analyser is told of every change of T̂ (`RiskAnalyzer.update`, with
+      whether π^p changed too), not only of a new π^p; the Monte-Carlo analyser reads η̂ at
+      each rollout and re-tabulates π^p only when it changed.
     - Section 5.5.3's extension (``trusted_knownness``, `CooperativeLearner`). On GridWorld-3
       (`GridWorld.gridworld_3`, 3·10⁴ steps, 20 fresh seeds) AM-iCCA ends at −1.43 ± 1.38,
       stuck at the filter; with 0.1 (chosen by AUC on search seeds among 0.1, 0.3, 0.5, 1)
@@ -138,11 +146,16 @@ class AdaptiveCooperativeLearner(CooperativeLearner):
         check_is_set_up(self, "learn")
         delta = self.learner_.learn(transition)  # line 9
         model = self.model_
+        noise = model.noise_
         model.update(transition.state, transition.action, transition.next_state)  # line 10
+        if model.noise_ == noise:  # T̂ unchanged: nothing π^p or the analyser use moved
+            return delta
+        is_policy_changed = False
         if abs(model.noise_ - self.planned_noise_) > self.replan_threshold:  # line 11
             self.planned_noise_ = float(model.noise_)  # line 12: T̂^p ← T̂
-            if self.planner_.update(model):  # line 13; line 14: π^p changed
-                self.risk_.update()
+            is_policy_changed = self.planner_.update(model)  # line 13
+            if is_policy_changed:  # line 14
                 self.counts_[...] = 0  # line 15
                 self.num_policy_changes_ += 1
+        self.risk_.update(is_policy_changed=is_policy_changed)  # T̂ (and maybe π^p) changed
         return delta

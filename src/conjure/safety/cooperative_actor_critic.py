@@ -140,11 +140,7 @@ class CooperativeActorCritic(CooperativeAgent):
         bias: float = 30.0,
         bias_half_life: float | None = 2.0,
     ):
-        self.learner = learner
-        self.planner = planner
-        self.risk = risk
-        self.model = model
-        self.index = index
+        super().__init__(learner=learner, planner=planner, risk=risk, model=model, index=index)
         self.bias = bias
         self.bias_half_life = bias_half_life
 
@@ -173,7 +169,9 @@ class CooperativeActorCritic(CooperativeAgent):
             if row < 0 or self.visits_[row] == 0:  # −1: never seen
                 preferences[planner_action] += self.bias
             learner_action = int(greedy_action(preferences, self._actions(legal_actions)))
-            if self.risk_.is_safe(state, learner_action, self.eval_rng_):
+            if self.risk_.is_safe(
+                state, learner_action, self.eval_rng_, planner_action=planner_action
+            ):
                 return learner_action
             return planner_action
         visits = int(self.visits_[row])
@@ -184,7 +182,7 @@ class CooperativeActorCritic(CooperativeAgent):
             fade = self.planner_bias(visits) - self.planner_bias(visits - 1)
             learner.shift_preference(state, planner_action, fade)
         learner_action = learner.act(state, False, legal_actions)  # line 2
-        if self.risk_.is_safe(state, learner_action):  # line 4
+        if self.risk_.is_safe(state, learner_action, planner_action=planner_action):  # line 4
             return learner_action  # line 3
         learner.shift_preference(state, learner_action, -self.bias)  # line 6
         return planner_action  # line 5

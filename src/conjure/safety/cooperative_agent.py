@@ -15,6 +15,7 @@ from conjure.core.params import InstanceOf
 from conjure.core.seeding import make_rng, rng_from_state, rng_state, split_seed
 from conjure.models.approximate_model import ApproximateModel
 from conjure.representations import HashedTabular, Tabular
+from conjure.safety._control_box import set_up_control_box
 
 __all__ = ["CooperativeAgent"]
 
@@ -44,19 +45,26 @@ class CooperativeAgent(Agent):
     Geramifard (2012), Section 5.2 and Figures 5-3 and 5-11: iCCA's control box holds a
     learner, a cooperative planner and a risk analyser around an approximate model T̂. Here
     the box is an `Agent`, so the run loop drives it like any learner and never knows safety is
-    in play; its four parts are parameters, each a registered component:
-
-    - ``learner``: any online `Agent` of the library;
-    - ``planner``: a `CooperativePlanner` (π^p);
-    - ``risk``: a `RiskAnalyzer` (the ``safe`` test);
-    - ``model``: an `ApproximateModel` wrapping a `NoisyDomain` of the learning domain's map
-      or graph (checked against the learning domain's spec in ``setup``).
-
+    in play; its parts are parameters, each a registered component.
     ``setup(spec, seed)`` splits the seed (`SEED_NAMES`) and builds, in order,
     model.setup → planner.setup(model) → risk.setup(model, planner) → learner.setup(spec), then
     the per-state tables indexed by ``index`` (one feature per state). ``act`` chooses the
     action (the algorithm's lines up to ``return a``); ``learn`` updates the learner with the
     executed action, which the run loop hands back in the `Transition`.
+
+    Parameters
+    ----------
+    learner : Agent
+        π^l: any online `Agent` of the library.
+    planner : CooperativePlanner
+        π^p.
+    risk : RiskAnalyzer
+        The ``safe`` test.
+    model : ApproximateModel
+        T̂: an `ApproximateModel` wrapping a `NoisyDomain` of the learning domain's map or
+        graph (checked against the learning domain's spec in ``setup``).
+    index : Representation or None, default None
+        Gives each state its row in the per-state tables (see Notes).
 
     Notes
     -----
@@ -81,6 +89,21 @@ class CooperativeAgent(Agent):
         "learning domain, and the 2-state chain is not one; tests/safety check learning on grids",
     }
 
+    def __init__(
+        self,
+        *,
+        learner: Agent,
+        planner: CooperativePlanner,
+        risk: RiskAnalyzer,
+        model: ApproximateModel,
+        index: Representation | None = None,
+    ):
+        self.learner = learner
+        self.planner = planner
+        self.risk = risk
+        self.model = model
+        self.index = index
+
     # ------------------------------------------------------------------ lifecycle
 
     def setup(self, spec: DomainSpec, seed: int | np.random.SeedSequence) -> CooperativeAgent:
@@ -88,9 +111,9 @@ class CooperativeAgent(Agent):
         self.validate_params()
         seeds = split_seed(seed, SEED_NAMES)
         self.spec_ = spec
-        self.model_ = self.model.clone().setup(spec, seeds["model"])
-        self.planner_ = self.planner.clone().setup(self.model_, seeds["planner"])
-        self.risk_ = self.risk.clone().setup(self.model_, self.planner_, seeds["risk"])
+        self.model_, self.planner_, self.risk_ = set_up_control_box(
+            spec, seeds, self.model, self.planner, self.risk
+        )
         self.learner_ = self.learner.clone().setup(spec, seeds["learner"])
         if self.index is None:
             self.index_ = default_index(spec, seeds["index"])
@@ -200,9 +223,9 @@ class CooperativeAgent(Agent):
         state = saved.state
         model = self.model_
         model.noise_ = self.planned_noise_ = float(state["planned_noise"])
-        if self.planner_.update(model):
-            self.risk_.update()
+        is_policy_changed = self.planner_.update(model)
         model.load_counts(int(state["num_unintended"]), int(state["num_moves"]))
+        self.risk_.update(is_policy_changed=is_policy_changed)  # T̂ (and maybe π^p) changed
         self.rng_ = rng_from_state(state["rng"])
         self.eval_rng_ = rng_from_state(state["evaluation_rng"])
         self.risk_.rng_ = rng_from_state(state["risk_rng"])

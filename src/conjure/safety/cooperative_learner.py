@@ -172,11 +172,7 @@ class CooperativeLearner(CooperativeAgent):
         veto_reward: float | None = -1.0,
         trusted_knownness: float | None = None,
     ):
-        self.learner = learner
-        self.planner = planner
-        self.risk = risk
-        self.model = model
-        self.index = index
+        super().__init__(learner=learner, planner=planner, risk=risk, model=model, index=index)
         self.num_known_visits = num_known_visits
         self.veto_reward = veto_reward
         self.trusted_knownness = trusted_knownness
@@ -188,9 +184,16 @@ class CooperativeLearner(CooperativeAgent):
         return {"counts": self.counts_}
 
     def knownness(self, state: np.ndarray, action: int) -> float:
-        """min{1, count(s, a)/𝒦} (Algorithm 24, line 2)."""
+        """min{1, count(s, a)/𝒦} (Algorithm 24, line 2); inspecting records nothing.
+
+        A state a lazily indexed ``index`` never stored has count 0 and gets no row.
+        """
         check_is_set_up(self, "knownness")
-        return min(1.0, self.counts_[self.state_row(state), action] / self.num_known_visits)
+        return self._knownness(self.state_row(state, store=False), action)
+
+    def _knownness(self, row: int, action: int) -> float:
+        count = self.counts_[row, action] if row >= 0 else 0  # −1: never seen
+        return min(1.0, count / self.num_known_visits)
 
     def act(
         self, state: np.ndarray, greedy: bool = False, legal_actions: np.ndarray | None = None
@@ -199,8 +202,7 @@ class CooperativeLearner(CooperativeAgent):
         check_is_set_up(self, "act")
         planner_action = self.planner_.action(state)  # line 1
         row = self.state_row(state, store=not greedy)
-        count = self.counts_[row, planner_action] if row >= 0 else 0  # −1: never seen
-        knownness = min(1.0, count / self.num_known_visits)  # line 2
+        knownness = self._knownness(row, planner_action)  # line 2
         if greedy:
             consult = knownness >= 1.0
         else:
@@ -214,7 +216,7 @@ class CooperativeLearner(CooperativeAgent):
         else:
             learner_action = self.learner_.act(state, False, legal_actions)  # line 4
         if self._is_trusted(knownness) or self.risk_.is_safe(
-            state, learner_action, self.eval_rng_ if greedy else None
+            state, learner_action, self.eval_rng_ if greedy else None, planner_action=planner_action
         ):  # line 5
             return learner_action  # line 6
         if not greedy and self.veto_reward is not None:

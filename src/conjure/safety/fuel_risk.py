@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from conjure.core.cooperative import RiskAnalyzer
+from conjure.core.cooperative import RISK_TOLERANCE, RiskAnalyzer
 from conjure.core.errors import IncompatibleComponentsError
 from conjure.core.interfaces import check_is_set_up
 from conjure.domains.mission_graph import MissionGraph
@@ -21,6 +21,12 @@ class FuelRiskAnalyzer(RiskAnalyzer):
     shortest path values." The outcome is the noise-free one (``model.nominal_next_state``),
     the distances the model graph's ``distances`` (Floyd-Warshall, `MissionGraph`).
 
+    Parameters
+    ----------
+    risk_tolerance : float, default 1.0
+        ε in (0, 1]: an action other than π^p(s) is safe iff risk < ε. The risk is 0 or 1,
+        so every ε in (0, 1] judges alike (see Notes).
+
     Attributes
     ----------
     graph_ : MissionGraph
@@ -33,7 +39,8 @@ class FuelRiskAnalyzer(RiskAnalyzer):
     - Choice (spec 2.1): an action is also unsafe when, after it, the time left to the
       horizon is shorter than some UAV's distance to the base (the mission fails if a UAV is
       not home at the horizon).
-    - Choice: risk is 0 or 1, so ``risk_tolerance`` is 1: safe iff every UAV can make it home.
+    - Choice: risk is 0 or 1, so ``risk_tolerance`` defaults to 1 (any ε in (0, 1] agrees):
+      safe iff every UAV can make it home. It is a parameter, as on every analyser.
 
     Complexity
     ----------
@@ -51,8 +58,10 @@ class FuelRiskAnalyzer(RiskAnalyzer):
     True
     """
 
-    def __init__(self) -> None:
-        pass
+    parameter_constraints = {"risk_tolerance": RISK_TOLERANCE}
+
+    def __init__(self, *, risk_tolerance: float = 1.0):
+        self.risk_tolerance = risk_tolerance
 
     def _bind(self) -> None:
         domain = self.model_.domain_

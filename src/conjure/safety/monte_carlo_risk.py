@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
-from conjure.core.cooperative import RiskAnalyzer
+from conjure.core.cooperative import RISK_TOLERANCE, RiskAnalyzer
 from conjure.core.errors import IncompatibleComponentsError, InvalidParameterError
 from conjure.core.interfaces import Domain, check_is_set_up
 from conjure.core.params import InstanceOf, Interval
@@ -74,7 +74,7 @@ class MonteCarloRiskAnalyzer(RiskAnalyzer):
     - Choice: when the model's domain has a `noise_decomposition` (grid worlds), rollouts run
       in a numba kernel over the two tabular models, drawing the noise with probability η̂ at
       each step; π^p is tabulated over the model's states and re-tabulated after `update`
-      (π^p changed). Otherwise each step calls ``model.sample`` and ``planner.action`` in
+      says π^p changed. Otherwise each step calls ``model.sample`` and ``planner.action`` in
       Python. Both sample the same T̂.
 
     Complexity
@@ -99,7 +99,7 @@ class MonteCarloRiskAnalyzer(RiskAnalyzer):
     parameter_constraints = {
         "num_rollouts": Interval(int, 1, None),
         "horizon": Interval(int, 1, None) | InstanceOf(type(None)),
-        "risk_tolerance": Interval(float, 0.0, 1.0, closed="right"),
+        "risk_tolerance": RISK_TOLERANCE,
     }
 
     def __init__(
@@ -144,9 +144,13 @@ class MonteCarloRiskAnalyzer(RiskAnalyzer):
             self._is_constrained = np.array([domain.is_constrained(s) for s in calm.states])
             self._is_terminal = np.asarray(calm.is_terminal, dtype=bool)
 
-    def update(self) -> None:
-        """π^p changed: tabulate it again before the next compiled rollout."""
-        self._policy: np.ndarray | None = None
+    def update(self, *, is_policy_changed: bool = True) -> None:
+        """π^p changed: tabulate it again before the next compiled rollout.
+
+        A change of T̂ alone needs nothing: the rollouts read η̂ from the model each time.
+        """
+        if is_policy_changed:
+            self._policy: np.ndarray | None = None
 
     def risk(self, state: np.ndarray, action: int, rng: np.random.Generator | None = None) -> float:
         """Algorithm 25: the fraction of 𝓜 rollouts from ⟨s, a⟩ that end constrained."""

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from conjure.core.cooperative import RiskAnalyzer
+from conjure.core.cooperative import RISK_TOLERANCE, RiskAnalyzer
 from conjure.core.interfaces import check_is_set_up
 
 __all__ = ["NominalRiskAnalyzer"]
@@ -19,6 +19,12 @@ class NominalRiskAnalyzer(RiskAnalyzer):
     ``model.nominal_next_state(s, a)`` is constrained, else 0. It judges any `NoisyDomain`
     (a pit, a crash).
 
+    Parameters
+    ----------
+    risk_tolerance : float, default 1.0
+        ε in (0, 1]: an action other than π^p(s) is safe iff risk < ε. The risk is 0 or 1,
+        so every ε in (0, 1] judges alike (see Notes).
+
     Attributes
     ----------
     rng_ : numpy.random.Generator
@@ -26,8 +32,9 @@ class NominalRiskAnalyzer(RiskAnalyzer):
 
     Notes
     -----
-    - Choice: risk is 0 or 1, so ``risk_tolerance`` is 1: safe iff the nominal outcome is not
-      constrained.
+    - Choice: risk is 0 or 1, so ``risk_tolerance`` defaults to 1 (any ε in (0, 1] agrees):
+      safe iff the nominal outcome is not constrained. It is a parameter, as on every
+      analyser, so that configs and sweeps name ε alike.
 
     Complexity
     ----------
@@ -46,8 +53,10 @@ class NominalRiskAnalyzer(RiskAnalyzer):
     False
     """
 
-    def __init__(self) -> None:
-        pass
+    parameter_constraints = {"risk_tolerance": RISK_TOLERANCE}
+
+    def __init__(self, *, risk_tolerance: float = 1.0):
+        self.risk_tolerance = risk_tolerance
 
     def risk(self, state: np.ndarray, action: int, rng: np.random.Generator | None = None) -> float:
         """1.0 if the noise-free successor is constrained, else 0.0."""

@@ -12,6 +12,7 @@ from conjure.core.interfaces import Agent, DomainSpec, Transition, check_is_set_
 from conjure.core.params import InstanceOf
 from conjure.core.seeding import split_seed
 from conjure.models.approximate_model import ApproximateModel
+from conjure.safety._control_box import set_up_control_box
 
 __all__ = ["PlannerAgent"]
 
@@ -74,8 +75,7 @@ class PlannerAgent(Agent):
         self.validate_params()
         seeds = split_seed(seed, ("model", "planner"))
         self.spec_ = spec
-        self.model_ = self.model.clone().setup(spec, seeds["model"])
-        self.planner_ = self.planner.clone().setup(self.model_, seeds["planner"])
+        self.model_, self.planner_, _ = set_up_control_box(spec, seeds, self.model, self.planner)
         self.is_set_up_ = True
         return self
 

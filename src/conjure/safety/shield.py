@@ -13,6 +13,7 @@ from conjure.core.errors import InvalidParameterError
 from conjure.core.interfaces import Domain
 from conjure.core.seeding import split_seed
 from conjure.models.approximate_model import ApproximateModel
+from conjure.safety._control_box import set_up_control_box
 
 __all__ = ["SafetyShield"]
 
@@ -102,9 +103,9 @@ class SafetyShield(gym.Wrapper):
         inner = env.unwrapped
         spec = inner.domain_spec if isinstance(inner, Domain) else model.domain.domain_spec
         seeds = split_seed(seed, ("model", "planner", "risk"))
-        self.model_ = model.clone().setup(spec, seeds["model"])
-        self.planner_ = planner.clone().setup(self.model_, seeds["planner"])
-        self.risk_ = risk.clone().setup(self.model_, self.planner_, seeds["risk"])
+        self.model_, self.planner_, self.risk_ = set_up_control_box(
+            spec, seeds, model, planner, risk
+        )
         self._to_state = _flatten if observation_to_state is None else observation_to_state
         self._to_model, self._to_env = _action_maps(action_map, spec.num_actions)
         self._state: np.ndarray | None = None
@@ -123,8 +124,9 @@ class SafetyShield(gym.Wrapper):
         if self._state is None:
             raise gym.error.ResetNeeded("SafetyShield.step() was called before reset().")
         proposed = self._to_model[int(action)]
-        is_shielded = not self.risk_.is_safe(self._state, proposed)
-        executed = self._to_env[self.planner_.action(self._state)] if is_shielded else int(action)
+        planner_action = self.planner_.action(self._state)
+        is_shielded = not self.risk_.is_safe(self._state, proposed, planner_action=planner_action)
+        executed = self._to_env[planner_action] if is_shielded else int(action)
         self.num_shielded_ += int(is_shielded)
         observation, reward, terminated, truncated, info = self.env.step(executed)
         self._state = self._to_state(observation)
