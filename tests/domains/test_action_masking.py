@@ -142,3 +142,83 @@ def test_unconstrained_domains_allow_every_action():
     domain = GridWorld()
     _, info = domain.reset(seed=0)
     assert domain.action_masks().tolist() == [True] * 4 and "action_mask" not in info
+
+
+def _loop_steps(domain, num_steps, seed=0):
+    """Step as the run loop does: ``legal_actions`` of each state, then a legal action."""
+    observation, _ = domain.reset(seed=seed)
+    rng = np.random.default_rng(seed)
+    visited = []
+    for _ in range(num_steps):
+        legal = domain.legal_actions(observation)
+        visited.append((observation.copy(), legal))
+        observation, _, terminated, _, _ = domain.step(int(rng.choice(legal)))
+        if terminated:
+            observation, _ = domain.reset()
+    return visited
+
+
+@pytest.mark.parametrize("cls", CONSTRAINED)
+def test_legality_is_computed_once_per_state(cls, monkeypatch):
+    # The step computes the new state's mask; legal_actions of that state reads it instead of
+    # a second compiled pass, and equals that pass. Any other state still gets its own pass.
+    domain = cls()
+    computed = []
+
+    def counting(state, compute=domain._legal_actions_of):
+        computed.append(state.copy())
+        return compute(state)
+
+    monkeypatch.setattr(domain, "_legal_actions_of", counting)
+    visited = _loop_steps(domain, 60)
+    assert computed == []
+    for observation, legal in visited:
+        np.testing.assert_array_equal(legal, cls()._legal_actions_of(observation))
+        assert legal.dtype == np.int64
+    current = domain._current_observation()
+    older = next(obs for obs, _ in visited if not np.array_equal(obs, current))
+    np.testing.assert_array_equal(domain.legal_actions(older), cls()._legal_actions_of(older))
+    assert len(computed) == 1  # a state other than the current one: its own pass
+    legal = domain.legal_actions(current)
+    legal[:] = -1  # the caller owns the returned array
+    assert (domain.legal_actions(current) >= 0).all() and len(computed) == 1
+
+
+def test_uav_mission_computes_one_mask_per_state(monkeypatch):
+    import conjure.domains.uav_mission as module
+
+    calls = []
+
+    def counting(*args, compute=module.checked_legal_mask):
+        calls.append(1)
+        return compute(*args)
+
+    monkeypatch.setattr(module, "checked_legal_mask", counting)
+    domain = UAVMission(traverse_failure=0.1)
+    calls.clear()
+    observation, _ = domain.reset(seed=0)
+    num_states = 1
+    for _ in range(40):
+        domain.action_masks()
+        legal = domain.legal_actions(observation)
+        observation, _, terminated, _, _ = domain.step(int(legal[-1]))
+        num_states += 1
+        if terminated:
+            observation, _ = domain.reset()
+            num_states += 1
+    assert len(calls) == num_states
+
+
+def test_blocks_world_state_views_keep_the_mask_current():
+    # `conjure.compiled.combination` writes the supports and the blocks above as lists.
+    domain = BlocksWorld(num_blocks=3, drop_probability=0.0)
+    start, _ = domain.reset(seed=0)
+    tower = np.array([1.0, 0, 0, 1, 0, 0, 0, 1, 0])  # 0 on the table, 1 on 0, 2 on 1
+    domain._obs[:] = tower
+    domain._on, domain._above = [0, 0, 1], [1, 2, -1]
+    assert domain.action_masks().tolist() == mask_of(BlocksWorld(num_blocks=3), tower).tolist()
+    np.testing.assert_array_equal(domain.legal_actions(start), [1, 2, 3, 5, 6, 7])
+    assert domain.legal_actions(tower).tolist() == [8]  # only move(2, table)
+    _, reward, terminated, _, _ = domain.step(8)
+    assert (domain._on, domain._above) == ([0, 0, 2], [1, -1, -1])
+    assert (reward, terminated) == (-0.001, False)

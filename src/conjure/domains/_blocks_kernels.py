@@ -1,7 +1,10 @@
-"""Numba kernel of BlocksWorld: the legal moves of an On(·,·) state (thesis Section 4.1.4).
+"""Numba kernels of BlocksWorld: the moves and legal moves of On(·,·) states (thesis §4.1.4).
 
 Legal-action computation dominated RLPy's BlocksWorld (set differences per step); here it is
-one O(n²) pass over the 36-entry On vector, compiled. Parameters are validated by the domain.
+one O(n²) pass over the 36-entry On vector, compiled. The move itself (`blocks_transition`) is
+the one implementation of the dynamics: `BlocksWorld.step` calls it through
+`blocks_masked_transition` and the compiled loop through `blocks_step`. Parameters are
+validated by the domain.
 """
 
 from __future__ import annotations
@@ -9,7 +12,15 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-__all__ = ["blocks_legal_actions", "blocks_reset", "blocks_step", "legal_moves_into"]
+__all__ = [
+    "blocks_fill_legal_mask",
+    "blocks_legal_actions",
+    "blocks_masked_transition",
+    "blocks_reset",
+    "blocks_step",
+    "blocks_transition",
+    "legal_moves_into",
+]
 
 
 @njit(cache=True)
@@ -76,13 +87,14 @@ def legal_moves_into(on: np.ndarray, above: np.ndarray, num_blocks: int, out: np
     return count
 
 
-# The compiled domain (conjure.compiled): ``dstate`` (int64) = [On vector (n²), on (n),
-# above (n)], ``dparams`` = [n, drop probability, step reward, goal reward].
+# The domain's state, shared by `BlocksWorld` and the compiled loop: ``dstate`` (int64) =
+# [On vector (n²), on (n), above (n)], ``dparams`` = [n, drop probability, step reward,
+# goal reward].
 
 
 @njit(cache=True)
 def blocks_reset(num_blocks: int, dstate: np.ndarray, obs: np.ndarray) -> None:
-    """Every block on the table, as `BlocksWorld.reset` (no random draw)."""
+    """Put every block on the table (`BlocksWorld.reset`; no random draw)."""
     n = num_blocks
     nn = n * n
     dstate[:nn] = 0
@@ -95,16 +107,20 @@ def blocks_reset(num_blocks: int, dstate: np.ndarray, obs: np.ndarray) -> None:
 
 
 @njit(cache=True)
-def blocks_step(
-    dparams: np.ndarray, dstate: np.ndarray, action: int, obs: np.ndarray, rng: np.random.Generator
+def blocks_transition(
+    dparams: np.ndarray, dstate: np.ndarray, action: int, obs: np.ndarray, uniform: float
 ) -> tuple[float, bool]:
-    """`BlocksWorld.step` of a legal move with the same one uniform draw; (reward, terminated)."""
+    """Apply the legal move ``action`` given its one uniform draw; (reward, terminated).
+
+    The block drops onto the table when ``uniform`` < the drop probability. ``dstate`` and
+    ``obs`` are updated in place.
+    """
     n = int(dparams[0])
     nn = n * n
     block = action // n
     target = action % n
     source = dstate[nn + block]
-    if rng.random() < dparams[1]:
+    if uniform < dparams[1]:
         target = block  # dropped: lands on the table
     if source != block:
         dstate[nn + n + source] = -1
@@ -124,9 +140,36 @@ def blocks_step(
 
 
 @njit(cache=True)
-def blocks_legal_mask(state: np.ndarray, num_blocks: int) -> np.ndarray:
-    """Return the legal moves of a well-formed On vector as a bool mask of length n²."""
-    mask = np.zeros(num_blocks * num_blocks, dtype=np.bool_)
-    for action in blocks_legal_actions(state, num_blocks)[0]:
-        mask[action] = True
-    return mask
+def blocks_step(
+    dparams: np.ndarray, dstate: np.ndarray, action: int, obs: np.ndarray, rng: np.random.Generator
+) -> tuple[float, bool]:
+    """`blocks_transition` with its one uniform drawn from ``rng`` (the compiled loop's step)."""
+    return blocks_transition(dparams, dstate, action, obs, rng.random())
+
+
+@njit(cache=True)
+def blocks_fill_legal_mask(dstate: np.ndarray, num_blocks: int, mask: np.ndarray) -> int:
+    """Write the legal-move mask of ``dstate`` into ``mask`` (1 legal, 0 not); return the count."""
+    n = num_blocks
+    nn = n * n
+    moves = np.empty(nn, dtype=np.int64)
+    count = legal_moves_into(dstate[nn : nn + n], dstate[nn + n :], n, moves)
+    mask[:] = 0
+    for k in range(count):
+        mask[moves[k]] = 1
+    return count
+
+
+@njit(cache=True)
+def blocks_masked_transition(
+    dparams: np.ndarray,
+    dstate: np.ndarray,
+    action: int,
+    obs: np.ndarray,
+    uniform: float,
+    mask: np.ndarray,
+) -> tuple[float, bool]:
+    """`blocks_transition`, then the new state's legal mask into ``mask`` (`BlocksWorld.step`)."""
+    reward, terminated = blocks_transition(dparams, dstate, action, obs, uniform)
+    blocks_fill_legal_mask(dstate, int(dparams[0]), mask)
+    return reward, terminated

@@ -10,7 +10,10 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from conjure.domains._mission_kernels import state_from_observation
+
 __all__ = [
+    "actions_of_mask",
     "pst_fill_legal_mask",
     "pst_legal_actions",
     "pst_num_crashed",
@@ -80,26 +83,33 @@ def pst_fill_legal_mask(state: np.ndarray, num_uavs: int, mask: np.ndarray) -> i
 
 
 @njit(cache=True)
-def pst_legal_actions(state: np.ndarray, num_uavs: int, max_fuel: int) -> tuple[np.ndarray, int]:
-    """Return (sorted legal joint actions, -1) of a float state, or (empty, bad dimension)."""
-    empty = np.empty(0, dtype=np.int64)
-    highs = (max_fuel, NUM_LOCATIONS - 1, 1, 1)
-    ints = np.empty(state.shape[0], dtype=np.int64)
-    for k in range(state.shape[0]):
-        value = state[k]
-        high = highs[k % 4]
-        if not (value >= 0.0 and value <= high and value == np.floor(value)):
-            return empty, k
-        ints[k] = np.int64(value)
-    mask = np.empty(3**num_uavs, dtype=np.int8)
-    count = pst_fill_legal_mask(ints, num_uavs, mask)
+def actions_of_mask(mask: np.ndarray) -> np.ndarray:
+    """Return the sorted actions where ``mask`` is nonzero (int64)."""
+    count = 0
+    for a in range(mask.shape[0]):
+        if mask[a]:
+            count += 1
     out = np.empty(count, dtype=np.int64)
     j = 0
     for a in range(mask.shape[0]):
         if mask[a]:
             out[j] = a
             j += 1
-    return out, -1
+    return out
+
+
+@njit(cache=True)
+def pst_legal_actions(state: np.ndarray, num_uavs: int, max_fuel: int) -> tuple[np.ndarray, int]:
+    """Return (sorted legal joint actions, -1) of a float state, or (empty, bad dimension)."""
+    highs = np.empty(state.shape[0], dtype=np.float64)
+    for k in range(state.shape[0]):
+        highs[k] = (max_fuel, NUM_LOCATIONS - 1, 1, 1)[k % 4]
+    ints, bad = state_from_observation(state, highs)
+    if bad >= 0:
+        return np.empty(0, dtype=np.int64), bad
+    mask = np.empty(3**num_uavs, dtype=np.int8)
+    pst_fill_legal_mask(ints, num_uavs, mask)
+    return actions_of_mask(mask), -1
 
 
 @njit(cache=True)
@@ -219,22 +229,12 @@ def rescue_legal_actions(
     degrees: np.ndarray,
 ) -> tuple[np.ndarray, int]:
     """Return (sorted legal joint actions, -1) of a float state, or (empty, bad dimension)."""
-    empty = np.empty(0, dtype=np.int64)
-    ints = np.empty(state.shape[0], dtype=np.int64)
-    for k in range(state.shape[0]):
-        value = state[k]
-        if not (value >= 0.0 and value <= highs[k] and value == np.floor(value)):
-            return empty, k
-        ints[k] = np.int64(value)
+    ints, bad = state_from_observation(state, highs)
+    if bad >= 0:
+        return np.empty(0, dtype=np.int64), bad
     mask = np.empty(MEDIC_SLOTS * COMM_SLOTS, dtype=np.int8)
-    count = rescue_fill_legal_mask(ints, neighbours, degrees, mask)
-    out = np.empty(count, dtype=np.int64)
-    j = 0
-    for a in range(mask.shape[0]):
-        if mask[a]:
-            out[j] = a
-            j += 1
-    return out, -1
+    rescue_fill_legal_mask(ints, neighbours, degrees, mask)
+    return actions_of_mask(mask), -1
 
 
 @njit(cache=True)

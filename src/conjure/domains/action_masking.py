@@ -34,6 +34,7 @@ import numpy as np
 
 from conjure.core.errors import InvalidParameterError
 from conjure.core.params import Constraint, Options, Predicate
+from conjure.domains._legal_space import LegalDiscrete
 
 __all__ = ["ILLEGAL_ACTION_MODES", "ActionMasking"]
 
@@ -55,11 +56,15 @@ class ActionMasking:
 
     Geramifard (2012), Section 4.1.4 (the constrained domains BlocksWorld, Persistent
     Surveillance, Rescue Mission) and Section 5.3.5 (UAV missions). A domain lists it before
-    its `Domain` base, merges `masking_constraints` into its ``parameter_constraints``, takes
-    the two parameters below in its constructor, and implements ``_current_mask`` (the legal
-    actions of the current state) and ``_current_observation``. Its ``step`` returns
-    ``self._reject(action, rule)`` for an illegal action and ``self._with_mask(info)`` as the
-    info of every other step; ``reset`` returns ``self._with_mask(info)`` too.
+    its `Domain` base, merges `masking_constraints` into its ``parameter_constraints`` and takes
+    the two parameters below in its constructor. It keeps ``_mask``, the legal actions of its
+    current state (1 or True where legal), up to date with one compiled pass whenever its state
+    changes, builds its ``action_space`` with `_set_action_space`, and implements
+    ``_observed_state`` (its current state, not copied), ``_legal_actions_of`` (the legal
+    actions of any other state, validated) and ``describe_action``. Its ``step`` returns
+    ``self._reject(action, rule)`` for an action that ``_mask`` rules out and
+    ``self._with_mask(info)`` as the info of every other step; ``reset`` returns
+    ``self._with_mask(info)`` too.
 
     Parameters
     ----------
@@ -85,6 +90,10 @@ class ActionMasking:
     - Choice: ``info["action_mask"]`` is a fresh array at every call (an agent may keep it);
       ``action_masks()`` returns the mask of the current state, so after the last step of an
       episode it is the mask of the terminal state.
+    - Choice: legality is computed once per state. ``legal_actions(state)`` of a state equal
+      to the current one (same shape and the same float64 bytes; values are compared, never
+      the array's identity) reads ``_mask``, the mask the step already computed; any other
+      state gets its own compiled pass. A fresh array either way.
     """
 
     #: Constraints of the two parameters; domains merge them into ``parameter_constraints``.
@@ -95,14 +104,63 @@ class ActionMasking:
 
     illegal_action: str
     illegal_action_penalty: float
+    #: The legal actions of the current state (nonzero where legal), kept by the domain.
+    _mask: np.ndarray
+
+    def _observed_state(self) -> np.ndarray:
+        """Return the domain's current state array (not a copy) that observations show."""
+        raise NotImplementedError
+
+    def _legal_actions_of(self, state: np.ndarray) -> np.ndarray:
+        """Return the sorted legal actions of a float64 ``state`` of the right shape, or raise."""
+        raise NotImplementedError
+
+    def _set_action_space(self) -> None:
+        """Build the action space, whose ``sample()`` draws legal actions (after ``_mask``)."""
+        legal = self._current_legal()
+        self.action_space = LegalDiscrete(self._mask.shape[0], self._current_legal, legal)
+
+    def _current_legal(self) -> np.ndarray:
+        """Return the sorted legal actions of the current state (from ``_mask``)."""
+        return self._mask.nonzero()[0].astype(np.int64, copy=False)  # 1-D: flatnonzero's work
 
     def _current_mask(self) -> np.ndarray:
         """Return a new bool array, True at the legal actions of the current state."""
-        raise NotImplementedError
+        return self._mask.astype(bool)
 
     def _current_observation(self) -> np.ndarray:
         """Return a copy of the current observation."""
-        raise NotImplementedError
+        return self._observed_state().astype(np.float64)
+
+    def legal_actions(self, state: np.ndarray) -> np.ndarray:
+        """Return the sorted legal actions of ``state`` (one compiled pass per state).
+
+        Examples
+        --------
+        >>> from conjure.domains import BlocksWorld
+        >>> domain = BlocksWorld(num_blocks=2)
+        >>> observation, _ = domain.reset(seed=0)
+        >>> domain.legal_actions(observation).tolist()  # the current state: read from its mask
+        [1, 2]
+        >>> domain.legal_actions([0.0, 1.0, 0.0, 1.0]).tolist()  # block 0 on block 1
+        [0]
+        """
+        name = type(self).__name__
+        try:
+            array = np.asarray(state, dtype=np.float64)
+        except (TypeError, ValueError):
+            raise InvalidParameterError(
+                f"{name}.legal_actions expects a numeric state vector; got {state!r}."
+            ) from None
+        current = self._observed_state()
+        if array.shape != current.shape:
+            raise InvalidParameterError(
+                f"{name}.legal_actions expects a state of shape {current.shape}; got shape "
+                f"{array.shape}."
+            )
+        if array.tobytes() == current.astype(np.float64, copy=False).tobytes():
+            return self._current_legal()
+        return self._legal_actions_of(array)
 
     def action_masks(self) -> np.ndarray:
         """Return the legal actions of the current state as a bool array (MaskablePPO's method).

@@ -11,8 +11,12 @@ from gymnasium import spaces
 from conjure.core.errors import InvalidParameterError
 from conjure.core.interfaces import Domain, DomainSpec
 from conjure.core.params import Constraint, Interval
-from conjure.domains._blocks_kernels import blocks_legal_actions, blocks_legal_mask
-from conjure.domains._legal_space import LegalDiscrete
+from conjure.domains._blocks_kernels import (
+    blocks_fill_legal_mask,
+    blocks_legal_actions,
+    blocks_masked_transition,
+    blocks_reset,
+)
 from conjure.domains.action_masking import ActionMasking
 from conjure.domains.compiled_form import BLOCKS, DomainKernel, domain_kernel
 
@@ -100,7 +104,8 @@ class BlocksWorld(ActionMasking, Domain):
       more arrangements than exist: 6 labelled blocks form Σ_k L(6, k) = 4051 towers-of-stacks
       (Lah numbers), not 10,231; we report the thesis's number.
 
-    Complexity: Θ(1) per step (list updates) plus Θ(b²) per `legal_actions` (one compiled pass).
+    Complexity: Θ(b²) per step (one compiled pass: the move, then the new state's legal mask);
+    `legal_actions` reads that mask for the current state and takes one Θ(b²) pass otherwise.
 
     Examples
     --------
@@ -159,6 +164,7 @@ class BlocksWorld(ActionMasking, Domain):
         self._drop = float(self.drop_probability)
         self._step_reward = float(self.step_reward)
         self._goal_reward = float(self.goal_reward)
+        self._dparams = np.array([n, self._drop, self._step_reward, self._goal_reward])
         dims = n * n
         low = np.zeros(dims, dtype=np.float64)
         high = np.ones(dims, dtype=np.float64)
@@ -173,15 +179,43 @@ class BlocksWorld(ActionMasking, Domain):
             max_episode_steps=int(self.max_episode_steps),
             has_action_constraints=True,
         )
+        self._dstate = np.empty(dims + 2 * n, dtype=np.int64)  # On vector, on, above
+        self._obs = np.empty(dims, dtype=np.float64)
+        self._mask = np.empty(dims, dtype=np.int8)
         self._set_start()
-        self.action_space = LegalDiscrete(dims, self._current_legal, self._current_legal())
+        self._set_action_space()
 
     def _set_start(self) -> None:
+        blocks_reset(self._n, self._dstate, self._obs)
+        blocks_fill_legal_mask(self._dstate, self._n, self._mask)
+
+    # Compatibility: `conjure.compiled.combination` reads and writes the supports and the
+    # blocks above as lists; both views write through to ``_dstate`` and refresh ``_mask``.
+
+    @property
+    def _on(self) -> list[int]:
+        """The support of each block (the block itself: the table), as a list."""
         n = self._n
-        self._on = list(range(n))  # support of each block; itself = the table
-        self._above = [-1] * n  # block sitting on each block, −1 if clear
-        self._obs = np.zeros(n * n, dtype=np.float64)
-        self._obs[np.arange(n) * (n + 1)] = 1.0
+        return self._dstate[n * n : n * n + n].tolist()
+
+    @_on.setter
+    def _on(self, on: list[int]) -> None:
+        n, dstate = self._n, self._dstate
+        dstate[n * n : n * n + n] = on
+        dstate[: n * n] = 0
+        dstate[np.arange(n) * n + dstate[n * n : n * n + n]] = 1
+        self._obs[:] = dstate[: n * n]
+        blocks_fill_legal_mask(dstate, n, self._mask)
+
+    @property
+    def _above(self) -> list[int]:
+        """The block sitting on each block (−1: clear), as a list."""
+        return self._dstate[self._n * self._n + self._n :].tolist()
+
+    @_above.setter
+    def _above(self, above: list[int]) -> None:
+        self._dstate[self._n * self._n + self._n :] = above
+        blocks_fill_legal_mask(self._dstate, self._n, self._mask)
 
     def state_action_count(self) -> int:
         """Return the thesis's tabular size |S × A| (368,316 for 6 blocks), Section 4.1.4."""
@@ -215,29 +249,16 @@ class BlocksWorld(ActionMasking, Domain):
         self._set_start()
         return self._obs.copy(), self._with_mask({})
 
-    def legal_actions(self, state: np.ndarray) -> np.ndarray:
-        """Return the sorted legal moves of the On vector ``state`` (one compiled pass)."""
-        array = np.asarray(state, dtype=np.float64)
-        if array.shape != (self._n * self._n,):
-            raise InvalidParameterError(
-                f"BlocksWorld.legal_actions expects an On vector of shape "
-                f"({self._n * self._n},); got shape {array.shape}."
-            )
-        legal, code = blocks_legal_actions(array, self._n)
+    def _legal_actions_of(self, state: np.ndarray) -> np.ndarray:
+        legal, code = blocks_legal_actions(state, self._n)
         if code:
             raise InvalidParameterError(
                 f"BlocksWorld.legal_actions got an impossible state: {_MALFORMED[code]}."
             )
         return legal
 
-    def _current_legal(self) -> np.ndarray:
-        return self.legal_actions(self._obs)
-
-    def _current_mask(self) -> np.ndarray:
-        return blocks_legal_mask(self._obs, self._n)
-
-    def _current_observation(self) -> np.ndarray:
-        return self._obs.copy()
+    def _observed_state(self) -> np.ndarray:
+        return self._obs
 
     def describe_action(self, action: int) -> str:
         """Return the move in words, e.g. ``move(2, 0)`` or ``move(1, table)``."""
@@ -247,28 +268,11 @@ class BlocksWorld(ActionMasking, Domain):
     def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
         """Move block b onto d (``action = b·n + d``); with probability 0.3 it drops."""
         a = self.check_action(action)
-        n = self._n
-        block, target = divmod(a, n)
-        on, above = self._on, self._above
-        source = on[block]
-        if above[block] >= 0 or (source == block if target == block else above[target] >= 0):
+        if not self._mask[a]:
             return self._reject(
                 a, "both blocks must be clear and a block on the table cannot move to the table"
             )
-        if self.np_random.random() < self._drop:
-            target = block  # dropped: lands on the table
-        obs = self._obs
-        if source != block:
-            above[source] = -1
-        if target != block:
-            above[target] = block
-        on[block] = target
-        obs[block * n + source] = 0.0
-        obs[block * n + target] = 1.0
-        terminated = block == n - 1 and target == n - 2 and self._is_tower()
-        reward = self._goal_reward if terminated else self._step_reward
-        return obs.copy(), reward, terminated, False, self._with_mask({})
-
-    def _is_tower(self) -> bool:
-        on = self._on
-        return on[0] == 0 and all(on[i] == i - 1 for i in range(1, self._n))
+        reward, terminated = blocks_masked_transition(
+            self._dparams, self._dstate, a, self._obs, self.np_random.random(), self._mask
+        )
+        return self._obs.copy(), reward, terminated, False, self._with_mask({})

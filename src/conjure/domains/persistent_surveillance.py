@@ -10,7 +10,6 @@ from gymnasium import spaces
 from conjure.core.errors import InvalidParameterError
 from conjure.core.interfaces import Domain, DomainSpec
 from conjure.core.params import Constraint, InstanceOf, Interval
-from conjure.domains._legal_space import LegalDiscrete
 from conjure.domains._uav_kernels import (
     BASE,
     NUM_LOCATIONS,
@@ -123,7 +122,9 @@ class PersistentSurveillance(ActionMasking, Domain):
       relay actuator checked); `rlpy` builds RLPy's variant.
     - Choice: fuel never goes below 0 (only a terminal state could burn further).
 
-    Complexity: Θ(n) per step and Θ(3^n) per legal-action mask (one compiled pass each).
+    Complexity: Θ(n + 3^n) per step (one compiled pass: the step, then the new state's
+    legal-action mask, which `legal_actions` of the current state reads); Θ(3^n) per
+    `legal_actions` of any other state.
 
     Examples
     --------
@@ -232,9 +233,7 @@ class PersistentSurveillance(ActionMasking, Domain):
         )
         self._mask = np.zeros(self._num_actions, dtype=np.int8)
         self._set_start()
-        self.action_space = LegalDiscrete(
-            self._num_actions, self._current_legal, self._current_legal()
-        )
+        self._set_action_space()
 
     def _set_start(self) -> None:
         start = np.array([self.max_fuel, BASE, 1, 1], dtype=np.int64)
@@ -272,30 +271,17 @@ class PersistentSurveillance(ActionMasking, Domain):
         self._set_start()
         return self._state.astype(np.float64), self._with_mask({})
 
-    def legal_actions(self, state: np.ndarray) -> np.ndarray:
-        """Return the sorted legal joint actions of ``state`` (one compiled pass)."""
-        array = np.asarray(state, dtype=np.float64)
-        if array.shape != (4 * self._n,):
-            raise InvalidParameterError(
-                f"PersistentSurveillance.legal_actions expects a state of shape "
-                f"({4 * self._n},); got shape {array.shape}."
-            )
-        legal, bad = pst_legal_actions(array, self._n, int(self.max_fuel))
+    def _legal_actions_of(self, state: np.ndarray) -> np.ndarray:
+        legal, bad = pst_legal_actions(state, self._n, int(self.max_fuel))
         if bad >= 0:
             raise InvalidParameterError(
                 f"PersistentSurveillance.legal_actions: dimension {bad} (UAV {bad // 4} "
-                f"{_FIELDS[bad % 4]}) must be an integer within its bounds; got {array[bad]!r}."
+                f"{_FIELDS[bad % 4]}) must be an integer within its bounds; got {state[bad]!r}."
             )
         return legal
 
-    def _current_legal(self) -> np.ndarray:
-        return np.flatnonzero(self._mask).astype(np.int64)
-
-    def _current_mask(self) -> np.ndarray:
-        return self._mask.astype(bool)
-
-    def _current_observation(self) -> np.ndarray:
-        return self._state.astype(np.float64)
+    def _observed_state(self) -> np.ndarray:
+        return self._state
 
     def describe_action(self, action: int) -> str:
         """Return the joint action as per-UAV names, e.g. ``(LOITER, ADVANCE, RETREAT)``."""

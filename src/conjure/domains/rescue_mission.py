@@ -10,7 +10,6 @@ from gymnasium import spaces
 from conjure.core.errors import InvalidParameterError
 from conjure.core.interfaces import Domain, DomainSpec
 from conjure.core.params import Constraint, Interval
-from conjure.domains._legal_space import LegalDiscrete
 from conjure.domains._uav_kernels import (
     COMM_SLOTS,
     MEDIC_SLOTS,
@@ -139,7 +138,9 @@ class RescueMission(ActionMasking, Domain):
     - Choice: the −23 is charged once even if a crash and the deadline coincide; the episode
       ends (terminated, not truncated) at t = H or on a crash. t is part of the state.
 
-    Complexity: Θ(1) per step; Θ(20) per legal-action mask (one compiled pass each).
+    Complexity: Θ(20) per step (one compiled pass: the step, then the new state's legal-action
+    mask, which `legal_actions` of the current state reads); Θ(20) per `legal_actions` of any
+    other state.
 
     Examples
     --------
@@ -216,7 +217,7 @@ class RescueMission(ActionMasking, Domain):
         )
         self._mask = np.zeros(NUM_ACTIONS, dtype=np.int8)
         self._set_start()
-        self.action_space = LegalDiscrete(NUM_ACTIONS, self._current_legal, self._current_legal())
+        self._set_action_space()
 
     def _start_state(self) -> np.ndarray:
         """s₀: both UAVs at the base with full fuel, the comm UAV flying, nothing rescued, t = 0."""
@@ -266,30 +267,17 @@ class RescueMission(ActionMasking, Domain):
         self._set_start()
         return self._state.astype(np.float64), self._with_mask({})
 
-    def legal_actions(self, state: np.ndarray) -> np.ndarray:
-        """Return the sorted legal joint actions of ``state`` (one compiled pass)."""
-        array = np.asarray(state, dtype=np.float64)
-        if array.shape != self._high.shape:
-            raise InvalidParameterError(
-                f"RescueMission.legal_actions expects a state of shape {self._high.shape}; "
-                f"got shape {array.shape}."
-            )
-        legal, bad = rescue_legal_actions(array, self._high, self.neighbours_, self._degrees)
+    def _legal_actions_of(self, state: np.ndarray) -> np.ndarray:
+        legal, bad = rescue_legal_actions(state, self._high, self.neighbours_, self._degrees)
         if bad >= 0:
             raise InvalidParameterError(
                 f"RescueMission.legal_actions: dimension {bad} must be an integer in "
-                f"[0, {self._high[bad]:g}]; got {array[bad]!r}."
+                f"[0, {self._high[bad]:g}]; got {state[bad]!r}."
             )
         return legal
 
-    def _current_legal(self) -> np.ndarray:
-        return np.flatnonzero(self._mask).astype(np.int64)
-
-    def _current_mask(self) -> np.ndarray:
-        return self._mask.astype(bool)
-
-    def _current_observation(self) -> np.ndarray:
-        return self._state.astype(np.float64)
+    def _observed_state(self) -> np.ndarray:
+        return self._state
 
     @staticmethod
     def describe_action(action: int) -> str:

@@ -16,7 +16,6 @@ from conjure.core.cooperative import NoisyDomain
 from conjure.core.errors import InvalidParameterError
 from conjure.core.interfaces import DomainSpec
 from conjure.core.params import Constraint, InstanceOf, Interval, Options, did_you_mean
-from conjure.domains._legal_space import LegalDiscrete
 from conjure.domains._mission_dp import (
     action_values,
     evaluate_policy,
@@ -154,7 +153,9 @@ class UAVMission(ActionMasking, NoisyDomain):
     - [R] The graphs of Figure 5-4 are lost; the shipped scenarios are the reconstructions
       documented in `conjure.domains.mission_graph`.
 
-    Complexity: Θ(n²) per step; Θ(Π_i (deg(l_i) + 1)) per legal-action list. `exact_solution`
+    Complexity: Θ(n² + N^n) per step (the step, then the new state's legal mask over the N^n
+    joint actions, which `legal_actions` of the current state reads); Θ(Π_i (deg(l_i) + 1))
+    per `legal_actions` of any other state. `exact_solution`
     takes Θ(Σ_t |S_t| · |A(s)| · 4^n) time over the reachable states S_t of each time layer and
     Θ(2^m Π_i (F_i + 1) N^n + Σ_t |S_t|) memory (m targets).
 
@@ -242,9 +243,7 @@ class UAVMission(ActionMasking, NoisyDomain):
             has_action_constraints=True,
         )
         self._state = graph.initial_state()
-        self.action_space = LegalDiscrete(
-            graph.num_actions, self._current_legal, self._current_legal()
-        )
+        self._set_action_space()
 
     def _read_graph(self) -> MissionGraph:
         if self.graph is None:
@@ -305,16 +304,21 @@ class UAVMission(ActionMasking, NoisyDomain):
         self._state = state
         return state.copy(), reward, terminated, False, self._with_mask({"cost": cost})
 
-    def _current_legal(self) -> np.ndarray:
-        return checked_legal_actions(self._state, self._high, self._layout, self._adjacency)[0]
+    @property
+    def _state(self) -> np.ndarray:
+        """The current state (float64, the observation layout); its legal mask is ``_mask``."""
+        return self._current_state
 
-    def _current_mask(self) -> np.ndarray:
-        return checked_legal_mask(
-            self._state, self._high, self._layout, self._adjacency, self.graph_.num_actions
+    @_state.setter
+    def _state(self, state: np.ndarray) -> None:
+        # The one legality pass of a state (`conjure.compiled.combination` also assigns here).
+        self._current_state = state
+        self._mask = checked_legal_mask(
+            state, self._high, self._layout, self._adjacency, self.graph_.num_actions
         )
 
-    def _current_observation(self) -> np.ndarray:
-        return self._state.copy()
+    def _observed_state(self) -> np.ndarray:
+        return self._current_state
 
     def describe_action(self, action: int) -> str:
         """Return the joint action as destinations, e.g. ``(UAV 0 to node 1, UAV 1 to node 0)``."""
@@ -361,14 +365,11 @@ class UAVMission(ActionMasking, NoisyDomain):
             return f"dimension {k} (visited bit of node {k - 2 * n})"
         return f"dimension {k} (time step)"
 
-    def legal_actions(self, state: np.ndarray) -> np.ndarray:
-        """Return the sorted legal joint actions of ``state`` (one compiled pass)."""
-        array = self._as_array(state, "legal_actions")
-        if array.shape == self._high.shape:
-            legal, bad = checked_legal_actions(array, self._high, self._layout, self._adjacency)
-            if bad < 0:
-                return legal
-        raise self._state_error(array, "legal_actions")
+    def _legal_actions_of(self, state: np.ndarray) -> np.ndarray:
+        legal, bad = checked_legal_actions(state, self._high, self._layout, self._adjacency)
+        if bad < 0:
+            return legal
+        raise self._state_error(state, "legal_actions")
 
     def is_constrained(self, state: np.ndarray) -> bool:
         """Whether ``state`` is a crash: a UAV away from the base without fuel or at t = H."""
