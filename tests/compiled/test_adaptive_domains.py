@@ -151,7 +151,7 @@ def _learn(stepper, agent, seed: int, rep: str) -> list:
 
 def _domain_states(domain) -> tuple:
     if isinstance(domain, BlocksWorld):
-        return domain._on, domain._above, domain._obs.tolist()
+        return domain.compiled_form().state.tolist(), domain._obs.tolist()
     if isinstance(domain, (PersistentSurveillance, RescueMission)):
         return domain._state.tolist(), domain._mask.tolist()
     if isinstance(domain, UAVMission):
@@ -366,7 +366,7 @@ def test_epsilon_greedy_chooses_only_legal_moves():
     for_combination(domain, agent.setup(domain.domain_spec, 0), seed=0).advance(5000)
     assert domain.legal_actions(domain._obs).size > 0  # raises on a malformed state
     on = domain._obs.reshape(6, 6).argmax(axis=1).tolist()
-    assert domain._obs.sum() == 6 and on == domain._on
+    assert domain._obs.sum() == 6 and on == domain.compiled_form().state[36:42].tolist()
 
 
 def _curve(rows: list) -> list:

@@ -209,16 +209,17 @@ def test_uav_mission_computes_one_mask_per_state(monkeypatch):
     assert len(calls) == num_states
 
 
-def test_blocks_world_state_views_keep_the_mask_current():
-    # `conjure.compiled.combination` writes the supports and the blocks above as lists.
+def test_blocks_world_compiled_state_keeps_the_mask_current():
+    # The compiled loop hands the state back through `load_compiled_form`.
     domain = BlocksWorld(num_blocks=3, drop_probability=0.0)
     start, _ = domain.reset(seed=0)
     tower = np.array([1.0, 0, 0, 1, 0, 0, 0, 1, 0])  # 0 on the table, 1 on 0, 2 on 1
-    domain._obs[:] = tower
-    domain._on, domain._above = [0, 0, 1], [1, 2, -1]
+    form = domain.compiled_form()
+    form.state[:] = [*tower.astype(int), 0, 0, 1, 1, 2, -1]  # On, supports, blocks above
+    domain.load_compiled_form(form)
     assert domain.action_masks().tolist() == mask_of(BlocksWorld(num_blocks=3), tower).tolist()
     np.testing.assert_array_equal(domain.legal_actions(start), [1, 2, 3, 5, 6, 7])
     assert domain.legal_actions(tower).tolist() == [8]  # only move(2, table)
     _, reward, terminated, _, _ = domain.step(8)
-    assert (domain._on, domain._above) == ([0, 0, 2], [1, -1, -1])
+    assert domain.compiled_form().state[9:].tolist() == [0, 0, 2, 1, -1, -1]
     assert (reward, terminated) == (-0.001, False)

@@ -189,34 +189,6 @@ class BlocksWorld(ActionMasking, Domain):
         blocks_reset(self._n, self._dstate, self._obs)
         blocks_fill_legal_mask(self._dstate, self._n, self._mask)
 
-    # Compatibility: `conjure.compiled.combination` reads and writes the supports and the
-    # blocks above as lists; both views write through to ``_dstate`` and refresh ``_mask``.
-
-    @property
-    def _on(self) -> list[int]:
-        """The support of each block (the block itself: the table), as a list."""
-        n = self._n
-        return self._dstate[n * n : n * n + n].tolist()
-
-    @_on.setter
-    def _on(self, on: list[int]) -> None:
-        n, dstate = self._n, self._dstate
-        dstate[n * n : n * n + n] = on
-        dstate[: n * n] = 0
-        dstate[np.arange(n) * n + dstate[n * n : n * n + n]] = 1
-        self._obs[:] = dstate[: n * n]
-        blocks_fill_legal_mask(dstate, n, self._mask)
-
-    @property
-    def _above(self) -> list[int]:
-        """The block sitting on each block (−1: clear), as a list."""
-        return self._dstate[self._n * self._n + self._n :].tolist()
-
-    @_above.setter
-    def _above(self, above: list[int]) -> None:
-        self._dstate[self._n * self._n + self._n :] = above
-        blocks_fill_legal_mask(self._dstate, self._n, self._mask)
-
     def state_action_count(self) -> int:
         """Return the thesis's tabular size |S × A| (368,316 for 6 blocks), Section 4.1.4."""
         return blocks_world_state_action_count(self._n)
@@ -231,15 +203,14 @@ class BlocksWorld(ActionMasking, Domain):
         """
         n = self._n
         params = np.array([float(n), self._drop, self._step_reward, self._goal_reward])
-        state = np.concatenate([self._obs.astype(np.int64), self._on, self._above])
-        return domain_kernel(BLOCKS, n * n, params=params, state=state, num_units=n)
+        return domain_kernel(BLOCKS, n * n, params=params, state=self._dstate, num_units=n)
 
     def load_compiled_form(self, form: DomainKernel) -> None:
         """Take the state back from the compiled loop."""
         n = self._n
+        self._dstate[:] = form.state
         self._obs[:] = form.state[: n * n]
-        self._on = form.state[n * n : n * n + n].tolist()
-        self._above = form.state[n * n + n :].tolist()
+        blocks_fill_legal_mask(self._dstate, n, self._mask)
 
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
