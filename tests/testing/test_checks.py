@@ -5,8 +5,11 @@ import pytest
 
 from conjure.core import Representation
 from conjure.core.params import Interval
+from conjure.core.schedules import ConstantStepSize, EpisodicDecay, FeatureNormalizedDecay
+from conjure.policies import EpsilonGreedy
 from conjure.representations import Tabular
 from conjure.testing import applicable_checks, check_component, checks
+from conjure.testing.checks import check_compiled_form_covers_params
 
 
 class Unsorted(Representation):
@@ -129,3 +132,26 @@ def test_a_mask_that_disagrees_with_legal_actions_is_caught():
 
     with pytest.raises(AssertionError, match="info\\['action_mask'\\]"):
         checks.check_action_masks(NoInfoMask())
+
+
+class _Forgetful(EpsilonGreedy):
+    """ε-greedy with a parameter its compiled form (ε's) does not carry."""
+
+    parameter_constraints = {**EpsilonGreedy.parameter_constraints, "greed": Interval(float, 0, 1)}
+
+    def __init__(self, *, epsilon: float = 0.1, greed: float = 0.5):
+        super().__init__(epsilon=epsilon)
+        self.greed = greed
+
+
+def test_compiled_form_check_names_a_parameter_the_form_drops():
+    with pytest.raises(AssertionError, match=r"greed=1\.0"):
+        check_compiled_form_covers_params(_Forgetful())
+
+
+@pytest.mark.parametrize(
+    "schedule",
+    [ConstantStepSize(alpha_0=0.3), FeatureNormalizedDecay(), EpisodicDecay(alpha_0=0.2, n_0=5)],
+)
+def test_schedules_carry_every_parameter_into_their_compiled_form(schedule):
+    check_compiled_form_covers_params(schedule)

@@ -93,6 +93,8 @@ class LinearTDAgent(Agent):
     compiled_methods: ClassVar[tuple[str, ...]] = (
         "act", "learn", "begin_episode", "_bootstrap", "_update", "_after_update",
     )  # fmt: skip
+    #: θ's initial value is folded into θ at ``setup``; the compiled form need not carry it.
+    compiled_irrelevant_params: ClassVar[frozenset[str]] = frozenset({"initial_weight"})
     #: What the compiled loop covers of the learner (said when a run falls back to Python).
     compiled_variant: ClassVar[str] = ""
 

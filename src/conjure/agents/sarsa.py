@@ -119,6 +119,12 @@ class SARSA(LinearTDAgent):
             self._make_traces()
         return self
 
+    @property
+    def compiled_irrelevant_params(self) -> frozenset[str]:
+        """θ's initial value (folded into θ at setup); without traces, their kind and floor."""
+        unused = {"trace_kind", "min_trace"} if self.trace_decay == 0 else set()
+        return frozenset({"initial_weight", *unused})
+
     def compiled_form(self) -> _kernels.AgentKernel | None:
         """SARSA(λ) for the compiled loop: γλ, the trace kind and the smallest trace kept."""
         if not self._has_traces:

@@ -224,6 +224,11 @@ class Domain(gym.Env, Configurable):
 
     metadata: ClassVar[dict[str, Any]] = {"render_modes": []}
     domain_spec: DomainSpec
+    #: Parameters a compiled form need not carry (`conjure.core.compiled_form`): γ and the cap
+    #: reach the compiled loop through ``domain_spec`` (the learner's γ, the episode cap).
+    compiled_irrelevant_params: ClassVar[frozenset[str]] = frozenset(
+        {"discount", "max_episode_steps"}
+    )
 
     def _build(self) -> None:
         """Validate the parameters and build the spaces and ``domain_spec`` from them."""

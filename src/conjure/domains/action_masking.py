@@ -96,6 +96,12 @@ class ActionMasking:
       state gets its own compiled pass. A fresh array either way.
     """
 
+    #: The compiled loop picks only legal actions, so the illegal-action handling never runs
+    #: there (`conjure.core.compiled_form`).
+    compiled_irrelevant_params: ClassVar[frozenset[str]] = frozenset(
+        {"discount", "max_episode_steps", "illegal_action", "illegal_action_penalty"}
+    )
+
     #: Constraints of the two parameters; domains merge them into ``parameter_constraints``.
     masking_constraints: ClassVar[dict[str, Constraint]] = {
         "illegal_action": Options(ILLEGAL_ACTION_MODES),

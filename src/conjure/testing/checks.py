@@ -24,10 +24,11 @@ from typing import Any, NamedTuple
 import numpy as np
 from gymnasium.utils.env_checker import check_env
 
+from conjure.core.compiled_form import compiled_form
 from conjure.core.cooperative import CooperativePlanner, NoisyDomain, RiskAnalyzer
 from conjure.core.errors import IncompatibleComponentsError, InvalidParameterError, NotSetUpError
 from conjure.core.interfaces import Agent, Domain, DomainSpec, Policy, Representation, Transition
-from conjure.core.params import Configurable
+from conjure.core.params import Configurable, Constraint, Options, _AnyOf
 from conjure.core.seeding import make_rng
 from conjure.domains import GridWorld, UAVMission
 from conjure.models.approximate_model import ApproximateModel
@@ -331,6 +332,72 @@ def _validate(component: Configurable) -> None:
         component.setup(_check_domain_for(component).domain_spec, seed=0)
     else:
         component.validate_params()
+
+
+def _set_up_copy(component: Configurable) -> Configurable:
+    """A set-up clone: representations on the check spec, agents on their check domain."""
+    clone = component.clone()
+    _validate(clone)
+    return clone
+
+
+def _alternatives(constraint: Constraint, value: Any) -> list[Any]:
+    """Valid values other than ``value`` for a parameter (none for components and functions)."""
+    if isinstance(constraint, Options):
+        return [option for option in constraint.options if option != value]
+    if isinstance(constraint, _AnyOf):
+        return [v for option in constraint.options for v in _alternatives(option, value)]
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        return []
+    candidates = [value + 1, 2 * value, value / 2, value - 1, 0.5, 0]
+    if isinstance(value, int):
+        candidates = [c for c in candidates if float(c).is_integer()]
+        candidates = [int(c) for c in candidates]
+    return [c for c in candidates if c != value and constraint.is_satisfied_by(c)]
+
+
+def _same(a: Any, b: Any) -> bool:
+    """Whether two compiled forms are equal, arrays by value (NaN equal to NaN)."""
+    if isinstance(a, tuple) and isinstance(b, tuple):
+        return len(a) == len(b) and all(_same(x, y) for x, y in zip(a, b, strict=True))
+    if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
+        a, b = np.asarray(a), np.asarray(b)
+        return a.shape == b.shape and a.dtype == b.dtype and np.array_equal(a, b, equal_nan=True)
+    return bool(a == b) and type(a) is type(b)
+
+
+def check_compiled_form_covers_params(component: Configurable) -> None:
+    """Every parameter reaches the compiled form, unless the class declares it irrelevant.
+
+    For a component with a compiled form (`conjure.core.compiled_form`), changing any
+    ``get_params()`` key to another valid value must change the set-up component's form,
+    unless the key is in the class's ``compiled_irrelevant_params``. Keys whose constraint
+    offers no other value here (a component, a function) are not varied: a component has its
+    own form, checked on its own.
+    """
+    if compiled_form(_set_up_copy(component)) is None:
+        return
+    reference = compiled_form(_set_up_copy(component))
+    irrelevant = getattr(component, "compiled_irrelevant_params", frozenset())
+    params = component.get_params()
+    ignored = []
+    for name, constraint in component.parameter_constraints.items():
+        if name in irrelevant:
+            continue
+        for other in _alternatives(constraint, params[name]):
+            try:
+                changed = _set_up_copy(type(component)(**{**params, name: other}))
+            except (InvalidParameterError, IncompatibleComponentsError):
+                continue  # another value may fit the other parameters
+            form = compiled_form(changed)
+            if form is not None and _same(form, reference):
+                ignored.append(f"{name}={other!r} (from {params[name]!r})")
+            break
+    assert not ignored, (
+        f"{type(component).__name__}: {', '.join(ignored)} leave the compiled form unchanged; "
+        f"the compiled loop would ignore them. Put them in the form or declare them in "
+        f"`compiled_irrelevant_params`."
+    )
 
 
 def check_global_rng_untouched(component: Configurable) -> None:
@@ -650,6 +717,7 @@ _CHECKS: dict[type, tuple[Check, ...]] = {
         check_params_round_trip,
         check_bad_params_raise,
         check_global_rng_untouched,
+        check_compiled_form_covers_params,
     ),
     Domain: (
         check_gymnasium_env,
