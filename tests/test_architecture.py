@@ -1,5 +1,6 @@
 """Layering (import-linter contracts in pyproject.toml), no import cycle, a test file per module."""
 
+import ast
 import subprocess
 import sys
 from pathlib import Path
@@ -45,3 +46,64 @@ def test_every_module_has_a_test_file():
         if not (ROOT / "tests" / layer / f"test_{module.stem}.py").exists():
             missing.append(str(module.relative_to(ROOT)))
     assert not missing, f"Modules without tests/<layer>/test_<module>.py: {missing}"
+
+
+#: Underscored names that are public APIs of other libraries: namedtuple's methods,
+#: ``os._exit`` (a worker's exit) and numba's cache index (`conjure.compiled.stepper.is_warm`
+#: reads it knowingly, falling back to "cold" if it changes).
+_FOREIGN_PUBLIC = {"_replace", "_asdict", "_fields", "_make", "_exit", "_cache", "_cache_file"}
+_FOREIGN_PUBLIC |= {"_load_index"}
+
+
+def _defined_names(tree: ast.Module) -> set[str]:
+    """Names a module defines: functions, classes, assignments and ``self.``/``cls.`` attributes."""
+    names = set()
+    for node in ast.walk(tree):
+        if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef)):
+            names.add(node.name)
+        elif isinstance(node, ast.Name) and isinstance(node.ctx, ast.Store):
+            names.add(node.id)
+        elif isinstance(node, ast.Attribute) and _is_own(node.value):
+            names.add(node.attr)
+    return names
+
+
+def _is_own(node: ast.expr) -> bool:
+    """``self``, ``cls`` or ``super()``."""
+    if isinstance(node, ast.Name):
+        return node.id in ("self", "cls")
+    return isinstance(node, ast.Call) and getattr(node.func, "id", None) == "super"
+
+
+def test_no_private_access_across_modules():
+    # Issue 22: components meet through public contracts (compiled forms, state arrays), never
+    # through another module's underscored attributes.
+    found = []
+    for path in sorted(PACKAGE.rglob("*.py")):
+        tree = ast.parse(path.read_text())
+        own = _defined_names(tree) | _FOREIGN_PUBLIC
+        for node in ast.walk(tree):
+            is_private = isinstance(node, ast.Attribute) and node.attr.startswith("_")
+            if is_private and not node.attr.startswith("__") and not _is_own(node.value):
+                if node.attr not in own:
+                    found.append(f"{path.relative_to(ROOT)}:{node.lineno}: {ast.unparse(node)}")
+    assert not found, "Private attributes read across modules:\n" + "\n".join(found)
+
+
+def test_no_private_import_across_layers():
+    found = []
+    for path in sorted(PACKAGE.rglob("*.py")):
+        layer = path.relative_to(PACKAGE).parts[0]
+        for node in ast.walk(ast.parse(path.read_text())):
+            if not isinstance(node, ast.ImportFrom) or not (node.module or "").startswith(
+                "conjure."
+            ):
+                continue
+            parts = node.module.split(".")
+            names = [alias.name for alias in node.names]
+            private = any(p.startswith("_") for p in parts[2:]) or any(
+                n.startswith("_") and not n.startswith("__") for n in names
+            )
+            if private and parts[1] != layer:
+                found.append(f"{path.relative_to(ROOT)}:{node.lineno}: from {node.module}")
+    assert not found, "Private modules or names imported from another layer:\n" + "\n".join(found)

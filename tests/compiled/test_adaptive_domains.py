@@ -3,7 +3,7 @@
 BlocksWorld and Persistent Surveillance (Geramifard 2012, Section 4.1.4) with their initial
 features alone or under online iFDD / iFDD+, and the pendulum, GridWorld and chain with
 online iFDD over tile coding, a table or independent discretization
-(`conjure.compiled.loop`), learned by SARSA(λ), Q-Learning or Actor-Critic.
+(`conjure.compiled.learning_loop`), learned by SARSA(λ), Q-Learning or Actor-Critic.
 """
 
 import numpy as np
@@ -11,7 +11,7 @@ import pytest
 
 from conjure.agents import SARSA, ActorCritic, QLearning
 from conjure.compiled import CompiledStepper, for_combination, why_not_compiled
-from conjure.compiled import loop as loop_module
+from conjure.compiled import learning_loop as loop_module
 from conjure.core.schedules import EpisodicDecay, FeatureNormalizedDecay
 from conjure.domains import (
     BlocksWorld,

@@ -10,7 +10,7 @@ from conjure.compiled import (
     for_combination,
     warm_up,
 )
-from conjure.compiled import loop as loop_module
+from conjure.compiled import learning_loop as loop_module
 from conjure.compiled import stepper as stepper_module
 from conjure.core.errors import DivergenceError, InvalidParameterError
 from conjure.core.schedules import EpisodicDecay, FeatureNormalizedDecay

@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from conjure.agents import _kernels, persistence
+from conjure.agents import compiled_agent as forms
 from conjure.agents.linear_td import STEP_SIZE, LinearTDAgent, make_schedule, state_key
 from conjure.agents.row_traces import RowTraces
 from conjure.core.errors import IncompatibleComponentsError
@@ -196,21 +197,21 @@ class ActorCritic(LinearTDAgent):
         "the critic's features, no traces"
     )
 
-    def compiled_form(self) -> _kernels.AgentKernel | None:
+    def compiled_form(self) -> forms.AgentKernel | None:
         """Algorithm 12 as printed for the compiled loop (see `compiled_variant`), else None."""
         check_is_set_up(self, "compiled_form")
         printed = self.critic == "q" and self.actor_update == "features"
         if not (printed and self._is_shared and not self._has_traces):
             return None
-        return self._kernel(_kernels.ACTOR_CRITIC, actor_schedule=self.actor_schedule_)
+        return self._kernel(forms.ACTOR_CRITIC, actor_schedule=self.actor_schedule_)
 
-    def compiled_arrays(self, rows: int = 0) -> _kernels.LearnerArrays:
+    def compiled_arrays(self, rows: int = 0) -> forms.LearnerArrays:
         """θ and the actor's ω, each with room for ``rows`` features."""
         arrays = super().compiled_arrays(rows)
         return arrays._replace(actor_weights=with_room(self.actor_weights_, rows))
 
     def load_compiled_arrays(
-        self, arrays: _kernels.LearnerArrays, num_features: int | None = None
+        self, arrays: forms.LearnerArrays, num_features: int | None = None
     ) -> None:
         rows = self.weights_.shape[0] if num_features is None else num_features
         super().load_compiled_arrays(arrays, rows)

@@ -29,6 +29,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from conjure.agents import _kernels, persistence
+from conjure.agents import compiled_agent as forms
 from conjure.core.compiled_form import compiled_form
 from conjure.core.errors import DivergenceError, IncompatibleComponentsError
 from conjure.core.interfaces import (
@@ -133,22 +134,22 @@ class LinearTDAgent(Agent):
     def _kernel(
         self,
         kind: int,
-        traces: int = _kernels.NO_TRACES,
+        traces: int = forms.NO_TRACES,
         trace_decay: float = 0.0,
         min_trace: float = 0.0,
         actor_schedule: StepSizeSchedule | None = None,
-    ) -> _kernels.AgentKernel | None:
+    ) -> forms.AgentKernel | None:
         """The `AgentKernel` of a set-up learner, or None if its policy or a schedule has none."""
         check_is_set_up(self, "compiled_form")
         parts = (self.policy_, self.schedule_, actor_schedule or self.schedule_)
         policy, schedule, actor = (compiled_form(part) for part in parts)
         if policy is None or schedule is None or actor is None:
             return None
-        return _kernels.AgentKernel(
+        return forms.AgentKernel(
             kind, traces, trace_decay, min_trace, self.discount_, schedule, actor, policy
         )
 
-    def compiled_arrays(self, rows: int = 0) -> _kernels.LearnerArrays:
+    def compiled_arrays(self, rows: int = 0) -> forms.LearnerArrays:
         """θ, ω and the traces for the compiled loop, with room for ``rows`` features.
 
         The arrays are the learner's own (or buffers they lead, `with_room`), updated in
@@ -156,10 +157,10 @@ class LinearTDAgent(Agent):
         """
         check_is_set_up(self, "compiled_arrays")
         weights = with_room(self.weights_, rows)
-        return _kernels.LearnerArrays(weights, weights, *_NO_TRACES)
+        return forms.LearnerArrays(weights, weights, *_NO_TRACES)
 
     def load_compiled_arrays(
-        self, arrays: _kernels.LearnerArrays, num_features: int | None = None
+        self, arrays: forms.LearnerArrays, num_features: int | None = None
     ) -> None:
         """Take θ back from the compiled loop and drop the cache.
 

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from conjure.agents import _kernels
+from conjure.agents import compiled_agent as forms
 from conjure.agents.linear_td import LinearTDAgent
 from conjure.core.interfaces import Policy, Representation, Transition
 from conjure.core.schedules import StepSizeSchedule
@@ -70,9 +70,9 @@ class QLearning(LinearTDAgent):
         self.step_size = step_size
         self.initial_weight = initial_weight
 
-    def compiled_form(self) -> _kernels.AgentKernel | None:
+    def compiled_form(self) -> forms.AgentKernel | None:
         """Q-Learning for the compiled loop (no parameters beyond the shared ones)."""
-        return self._kernel(_kernels.Q_LEARNING)
+        return self._kernel(forms.Q_LEARNING)
 
     def _bootstrap(self, transition: Transition) -> float:
         q_next = self._next_q_values(transition.next_state)

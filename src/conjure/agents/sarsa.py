@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from conjure.agents import _kernels, persistence
+from conjure.agents import compiled_agent as forms
 from conjure.agents.linear_td import LinearTDAgent
 from conjure.core.interfaces import (
     DomainSpec,
@@ -125,14 +126,14 @@ class SARSA(LinearTDAgent):
         unused = {"trace_kind", "min_trace"} if self.trace_decay == 0 else set()
         return frozenset({"initial_weight", *unused})
 
-    def compiled_form(self) -> _kernels.AgentKernel | None:
+    def compiled_form(self) -> forms.AgentKernel | None:
         """SARSA(λ) for the compiled loop: γλ, the trace kind and the smallest trace kept."""
         if not self._has_traces:
-            return self._kernel(_kernels.SARSA)
-        kind = _kernels.REPLACING if self.trace_kind == "replacing" else _kernels.ACCUMULATING
-        return self._kernel(_kernels.SARSA, kind, self._trace_factor, float(self.min_trace))
+            return self._kernel(forms.SARSA)
+        kind = forms.REPLACING if self.trace_kind == "replacing" else forms.ACCUMULATING
+        return self._kernel(forms.SARSA, kind, self._trace_factor, float(self.min_trace))
 
-    def compiled_arrays(self, rows: int = 0) -> _kernels.LearnerArrays:
+    def compiled_arrays(self, rows: int = 0) -> forms.LearnerArrays:
         """θ and, with λ > 0, the sparse traces (their slots with room for ``rows`` features)."""
         arrays = super().compiled_arrays(rows)
         if not self._has_traces:
@@ -147,7 +148,7 @@ class SARSA(LinearTDAgent):
         )
 
     def load_compiled_arrays(
-        self, arrays: _kernels.LearnerArrays, num_features: int | None = None
+        self, arrays: forms.LearnerArrays, num_features: int | None = None
     ) -> None:
         rows = self.weights_.shape[0] if num_features is None else num_features
         super().load_compiled_arrays(arrays, rows)

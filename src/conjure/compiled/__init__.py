@@ -5,7 +5,7 @@ kernel, else ``None`` (the caller keeps the Python path); `why_not_compiled` say
 has no kernel.
 """
 
-from conjure.compiled.selection import why_not_compiled
+from conjure.compiled.combination import why_not_compiled
 from conjure.compiled.stepper import (
     AdvanceStats,
     CompiledStepper,

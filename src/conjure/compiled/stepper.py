@@ -1,7 +1,7 @@
 """The compiled learning stepper: ``advance(n)`` runs n learning steps in one numba call.
 
 `for_combination` returns a `CompiledStepper` when the domain, representation, agent, policy
-and step-size schedule all have compiled kernels (see `conjure.compiled.selection`), and
+and step-size schedule all have compiled kernels (see `conjure.compiled.combination`), and
 ``None`` otherwise, so that the caller keeps the Python path. The stepper is a drop-in for
 `conjure.experiments.loop.LearningLoop` (same counters, same pausable episodes) whose
 ``advance`` also returns the episodes that ended.
@@ -44,11 +44,11 @@ from typing import Any, NamedTuple
 import numpy as np
 from numba.core import types
 
-from conjure.compiled import loop as lp
-from conjure.compiled.selection import Selection, agent_form, representation_form, select
+from conjure.compiled import learning_loop as lp
+from conjure.compiled.combination import Selection, agent_form, representation_form, select
 from conjure.core.errors import DivergenceError, InvalidParameterError
 from conjure.core.interfaces import Agent, Domain
-from conjure.representations.ifdd_form import num_features
+from conjure.representations.compiled_ifdd import num_features
 
 __all__ = [
     "AdvanceStats",
@@ -99,7 +99,7 @@ class CompiledStepper:
     agent : Agent
         The set-up learner.
     selection : Selection
-        What `conjure.compiled.selection.select` found for them.
+        What `conjure.compiled.combination.select` found for them.
     seed : int or None, default None
         Passed to the first ``domain.reset(seed=...)``.
 

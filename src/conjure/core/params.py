@@ -18,6 +18,7 @@ from typing import Any, ClassVar
 from conjure.core.errors import InvalidParameterError
 
 __all__ = [
+    "AnyOf",
     "Configurable",
     "Constraint",
     "InstanceOf",
@@ -40,10 +41,12 @@ class Constraint:
         raise NotImplementedError
 
     def __or__(self, other: Constraint) -> Constraint:
-        return _AnyOf((self, other))
+        return AnyOf((self, other))
 
 
-class _AnyOf(Constraint):
+class AnyOf(Constraint):
+    """Any of several rules: what ``rule_a | rule_b`` builds."""
+
     def __init__(self, options: tuple[Constraint, ...]):
         self.options = options
 
@@ -54,7 +57,7 @@ class _AnyOf(Constraint):
         return " or ".join(option.describe() for option in self.options)
 
     def __or__(self, other: Constraint) -> Constraint:
-        return _AnyOf((*self.options, other))
+        return AnyOf((*self.options, other))
 
 
 class Interval(Constraint):

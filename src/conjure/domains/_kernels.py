@@ -6,7 +6,7 @@ kernel (STYLE section 7).
 The transitions of the chain, the grid world and the pendulum are plain functions of numbers,
 indexable tables and a generator (`chain_move`, `gridworld_move`, `pendulum_transition`,
 `pendulum_start`): the domains' Python ``step``/``reset`` run them as they are, and the compiled
-loop runs the same source compiled by numba (`conjure.domains.compiled_form`), so both paths
+loop runs the same source compiled by numba (`conjure.domains.compiled_domain`), so both paths
 draw and round alike.
 """
 

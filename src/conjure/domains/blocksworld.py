@@ -18,7 +18,7 @@ from conjure.domains._blocks_kernels import (
     blocks_reset,
 )
 from conjure.domains.action_masking import ActionMasking
-from conjure.domains.compiled_form import BLOCKS, DomainKernel, domain_kernel
+from conjure.domains.compiled_domain import BLOCKS, DomainKernel, domain_kernel
 
 __all__ = ["BlocksWorld", "blocks_world_state_action_count"]
 

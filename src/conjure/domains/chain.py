@@ -10,7 +10,7 @@ from gymnasium import spaces
 from conjure.core.interfaces import Domain, DomainSpec
 from conjure.core.params import Constraint, Interval, Options
 from conjure.domains._kernels import chain_move
-from conjure.domains.compiled_form import CHAIN, DomainKernel, domain_kernel
+from conjure.domains.compiled_domain import CHAIN, DomainKernel, domain_kernel
 
 if TYPE_CHECKING:  # the model and SciPy load when `model` is first called
     from conjure.models.tabular_model import TabularModel

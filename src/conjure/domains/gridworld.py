@@ -14,7 +14,7 @@ from conjure.core.errors import InvalidParameterError
 from conjure.core.interfaces import DomainSpec
 from conjure.core.params import Constraint, InstanceOf, Interval, Options, did_you_mean
 from conjure.domains._kernels import GW_COUNT, GW_MOVES, GW_NOISY, gridworld_move
-from conjure.domains.compiled_form import GRIDWORLD, DomainKernel, domain_kernel
+from conjure.domains.compiled_domain import GRIDWORLD, DomainKernel, domain_kernel
 
 if TYPE_CHECKING:  # the model and SciPy load when `model` is first called
     from conjure.models.tabular_model import TabularModel
@@ -384,7 +384,7 @@ class GridWorld(NoisyDomain):
     compiled_methods = ("step", "reset", "_next")
 
     def compiled_form(self) -> DomainKernel:
-        """The grid for the compiled loop (layout in `conjure.domains.compiled_form`).
+        """The grid for the compiled loop (layout in `conjure.domains.compiled_domain`).
 
         params (η, start cell); table `gridworld_move`'s; cells[c] reward, terminal, pit,
         noisy, row, column; state the cell.

@@ -11,7 +11,7 @@ from conjure.core.errors import InvalidParameterError
 from conjure.core.interfaces import Domain, DomainSpec
 from conjure.core.params import Constraint, Interval
 from conjure.domains._kernels import HALF_PI, MAX_ANGULAR_RATE, pendulum_start, pendulum_transition
-from conjure.domains.compiled_form import PENDULUM, DomainKernel, domain_kernel
+from conjure.domains.compiled_domain import PENDULUM, DomainKernel, domain_kernel
 
 __all__ = ["InvertedPendulum"]
 

@@ -19,7 +19,7 @@ from conjure.domains._uav_kernels import (
     pst_step,
 )
 from conjure.domains.action_masking import ActionMasking
-from conjure.domains.compiled_form import PERSISTENT_SURVEILLANCE, DomainKernel, domain_kernel
+from conjure.domains.compiled_domain import PERSISTENT_SURVEILLANCE, DomainKernel, domain_kernel
 
 __all__ = ["PersistentSurveillance", "persistent_surveillance_state_action_count"]
 

@@ -19,7 +19,7 @@ from conjure.domains._uav_kernels import (
     rescue_step,
 )
 from conjure.domains.action_masking import ActionMasking
-from conjure.domains.compiled_form import RESCUE, DomainKernel, domain_kernel
+from conjure.domains.compiled_domain import RESCUE, DomainKernel, domain_kernel
 
 __all__ = ["RescueMission", "rescue_mission_state_action_count"]
 

@@ -36,7 +36,7 @@ from conjure.domains._mission_kernels import (
     state_from_observation,
 )
 from conjure.domains.action_masking import ActionMasking
-from conjure.domains.compiled_form import UAV_MISSION, DomainKernel, domain_kernel
+from conjure.domains.compiled_domain import UAV_MISSION, DomainKernel, domain_kernel
 from conjure.domains.mission_graph import (
     MissionGraph,
     uav_7_2,

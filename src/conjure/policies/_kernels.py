@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-from typing import NamedTuple
-
 import numpy as np
 from numba import njit
 
@@ -70,30 +68,3 @@ def gibbs_action(values: np.ndarray, legal: np.ndarray, temperature: float, u: f
         if u < cumulative:
             return legal[i]
     return legal[legal.shape[0] - 1]
-
-
-# ---------------------------------------------------------------------------------------------
-# The compiled form of a policy (`conjure.core.compiled_form`)
-
-#: Policy kinds of `PolicyKernel`.
-EPSILON_GREEDY, GIBBS = 0, 1
-
-
-class PolicyKernel(NamedTuple):
-    """A policy as the compiled loop reads it: its kind and its one parameter (ε or τ)."""
-
-    kind: int
-    parameter: float
-
-
-@njit(cache=True, inline="always")
-def select_action(
-    policy: PolicyKernel, values: np.ndarray, legal: np.ndarray, rng: np.random.Generator
-) -> int:
-    """π(s) from one uniform draw, as `EpsilonGreedy.select` / `Gibbs.select`."""
-    u = rng.random()
-    if policy.kind == EPSILON_GREEDY:
-        return epsilon_greedy_action(values, legal, policy.parameter, u)
-    if policy.parameter == 0.0:
-        return greedy_action(values, legal)
-    return gibbs_action(values, legal, policy.parameter, u)

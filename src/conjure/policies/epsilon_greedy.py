@@ -6,7 +6,8 @@ import numpy as np
 
 from conjure.core.interfaces import Policy
 from conjure.core.params import Interval
-from conjure.policies._kernels import EPSILON_GREEDY, PolicyKernel, epsilon_greedy_action
+from conjure.policies._kernels import epsilon_greedy_action
+from conjure.policies.compiled_policy import EPSILON_GREEDY, PolicyKernel
 
 __all__ = ["EpsilonGreedy"]
 
@@ -49,7 +50,7 @@ class EpsilonGreedy(Policy):
     compiled_methods = ("select",)
 
     def compiled_form(self) -> PolicyKernel:
-        """ε for the compiled loop (`conjure.policies._kernels.select_action`)."""
+        """ε for the compiled loop (`conjure.policies.compiled_policy.select_action`)."""
         return PolicyKernel(EPSILON_GREEDY, float(self.epsilon))
 
     def probabilities(self, values: np.ndarray, legal_actions: np.ndarray) -> np.ndarray:

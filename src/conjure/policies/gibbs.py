@@ -6,13 +6,8 @@ import numpy as np
 
 from conjure.core.interfaces import Policy
 from conjure.core.params import Interval
-from conjure.policies._kernels import (
-    GIBBS,
-    PolicyKernel,
-    gibbs_action,
-    gibbs_probabilities,
-    greedy_action,
-)
+from conjure.policies._kernels import gibbs_action, gibbs_probabilities, greedy_action
+from conjure.policies.compiled_policy import GIBBS, PolicyKernel
 
 __all__ = ["Gibbs"]
 
@@ -54,7 +49,7 @@ class Gibbs(Policy):
     compiled_methods = ("select",)
 
     def compiled_form(self) -> PolicyKernel:
-        """τ for the compiled loop (`conjure.policies._kernels.select_action`)."""
+        """τ for the compiled loop (`conjure.policies.compiled_policy.select_action`)."""
         return PolicyKernel(GIBBS, float(self.temperature))
 
     def probabilities(self, values: np.ndarray, legal_actions: np.ndarray) -> np.ndarray:

@@ -310,7 +310,7 @@ def discover(active, td_error, words, pool, feat_start, feat_len, feat_parents, 
                 node = ints[I_NUM_NODES]
                 ints[I_NUM_NODES] = node + 1
                 start = ints[I_POOL_USED]
-                for t in range(m):  # a loop: see `conjure.compiled.loop._copy`
+                for t in range(m):  # a loop: see `conjure.compiled.learning_loop._copy`
                     pool[start + t] = buf[t]
                 ints[I_POOL_USED] = start + m
                 node_key[node] = key

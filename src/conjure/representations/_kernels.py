@@ -11,7 +11,7 @@ clipped into ``[0, top]`` (NaN goes to bucket 0).
 
 from __future__ import annotations
 
-from typing import Any, NamedTuple
+from typing import Any
 
 import numpy as np
 from numba import njit
@@ -23,19 +23,15 @@ from conjure.core.params import Constraint, Interval, Predicate
 __all__ = [
     "EMPTY_SLOT",
     "MAX_FEATURES",
-    "RepresentationKernel",
     "dimension_table",
-    "encode_into",
     "hashed_tile_features",
     "independent_features",
     "per_dimension",
     "positive_ints",
     "rbf_values",
-    "representation_kernel",
     "tabular_feature",
     "tile_features",
     "tile_indices_into",
-    "values_of",
 ]
 
 EMPTY_SLOT = -1
@@ -320,103 +316,3 @@ def rbf_values(
     if num_features > num_centers:
         out[num_centers] = 1.0
     return out
-
-
-# ---------------------------------------------------------------------------------------------
-# The compiled form of a fixed representation (`conjure.core.compiled_form`)
-
-#: Representation kinds of `RepresentationKernel`.
-TILES, HASHED_TILES, TABULAR, INDEPENDENT, INDICATORS, RBF = range(6)
-_NO_INTS = np.zeros(0, dtype=np.int64)
-_NO_INT_TABLE = np.zeros((0, 0), dtype=np.int64)
-_NO_FLOAT_TABLE = np.zeros((0, 0))
-
-
-class RepresentationKernel(NamedTuple):
-    """A fixed representation as the compiled loop reads it; unused tables are empty.
-
-    ``kind``: which encoder; ``num_tilings`` and the tables of `tile_indices_into` /
-    `hashed_tile_features` (``dims``, ``layout``, ``groups``, the hash table and counts, the
-    representation's own, updated in place), `tabular_feature`'s strides or
-    `independent_features`' offsets (``vector``); ``max_active``: the most features φ(s) lists.
-    ``rbf``: None for binary φ, else `RBF`'s (affine, scaled centers); its φ(s) lists every
-    feature (``vector`` = 0 .. n − 1) with its Gaussian value. numba compiles binary and
-    real-valued φ apart, so binary φ never reads a value.
-    """
-
-    kind: int
-    num_tilings: int
-    max_active: int
-    dims: np.ndarray
-    layout: np.ndarray
-    groups: np.ndarray
-    vector: np.ndarray
-    hash_table: np.ndarray
-    hash_counts: np.ndarray
-    rbf: tuple[np.ndarray, np.ndarray] | None
-
-
-def representation_kernel(
-    kind: int,
-    max_active: int,
-    *,
-    num_tilings: int = 0,
-    dims: np.ndarray = _NO_FLOAT_TABLE,
-    layout: np.ndarray = _NO_INT_TABLE,
-    groups: np.ndarray = _NO_INT_TABLE,
-    vector: np.ndarray = _NO_INTS,
-    hash_table: np.ndarray = _NO_INT_TABLE,
-    hash_counts: np.ndarray = _NO_INTS,
-    rbf: tuple[np.ndarray, np.ndarray] | None = None,
-) -> RepresentationKernel:
-    """A `RepresentationKernel` with the tables ``kind`` needs (C-contiguous), the rest empty."""
-    tables = (np.ascontiguousarray(a) for a in (dims, layout, groups, vector))
-    return RepresentationKernel(
-        kind, num_tilings, max_active, *tables, hash_table, hash_counts, rbf
-    )
-
-
-@njit(cache=True, inline="always")
-def encode_into(
-    rep: RepresentationKernel, state: np.ndarray, quanta: np.ndarray, out: np.ndarray
-) -> np.ndarray:
-    """φ(s)'s indices by the representation's kernel (its ``active_features``).
-
-    Unhashed tiles are written into ``out`` (``quanta`` is their scratch) and returned; the
-    other encoders return a new array (RBF its constant list of every feature).
-    """
-    if rep.kind == TILES:
-        tile_indices_into(state, rep.dims, rep.layout, rep.groups, rep.num_tilings, quanta, out)
-        return out
-    if rep.kind == HASHED_TILES:
-        return hashed_tile_features(
-            state, rep.dims, rep.layout, rep.groups, rep.num_tilings, rep.hash_table,
-            rep.hash_counts,
-        )  # fmt: skip
-    if rep.kind == TABULAR:
-        return tabular_feature(state, rep.dims, rep.vector)
-    if rep.kind == INDEPENDENT:
-        return independent_features(state, rep.dims, rep.vector)
-    if rep.kind == RBF:
-        return rep.vector
-    return np.flatnonzero(state)
-
-
-@njit(cache=True, inline="always")
-def values_of(rep: RepresentationKernel, state: np.ndarray) -> np.ndarray | None:
-    """φ(s)'s values: None for binary φ, else `RBF.encode`'s Gaussians."""
-    return _gaussians(rep.rbf, rep.vector.shape[0], state)
-
-
-@njit(cache=True)
-def _gaussians(
-    rbf: tuple[np.ndarray, np.ndarray] | None, num_features: int, state: np.ndarray
-) -> np.ndarray | None:
-    """`rbf_values` for ``rbf`` = (affine, scaled centers), None for None.
-
-    numba prunes the None branch only on an argument, so ``rbf`` comes apart from its tuple.
-    """
-    if rbf is None:
-        return None
-    affine, centers = rbf
-    return rbf_values(state, affine, centers, num_features)

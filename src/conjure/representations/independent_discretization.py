@@ -7,12 +7,14 @@ import numpy as np
 from conjure.core.interfaces import DomainSpec, Representation, check_is_set_up
 from conjure.core.seeding import as_seed_sequence
 from conjure.representations._kernels import (
-    INDEPENDENT,
-    RepresentationKernel,
     dimension_table,
     independent_features,
     per_dimension,
     positive_ints,
+)
+from conjure.representations.compiled_representation import (
+    INDEPENDENT,
+    RepresentationKernel,
     representation_kernel,
 )
 

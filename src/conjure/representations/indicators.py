@@ -9,7 +9,7 @@ import numpy as np
 from conjure.core.errors import InvalidParameterError
 from conjure.core.interfaces import DomainSpec, Representation, check_is_set_up
 from conjure.core.seeding import as_seed_sequence
-from conjure.representations._kernels import (
+from conjure.representations.compiled_representation import (
     INDICATORS,
     RepresentationKernel,
     representation_kernel,

@@ -17,7 +17,7 @@ from conjure.core.params import InstanceOf, Interval, Options
 from conjure.core.seeding import make_rng, split_seed
 from conjure.representations import _ifdd_kernels as _k
 from conjure.representations._max_features import OPTIONAL_MAX_FEATURES, check_max_features
-from conjure.representations.ifdd_form import IFDDKernel
+from conjure.representations.compiled_ifdd import IFDDKernel
 
 __all__ = ["OnlineIFDD"]
 
@@ -296,7 +296,7 @@ class OnlineIFDD(Representation):
         """Double the node, feature and pool capacities and rebuild the hash table.
 
         ``discover`` grows them when a discovery would not fit; the compiled loop asks first
-        (`conjure.representations.ifdd_form.has_room`) and calls this.
+        (`conjure.representations.compiled_ifdd.has_room`) and calls this.
         """
         a = dict(self._arrays)
         n0 = self.num_initial_features_

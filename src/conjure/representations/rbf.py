@@ -8,12 +8,10 @@ from conjure.core.errors import InvalidParameterError
 from conjure.core.interfaces import DomainSpec, Representation, SparseFeatures, check_is_set_up
 from conjure.core.params import InstanceOf, Interval, Options, Predicate
 from conjure.core.seeding import make_rng
-from conjure.representations._kernels import RBF as RBF_KIND
-from conjure.representations._kernels import (
+from conjure.representations._kernels import per_dimension, positive_ints, rbf_values
+from conjure.representations.compiled_representation import RBF as RBF_KIND
+from conjure.representations.compiled_representation import (
     RepresentationKernel,
-    per_dimension,
-    positive_ints,
-    rbf_values,
     representation_kernel,
 )
 

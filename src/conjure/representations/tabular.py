@@ -9,13 +9,15 @@ from conjure.core.interfaces import DomainSpec, Representation, check_is_set_up
 from conjure.core.seeding import as_seed_sequence
 from conjure.representations._kernels import (
     MAX_FEATURES,
-    TABULAR,
-    RepresentationKernel,
     dimension_table,
     per_dimension,
     positive_ints,
-    representation_kernel,
     tabular_feature,
+)
+from conjure.representations.compiled_representation import (
+    TABULAR,
+    RepresentationKernel,
+    representation_kernel,
 )
 
 __all__ = ["Tabular"]

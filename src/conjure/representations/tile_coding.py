@@ -12,16 +12,18 @@ from conjure.core.params import InstanceOf, Interval, Predicate
 from conjure.core.seeding import as_seed_sequence
 from conjure.representations._kernels import (
     EMPTY_SLOT,
-    HASHED_TILES,
     MAX_FEATURES,
-    TILES,
-    RepresentationKernel,
     dimension_table,
     hashed_tile_features,
     per_dimension,
     positive_ints,
-    representation_kernel,
     tile_features,
+)
+from conjure.representations.compiled_representation import (
+    HASHED_TILES,
+    TILES,
+    RepresentationKernel,
+    representation_kernel,
 )
 
 __all__ = ["TileCoding"]

@@ -28,7 +28,7 @@ from conjure.core.compiled_form import compiled_form
 from conjure.core.cooperative import CooperativePlanner, NoisyDomain, RiskAnalyzer
 from conjure.core.errors import IncompatibleComponentsError, InvalidParameterError, NotSetUpError
 from conjure.core.interfaces import Agent, Domain, DomainSpec, Policy, Representation, Transition
-from conjure.core.params import Configurable, Constraint, Options, _AnyOf
+from conjure.core.params import AnyOf, Configurable, Constraint, Options
 from conjure.core.seeding import make_rng
 from conjure.domains import GridWorld, UAVMission
 from conjure.models.approximate_model import ApproximateModel
@@ -345,7 +345,7 @@ def _alternatives(constraint: Constraint, value: Any) -> list[Any]:
     """Valid values other than ``value`` for a parameter (none for components and functions)."""
     if isinstance(constraint, Options):
         return [option for option in constraint.options if option != value]
-    if isinstance(constraint, _AnyOf):
+    if isinstance(constraint, AnyOf):
         return [v for option in constraint.options for v in _alternatives(option, value)]
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         return []

@@ -5,12 +5,12 @@ interaction loop) in one numba function. It owns no dynamics, features, schedule
 arithmetic: every step calls the components' own kernels through their compiled forms
 (`conjure.core.compiled_form`):
 
-- the domain (`conjure.domains.compiled_form`): `reset_into`, `step_into`, `legal_into`;
-- the representation (`conjure.representations._kernels`): `encode_into` and `values_of` for
-  φ(s), and with online iFDD (`conjure.representations.ifdd_form`) `sparsify` (Algorithm
-  19), `has_room`, `discover_from` and `parent_sum_row` for new features' weights (Section
-  4.1.1);
-- the learner (`conjure.agents._kernels`): `q_values_into`, `bootstrap`, `td_learn`,
+- the domain (`conjure.domains.compiled_domain`): `reset_into`, `step_into`, `legal_into`;
+- the representation (`conjure.representations.compiled_representation`): `encode_into`
+  and `values_of` for φ(s), and with online iFDD (`conjure.representations.compiled_ifdd`)
+  `sparsify` (Algorithm 19), `has_room`, `discover_from` and `parent_sum_row` for new
+  features' weights (Section 4.1.1);
+- the learner (`conjure.agents.compiled_agent`): `q_values_into`, `bootstrap`, `td_learn`,
   `clear_learner_traces`, and the policy's `select_action`.
 
 Per step: a = π(s) was chosen; s', r = step(a); unless terminal, φ(s') and a' = π(s') over the
@@ -41,7 +41,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from conjure.agents._kernels import (
+from conjure.agents.compiled_agent import (
     ACTOR_CRITIC,
     AgentKernel,
     LearnerArrays,
@@ -50,10 +50,10 @@ from conjure.agents._kernels import (
     q_values_into,
     td_learn,
 )
-from conjure.domains.compiled_form import DomainKernel, legal_into, reset_into, step_into
-from conjure.policies._kernels import select_action
-from conjure.representations._kernels import TILES, encode_into, values_of
-from conjure.representations.ifdd_form import IFDDKernel, discover_from, has_room, sparsify
+from conjure.domains.compiled_domain import DomainKernel, legal_into, reset_into, step_into
+from conjure.policies.compiled_policy import select_action
+from conjure.representations.compiled_ifdd import IFDDKernel, discover_from, has_room, sparsify
+from conjure.representations.compiled_representation import TILES, encode_into, values_of
 from conjure.representations.weights import parent_sum_row
 
 __all__ = ["LoopState", "learning_loop"]

@@ -18,10 +18,10 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from conjure.agents._kernels import AgentKernel
+from conjure.agents.compiled_agent import AgentKernel
 from conjure.core.compiled_form import compiled_form
 from conjure.core.interfaces import Agent, Domain, check_is_set_up
-from conjure.representations.ifdd_form import IFDDKernel, fixed
+from conjure.representations.compiled_ifdd import IFDDKernel, fixed
 
 __all__ = ["Selection", "representation_form", "select", "why_not_compiled"]
 

@@ -16,7 +16,7 @@ import numpy as np
 from numba import njit
 
 from conjure.representations._ifdd_kernels import I_NUM_FEATURES, activate, discover, discover_room
-from conjure.representations._kernels import RepresentationKernel
+from conjure.representations.compiled_representation import RepresentationKernel
 
 __all__ = ["IFDDKernel", "discover_from", "fixed", "has_room", "num_features", "sparsify"]
 

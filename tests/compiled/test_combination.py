@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from conjure.agents import LSPI, SARSA, ActorCritic, QLearning
-from conjure.agents import _kernels as agent_kernels
+from conjure.agents import compiled_agent as agent_kernels
 from conjure.compiled import why_not_compiled
 from conjure.core.compiled_form import compiled_form
 from conjure.core.errors import NotSetUpError
@@ -17,9 +17,9 @@ from conjure.domains import (
     RescueMission,
     UAVMission,
 )
-from conjure.domains import compiled_form as domain_forms
+from conjure.domains import compiled_domain as domain_forms
 from conjure.policies import EpsilonGreedy, Gibbs
-from conjure.policies._kernels import EPSILON_GREEDY, GIBBS
+from conjure.policies.compiled_policy import EPSILON_GREEDY, GIBBS
 from conjure.representations import (
     RBF,
     HashedTabular,
@@ -27,7 +27,7 @@ from conjure.representations import (
     Tabular,
     TileCoding,
 )
-from conjure.representations import _kernels as rep_kernels
+from conjure.representations import compiled_representation as rep_kernels
 
 
 class MySARSA(SARSA):

@@ -1,0 +1,181 @@
+"""A linear TD learner as the compiled learning loop reads it (`conjure.core.compiled_form`).
+
+`AgentKernel` holds a learner's kind, traces, γ, step-size schedules and behaviour policy;
+`LearnerArrays` its θ, ω and sparse traces. The kernels here are the learners' ``learn``
+(`td_learn`: α_t, δ and the updates of Algorithms 10-12 through `td_step` or
+`td_step_traces`, then the actor's), its target (`bootstrap`) and ``begin_episode``'s trace
+clearing, over the same kernels the Python learners call; `q_values_into` is Q(s, ·) = θᵀφ(s).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import NamedTuple
+
+import numpy as np
+from numba import njit
+
+from conjure.agents._kernels import (
+    add,
+    clear_traces,
+    l1_norm,
+    q_values_into,
+    td_step,
+    td_step_traces,
+)
+from conjure.core.schedules import (
+    EPISODIC,
+    FEATURE_NORMALIZED,
+    ScheduleKernel,
+    episodic_rate,
+    feature_normalized_rate,
+)
+from conjure.policies.compiled_policy import PolicyKernel
+
+__all__ = [
+    "ACCUMULATING",
+    "ACTOR_CRITIC",
+    "NO_TRACES",
+    "Q_LEARNING",
+    "REPLACING",
+    "SARSA",
+    "AgentKernel",
+    "LearnerArrays",
+    "bootstrap",
+    "clear_learner_traces",
+    "q_values_into",
+    "step_size",
+    "td_learn",
+]
+
+
+#: Learner kinds of `AgentKernel`: Algorithms 11, 10 and 12.
+SARSA, Q_LEARNING, ACTOR_CRITIC = 0, 1, 2
+#: Eligibility traces of `AgentKernel`.
+NO_TRACES, REPLACING, ACCUMULATING = 0, 1, 2
+
+
+class AgentKernel(NamedTuple):
+    """A linear TD learner as the compiled loop reads it (`conjure.compiled`).
+
+    ``kind``: `SARSA`, `Q_LEARNING` or `ACTOR_CRITIC` (the actor sharing the critic's
+    features); ``traces``: `NO_TRACES`, `REPLACING` or `ACCUMULATING`, with γλ
+    (``trace_decay``) and the smallest trace kept; ``schedule`` the critic's α_t and
+    ``actor_schedule`` the actor's (the critic's again for the other learners); γ and the
+    behaviour policy.
+    """
+
+    kind: int
+    traces: int
+    trace_decay: float
+    min_trace: float
+    discount: float
+    schedule: ScheduleKernel
+    actor_schedule: ScheduleKernel
+    policy: PolicyKernel
+
+
+class LearnerArrays(NamedTuple):
+    """θ, the actor's ω (θ itself but for Actor-Critic) and SARSA(λ)'s sparse traces.
+
+    The traces are those of `td_step_traces` (empty stand-ins without traces); all are
+    updated in place.
+    """
+
+    weights: np.ndarray
+    actor_weights: np.ndarray
+    trace_slots: np.ndarray
+    trace_features: np.ndarray
+    trace_actions: np.ndarray
+    trace_values: np.ndarray
+    trace_count: np.ndarray
+
+
+_feature_normalized_rate = njit(cache=True, inline="always")(feature_normalized_rate)
+_episodic_rate = njit(cache=True, inline="always")(episodic_rate)
+
+
+@njit(cache=True, inline="always")
+def step_size(schedule: ScheduleKernel, episode: int, num_active: float) -> float:
+    """α_t of the schedule's ``value`` (`conjure.core.schedules`: the same source, compiled)."""
+    if schedule.kind == FEATURE_NORMALIZED:
+        return _feature_normalized_rate(schedule.alpha_0, schedule.n_0, episode, num_active)
+    if schedule.kind == EPISODIC:
+        return _episodic_rate(schedule.alpha_0, schedule.n_0, episode)
+    return schedule.alpha_0
+
+
+@njit(cache=True, inline="always")
+def bootstrap(
+    agent: AgentKernel,
+    reward: float,
+    q: np.ndarray,
+    next_action: int,
+    next_legal: np.ndarray,
+    critic_q: np.ndarray,
+) -> float:
+    """Q⁺(s, a) of Algorithms 10-12, line 5, for a non-terminal s'.
+
+    ``q``: the chooser's values at s' (θ's, or the actor's for Actor-Critic); ``critic_q``:
+    θ's values at s' (read only by Actor-Critic, which the caller has filled).
+    SARSA: r + γ Q(s', a'); Q-Learning: r + γ max over the legal a' of Q(s', a');
+    Actor-Critic: r + γ Q_θ(s', a').
+    """
+    if agent.kind == SARSA:
+        return reward + agent.discount * q[next_action]
+    if agent.kind == ACTOR_CRITIC:
+        return reward + agent.discount * critic_q[next_action]
+    best = q[next_legal[0]]
+    for i in range(1, next_legal.shape[0]):
+        best = max(best, q[next_legal[i]])
+    return reward + agent.discount * best
+
+
+@njit(cache=True)
+def _num_active(indices: np.ndarray, values: np.ndarray | None) -> float:
+    """k_t = |φ(s)|₁, the learners' `_step_size` (the number of features for binary φ)."""
+    if values is None:
+        return float(indices.shape[0])
+    return l1_norm(values)
+
+
+@njit(cache=True, inline="always")
+def td_learn(
+    agent: AgentKernel,
+    arrays: LearnerArrays,
+    phi: np.ndarray,
+    values: np.ndarray | None,
+    action: int,
+    target: float,
+    episode: int,
+) -> float:
+    """α_t, δ and θ's update (Algorithms 10-12, lines 6-7), then ω's (Algorithm 12, line 9).
+
+    The learners' ``learn`` in one kernel: k_t = |φ(s)|₁ (the number of features for binary
+    φ), α_t from the schedule at episode max(episode, 1), δ and θ's update by `td_step` or,
+    with traces, `td_step_traces`; Actor-Critic then adds α^actor_t δ φ(s) to ω's row of
+    ``action``. Returns δ; ω is left alone when δ is not finite.
+    """
+    k_t = _num_active(phi, values)
+    counted = max(episode, 1)
+    alpha = step_size(agent.schedule, counted, k_t)
+    if agent.traces == NO_TRACES:
+        delta = td_step(arrays.weights, phi, values, action, target, alpha)
+    else:
+        delta = td_step_traces(
+            arrays.weights, phi, values, action, target, alpha, agent.trace_decay,
+            agent.traces == REPLACING, agent.min_trace, arrays.trace_slots,
+            arrays.trace_features, arrays.trace_actions, arrays.trace_values, arrays.trace_count,
+        )  # fmt: skip
+    if agent.kind == ACTOR_CRITIC and math.isfinite(delta):
+        actor_alpha = step_size(agent.actor_schedule, counted, k_t)
+        add(arrays.actor_weights, phi, values, action, actor_alpha * delta)
+    return delta
+
+
+@njit(cache=True, inline="always")
+def clear_learner_traces(agent: AgentKernel, arrays: LearnerArrays) -> None:
+    """`clear_traces` of the learner's sparse traces, if it has any."""
+    if agent.traces != NO_TRACES:
+        clear_traces(arrays.trace_slots, arrays.trace_features, arrays.trace_actions,
+                     arrays.trace_count)  # fmt: skip

@@ -1,0 +1,132 @@
+"""A fixed representation as the compiled learning loop reads it (`conjure.core.compiled_form`).
+
+`RepresentationKernel` holds an encoder's kind and tables; `encode_into` and `values_of` give
+φ(s) by the representations' own kernels (`tile_indices_into`, `hashed_tile_features`,
+`tabular_feature`, `independent_features`, `rbf_values`), as their ``active_features`` and
+``encode`` do.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+from numba import njit
+
+from conjure.representations._kernels import (
+    hashed_tile_features,
+    independent_features,
+    rbf_values,
+    tabular_feature,
+    tile_indices_into,
+)
+
+__all__ = [
+    "HASHED_TILES",
+    "INDEPENDENT",
+    "INDICATORS",
+    "RBF",
+    "TABULAR",
+    "TILES",
+    "RepresentationKernel",
+    "encode_into",
+    "representation_kernel",
+    "values_of",
+]
+
+
+#: Representation kinds of `RepresentationKernel`.
+TILES, HASHED_TILES, TABULAR, INDEPENDENT, INDICATORS, RBF = range(6)
+_NO_INTS = np.zeros(0, dtype=np.int64)
+_NO_INT_TABLE = np.zeros((0, 0), dtype=np.int64)
+_NO_FLOAT_TABLE = np.zeros((0, 0))
+
+
+class RepresentationKernel(NamedTuple):
+    """A fixed representation as the compiled loop reads it; unused tables are empty.
+
+    ``kind``: which encoder; ``num_tilings`` and the tables of `tile_indices_into` /
+    `hashed_tile_features` (``dims``, ``layout``, ``groups``, the hash table and counts, the
+    representation's own, updated in place), `tabular_feature`'s strides or
+    `independent_features`' offsets (``vector``); ``max_active``: the most features φ(s) lists.
+    ``rbf``: None for binary φ, else `RBF`'s (affine, scaled centers); its φ(s) lists every
+    feature (``vector`` = 0 .. n − 1) with its Gaussian value. numba compiles binary and
+    real-valued φ apart, so binary φ never reads a value.
+    """
+
+    kind: int
+    num_tilings: int
+    max_active: int
+    dims: np.ndarray
+    layout: np.ndarray
+    groups: np.ndarray
+    vector: np.ndarray
+    hash_table: np.ndarray
+    hash_counts: np.ndarray
+    rbf: tuple[np.ndarray, np.ndarray] | None
+
+
+def representation_kernel(
+    kind: int,
+    max_active: int,
+    *,
+    num_tilings: int = 0,
+    dims: np.ndarray = _NO_FLOAT_TABLE,
+    layout: np.ndarray = _NO_INT_TABLE,
+    groups: np.ndarray = _NO_INT_TABLE,
+    vector: np.ndarray = _NO_INTS,
+    hash_table: np.ndarray = _NO_INT_TABLE,
+    hash_counts: np.ndarray = _NO_INTS,
+    rbf: tuple[np.ndarray, np.ndarray] | None = None,
+) -> RepresentationKernel:
+    """A `RepresentationKernel` with the tables ``kind`` needs (C-contiguous), the rest empty."""
+    tables = (np.ascontiguousarray(a) for a in (dims, layout, groups, vector))
+    return RepresentationKernel(
+        kind, num_tilings, max_active, *tables, hash_table, hash_counts, rbf
+    )
+
+
+@njit(cache=True, inline="always")
+def encode_into(
+    rep: RepresentationKernel, state: np.ndarray, quanta: np.ndarray, out: np.ndarray
+) -> np.ndarray:
+    """φ(s)'s indices by the representation's kernel (its ``active_features``).
+
+    Unhashed tiles are written into ``out`` (``quanta`` is their scratch) and returned; the
+    other encoders return a new array (RBF its constant list of every feature).
+    """
+    if rep.kind == TILES:
+        tile_indices_into(state, rep.dims, rep.layout, rep.groups, rep.num_tilings, quanta, out)
+        return out
+    if rep.kind == HASHED_TILES:
+        return hashed_tile_features(
+            state, rep.dims, rep.layout, rep.groups, rep.num_tilings, rep.hash_table,
+            rep.hash_counts,
+        )  # fmt: skip
+    if rep.kind == TABULAR:
+        return tabular_feature(state, rep.dims, rep.vector)
+    if rep.kind == INDEPENDENT:
+        return independent_features(state, rep.dims, rep.vector)
+    if rep.kind == RBF:
+        return rep.vector
+    return np.flatnonzero(state)
+
+
+@njit(cache=True, inline="always")
+def values_of(rep: RepresentationKernel, state: np.ndarray) -> np.ndarray | None:
+    """φ(s)'s values: None for binary φ, else `RBF.encode`'s Gaussians."""
+    return _gaussians(rep.rbf, rep.vector.shape[0], state)
+
+
+@njit(cache=True)
+def _gaussians(
+    rbf: tuple[np.ndarray, np.ndarray] | None, num_features: int, state: np.ndarray
+) -> np.ndarray | None:
+    """`rbf_values` for ``rbf`` = (affine, scaled centers), None for None.
+
+    numba prunes the None branch only on an argument, so ``rbf`` comes apart from its tuple.
+    """
+    if rbf is None:
+        return None
+    affine, centers = rbf
+    return rbf_values(state, affine, centers, num_features)
