@@ -56,13 +56,22 @@ NO_TRACES, REPLACING, ACCUMULATING = 0, 1, 2
 
 
 class AgentKernel(NamedTuple):
-    """A linear TD learner as the compiled loop reads it (`conjure.compiled`).
+    """A linear TD learner as the compiled loop reads it (Algorithms 10-12).
 
-    ``kind``: `SARSA`, `Q_LEARNING` or `ACTOR_CRITIC` (the actor sharing the critic's
-    features); ``traces``: `NO_TRACES`, `REPLACING` or `ACCUMULATING`, with γλ
-    (``trace_decay``) and the smallest trace kept; ``schedule`` the critic's α_t and
-    ``actor_schedule`` the actor's (the critic's again for the other learners); γ and the
-    behaviour policy.
+    Parameters
+    ----------
+    kind : int
+        `SARSA`, `Q_LEARNING` or `ACTOR_CRITIC` (the actor sharing the critic's features).
+    traces : int
+        `NO_TRACES`, `REPLACING` or `ACCUMULATING`.
+    trace_decay, min_trace : float
+        γλ and the smallest trace kept.
+    discount : float
+        γ.
+    schedule, actor_schedule : ScheduleKernel
+        The critic's α_t and the actor's (the critic's again for the other learners).
+    policy : PolicyKernel
+        The behaviour policy.
     """
 
     kind: int
@@ -76,10 +85,16 @@ class AgentKernel(NamedTuple):
 
 
 class LearnerArrays(NamedTuple):
-    """θ, the actor's ω (θ itself but for Actor-Critic) and SARSA(λ)'s sparse traces.
+    """θ, the actor's ω and SARSA(λ)'s sparse traces (Algorithms 11-12), updated in place.
 
-    The traces are those of `td_step_traces` (empty stand-ins without traces); all are
-    updated in place.
+    Parameters
+    ----------
+    weights : ndarray of shape (n, |A|)
+        θ.
+    actor_weights : ndarray of shape (n, |A|)
+        Actor-Critic's ω; θ itself for the other learners.
+    trace_slots, trace_features, trace_actions, trace_values, trace_count : ndarray
+        The sparse traces of `td_step_traces` (empty stand-ins without traces).
     """
 
     weights: np.ndarray

@@ -1,7 +1,7 @@
 """The compiled learning stepper: ``advance(n)`` runs n learning steps in one numba call.
 
 `for_combination` returns a `CompiledStepper` when the domain, representation, agent, policy
-and step-size schedule all have compiled kernels (see `conjure.compiled.combination`), and
+and step-size schedule all give compiled forms (see `conjure.compiled.combination`), and
 ``None`` otherwise, so that the caller keeps the Python path. The stepper is a drop-in for
 `conjure.experiments.loop.LearningLoop` (same counters, same pausable episodes) whose
 ``advance`` also returns the episodes that ended.
@@ -15,10 +15,12 @@ Notes
   shares their state), one uniform per action choice and the domain's own draws per step.
 - Choice: the first reset of a stepper runs in Python (``domain.reset(seed=seed)``, which seeds
   the domain's generator); later resets run in the kernel with the same draws.
-- Choice: the learner's θ, traces and tile hash table are updated in place, and the episode
-  counter, the learning-step counter and the domain's state are written back after every
-  ``advance``, so policy checks, `Agent.save` and the Python path see the same objects.
-- Choice: a learner's act/learn cache is dropped after every ``advance`` (θ changed under it).
+- Choice: the learner's θ, traces and tile hash table are updated in place; the domain's state
+  goes in through ``domain.compiled_form()`` and back through ``load_compiled_form``, and the
+  episode and learning-step counters are written back after every ``advance``, so policy
+  checks, `Agent.save` and the Python path see the same objects.
+- Choice: a learner's act/learn cache is dropped after every call (``load_compiled_arrays``:
+  θ changed under it).
 - Choice (with `OnlineIFDD`): the representation's tables are its own arrays, updated in
   place; when a discovery would not fit, the kernel returns, the representation grows them
   with its own method and the kernel continues. θ (and Actor-Critic's ω, SARSA(λ)'s
@@ -28,12 +30,11 @@ Notes
 - Choice: ``advance`` calls the kernel for at most `MAX_KERNEL_STEPS` steps at a time (the
   kernel's pausable episodes make the split invisible in the results), so Ctrl-C, which
   Python only sees between compiled calls, stops a run within about a second.
-- Compilation: two kernels, ``advance_kernel`` (fixed features, every action legal) and
-  ``adaptive_kernel`` (legal actions or growing features); each serves all its combinations
-  (the arguments have the same types), is compiled once per machine and cached on disk;
-  `compile_seconds` reports the first calls' cost in this process. ``advance_kernel`` has
-  one more compilation for real-valued φ (`RBF`: its representation tuple carries the
-  Gaussians' arrays instead of None), so binary φ never pays for reading values.
+- Compilation: one loop, `conjure.compiled.learning_loop.learning_loop`, serves every
+  combination (the compiled forms have fixed field types), compiled once per machine and
+  cached on disk, with one more compilation for real-valued φ (`RBF`: its form carries the
+  Gaussians' arrays instead of None), so binary φ never pays for reading values;
+  `compile_seconds` reports the first calls' cost in this process.
 """
 
 from __future__ import annotations

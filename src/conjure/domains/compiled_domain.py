@@ -53,10 +53,26 @@ _pendulum_transition = njit(cache=True, inline="always")(pendulum_transition)
 class DomainKernel(NamedTuple):
     """A domain as the compiled loop reads it; fields a domain does not use are empty.
 
-    ``state`` (int64) or ``fstate`` (float64) is a copy of the domain's internal state, updated
-    in place by the kernels; ``mask`` the legal-action mask of the domains whose step writes
-    one; ``uniforms`` room for a step's draws; ``num_units`` the blocks or UAVs;
-    ``has_action_constraints`` whether some actions are illegal somewhere (`legal_into`).
+    The domains of Sections 3.3.1 (pendulum), 4.1.4 (BlocksWorld, Persistent Surveillance,
+    Rescue Mission), 5.1 (grid worlds) and 5.3.5 (UAV missions), and the test chain.
+
+    Parameters
+    ----------
+    kind : int
+        Which domain (`PENDULUM` ... `UAV_MISSION`).
+    params, table, cells : ndarray
+        The domain's constants (float64 1-D, int64 2-D, float64 2-D; layouts beside each
+        domain's ``compiled_form``).
+    state, fstate : ndarray
+        A copy of the domain's internal state, int64 or float64, updated in place.
+    mask : ndarray of int8
+        The legal-action mask of the domains whose step writes one.
+    uniforms : ndarray
+        Room for a step's draws.
+    num_units : int
+        The blocks or UAVs.
+    has_action_constraints : bool
+        Whether some actions are illegal somewhere (`legal_into`).
     """
 
     kind: int

@@ -30,10 +30,17 @@ _NO_DISCOVERY = (_I1, _I1, _I1, _I1, _I2, _I1, _I1, _I1, _I1, _I2, _F2, _I1, _I1
 
 
 class IFDDKernel(NamedTuple):
-    """φ⁰'s kernel and, when ``is_ifdd``, online iFDD's tables (updated in place).
+    """φ⁰'s kernel and, when ``is_ifdd``, online iFDD's tables (Algorithms 19-21).
 
-    ``activation`` and ``discovery`` are `activate`'s and `discover`'s tables after their
-    first arguments (`OnlineIFDD`'s own arrays).
+    Parameters
+    ----------
+    base : RepresentationKernel
+        φ⁰, the initial features.
+    is_ifdd : bool
+        Whether iFDD sits on ``base`` (else the tables are empty stand-ins).
+    activation, discovery : tuple of ndarray
+        `activate`'s and `discover`'s tables after their first arguments (`OnlineIFDD`'s
+        own arrays, updated in place).
     """
 
     base: RepresentationKernel

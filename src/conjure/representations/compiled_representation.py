@@ -43,15 +43,27 @@ _NO_FLOAT_TABLE = np.zeros((0, 0))
 
 
 class RepresentationKernel(NamedTuple):
-    """A fixed representation as the compiled loop reads it; unused tables are empty.
+    """A fixed representation φ (Eq. 2.11) as the compiled loop reads it; unused tables empty.
 
-    ``kind``: which encoder; ``num_tilings`` and the tables of `tile_indices_into` /
-    `hashed_tile_features` (``dims``, ``layout``, ``groups``, the hash table and counts, the
-    representation's own, updated in place), `tabular_feature`'s strides or
-    `independent_features`' offsets (``vector``); ``max_active``: the most features φ(s) lists.
-    ``rbf``: None for binary φ, else `RBF`'s (affine, scaled centers); its φ(s) lists every
-    feature (``vector`` = 0 .. n − 1) with its Gaussian value. numba compiles binary and
-    real-valued φ apart, so binary φ never reads a value.
+    Parameters
+    ----------
+    kind : int
+        Which encoder (`TILES` ... `RBF`).
+    num_tilings : int
+        Tile coding's tilings.
+    max_active : int
+        The most features φ(s) lists.
+    dims, layout, groups : ndarray
+        The tables of `tile_indices_into` / `hashed_tile_features` (``dims`` also the
+        buckets of `tabular_feature` and `independent_features`).
+    vector : ndarray of int64
+        `tabular_feature`'s strides, `independent_features`' offsets, or RBF's 0 .. n − 1.
+    hash_table, hash_counts : ndarray of int64
+        Hashed tile coding's table, the representation's own (updated in place).
+    rbf : tuple of ndarray or None
+        None for binary φ, else `RBF`'s (affine, scaled centers) (Section 3.1.2): φ(s) lists
+        every feature with its Gaussian value. numba compiles binary and real-valued φ apart,
+        so binary φ never reads a value.
     """
 
     kind: int
