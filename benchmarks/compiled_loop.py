@@ -12,6 +12,8 @@ repeat by repeat with the RBF workload below (the machine is shared; the median 
 - ``compiled``: `conjure.compiled.for_combination(...).advance` (one numba call per advance);
 - ``hand-written``: `reference_loop` below, one numba function doing the same arithmetic with
   preallocated buffers and no library code: the limit the compiled path is compared against.
+  It is given the compiled path's seeds and the same number of steps, and the run ends by
+  saying whether the two left θ bit for bit equal (``tests/test_benchmarks.py`` checks it).
 
 Second workload: SARSA + Gaussian RBF (3x3 centers plus a bias, real-valued φ) with the same
 policy and step size on the pendulum, ``python`` and ``compiled`` paths side by side (the
@@ -32,6 +34,7 @@ import subprocess
 import sys
 import tempfile
 import time
+from collections.abc import Callable
 
 import numpy as np
 from numba import njit
@@ -63,11 +66,24 @@ def make_agent(workload: str = "tiles") -> SARSA:
 
 # ---------------------------------------------------------------------------------------------
 # The hand-written reference: pendulum RK4 + tile coding + ε-greedy + SARSA in one function.
+#
+# It does the compiled path's arithmetic in the compiled path's order with the same draws
+# (`tests/test_benchmarks.py` checks θ bit for bit): the domain's force noise from the
+# domain's generator, one uniform per action choice from the agent's, the first episode
+# after ``domain.reset(seed=...)``, and no library code. The constants are the workload's
+# (`InvertedPendulum()`: force noise 10 N, start (0, 0) with no draw, γ = 0.95, cap 3000).
+
+HALF_PI = math.pi / 2.0
+FORCE_NOISE, DISCOUNT, CAP = 10.0, 0.95, 3000
+_QUANTA = TILES * NUM_TILINGS  # a dimension's width in 1/NUM_TILINGS tiles
+_THETA_SCALE = _QUANTA / (HALF_PI - -HALF_PI)  # quanta per radian over [-π/2, π/2]
+_RATE_SCALE = _QUANTA / (2.0 - -2.0)  # quanta per rad/s over [-2, 2]
+_SIDE = TILES + 1  # tiles per dimension per tiling (offset tilings need one more)
 
 
 @njit(cache=True, inline="always")
 def _acceleration(theta: float, rate: float, force: float) -> float:
-    alpha = 1.0 / 10.0
+    alpha = 1.0 / 10.0  # 1 / (m + M)
     cos_theta = math.cos(theta)
     numerator = (
         9.8 * math.sin(theta)
@@ -79,19 +95,19 @@ def _acceleration(theta: float, rate: float, force: float) -> float:
 
 @njit(cache=True, inline="always")
 def _tiles(theta: float, rate: float, out: np.ndarray) -> None:
-    # Quanta in units of 1/T tile over [-π/2, π/2] x [-2, 2], 11 x 11 tiles per tiling.
-    top = TILES * NUM_TILINGS
-    q0 = min(max(int((theta + math.pi / 2) * top / math.pi), 0), top)
-    q1 = min(max(int((rate + 2.0) * top / 4.0), 0), top)
-    per_tiling = (TILES + 1) * (TILES + 1)
+    # Positions in 1/NUM_TILINGS tiles; tiling t shifts θ by t and θ̇ by 3t quanta (mod 8).
+    q0 = min(max(int((theta + HALF_PI) * _THETA_SCALE), 0), _QUANTA)
+    q1 = min(max(int((rate + 2.0) * _RATE_SCALE), 0), _QUANTA)
     for t in range(NUM_TILINGS):
         c0 = (q0 + t % NUM_TILINGS) // NUM_TILINGS
         c1 = (q1 + (3 * t) % NUM_TILINGS) // NUM_TILINGS
-        out[t] = t * per_tiling + c0 * (TILES + 1) + c1
+        out[t] = t * _SIDE * _SIDE + c0 * _SIDE + c1
 
 
 @njit(cache=True, inline="always")
 def _choose(weights: np.ndarray, active: np.ndarray, q: np.ndarray, u: float) -> int:
+    # Q(s, ·) into q, then ε-greedy from one uniform u: explore if u < ε, else the k-th of
+    # the tied best actions, k from the rest of u.
     q[:] = 0.0
     for i in range(active.shape[0]):
         for a in range(3):
@@ -113,23 +129,44 @@ def _choose(weights: np.ndarray, active: np.ndarray, q: np.ndarray, u: float) ->
     return 2
 
 
+def reference_state(cap: int = CAP) -> tuple[np.ndarray, np.ndarray]:
+    """`reference_loop`'s resumable state before the first step: (θ, θ̇), (t, a)."""
+    return np.zeros(2), np.array([cap, 0], dtype=np.int64)
+
+
 @njit(cache=True)
-def reference_loop(num_steps: int, weights: np.ndarray, rng: np.random.Generator) -> int:
-    """Run ``num_steps`` SARSA steps; return the number of episodes begun."""
+def reference_loop(
+    num_steps: int,
+    weights: np.ndarray,
+    domain_rng: np.random.Generator,
+    agent_rng: np.random.Generator,
+    pendulum: np.ndarray,
+    progress: np.ndarray,
+    cap: int = CAP,
+) -> int:
+    """Run ``num_steps`` SARSA steps; return the number of episodes begun.
+
+    ``pendulum`` (θ, θ̇) and ``progress`` (steps into the episode, chosen action) carry an
+    episode across calls (`reference_state`); t >= ``cap`` begins a new episode (after a fall
+    t is set to ``cap``).
+    """
     active = np.empty(NUM_TILINGS, dtype=np.int64)
     next_active = np.empty(NUM_TILINGS, dtype=np.int64)
     q = np.empty(3)
-    theta = rate = 0.0
-    episodes, length = 0, 3000
-    action = 0
+    theta, rate = pendulum[0], pendulum[1]
+    length, action = progress[0], progress[1]
+    episodes = 0
+    if length < cap:
+        _tiles(theta, rate, active)
     for _ in range(num_steps):
-        if length >= 3000:
+        if length >= cap:  # reset to (0, 0) (no draw), begin an episode, a = π(s)
             theta = rate = 0.0
             episodes += 1
             length = 0
             _tiles(theta, rate, active)
-            action = _choose(weights, active, q, rng.random())
-        force = 50.0 * (action - 1) + 10.0 * (2.0 * rng.random() - 1.0)
+            action = _choose(weights, active, q, agent_rng.random())
+        force = 50.0 * (action - 1)
+        force += FORCE_NOISE * (2.0 * domain_rng.random() - 1.0)
         dt = 0.1
         k1t, k1r = rate, _acceleration(theta, rate, force)
         k2t = rate + 0.5 * dt * k1r
@@ -141,13 +178,14 @@ def reference_loop(num_steps: int, weights: np.ndarray, rng: np.random.Generator
         theta += dt / 6.0 * (k1t + 2.0 * k2t + 2.0 * k3t + k4t)
         rate = min(max(rate + dt / 6.0 * (k1r + 2.0 * k2r + 2.0 * k3r + k4r), -2.0), 2.0)
         length += 1
-        terminated = not (-math.pi / 2 < theta < math.pi / 2)
-        target = -1.0 if terminated else 0.0
+        terminated = not (-HALF_PI < theta < HALF_PI)
         next_action = 0
-        if not terminated:
+        if terminated:  # r = -1, no bootstrap
+            target = -1.0
+        else:  # r = 0; φ(s'), a' = π(s'), r + γ Q(s', a')
             _tiles(theta, rate, next_active)
-            next_action = _choose(weights, next_active, q, rng.random())
-            target += 0.95 * q[next_action]
+            next_action = _choose(weights, next_active, q, agent_rng.random())
+            target = 0.0 + DISCOUNT * q[next_action]
         value = 0.0
         for i in range(NUM_TILINGS):
             value += weights[active[i], action]
@@ -155,10 +193,12 @@ def reference_loop(num_steps: int, weights: np.ndarray, rng: np.random.Generator
         for i in range(NUM_TILINGS):
             weights[active[i], action] += change
         if terminated:
-            length = 3000
+            length = cap
         else:
             active, next_active = next_active, active
             action = next_action
+    pendulum[0], pendulum[1] = theta, rate
+    progress[0], progress[1] = length, action
     return episodes
 
 
@@ -172,28 +212,48 @@ def _rate(advance, num_steps: int) -> float:
     return num_steps / (time.perf_counter() - started)
 
 
-def _paths(workload: str, num_steps: int) -> dict:
-    """The Python and compiled paths of ``workload``, each with its own agent and domain."""
+def _paths(workload: str, num_steps: int) -> tuple[dict, SARSA]:
+    """The Python and compiled paths of ``workload`` and the compiled path's agent."""
     domain = InvertedPendulum()
     python_loop = LearningLoop(domain, make_agent(workload).setup(domain.domain_spec, 0), seed=0)
     domain = InvertedPendulum()
     agent = make_agent(workload).setup(domain.domain_spec, 0)
     stepper = for_combination(domain, agent, seed=0)
-    return {
+    paths = {
         (workload, "python"): (python_loop.advance, max(num_steps // 20, 1_000)),
         (workload, "compiled"): (stepper.advance, num_steps),
     }
+    return paths, agent
 
 
-def runners(num_steps: int) -> dict:
-    """Every measured path, keyed by (workload, path)."""
-    weights = np.zeros(((TILES + 1) ** 2 * NUM_TILINGS, 3))
-    rng = np.random.default_rng(0)
-    return {
-        **_paths("tiles", num_steps),
-        ("tiles", "hand-written"): (lambda n: reference_loop(n, weights, rng), num_steps),
-        **_paths("rbf", num_steps),
-    }
+def hand_written(seed: int = 0, cap: int = CAP) -> tuple[Callable[[int], int], np.ndarray]:
+    """`reference_loop` with the generators the compiled path gets for ``seed``: (advance, θ).
+
+    The domain's generator is the one ``InvertedPendulum().reset(seed=seed)`` seeds and the
+    agent's is ``make_agent().setup(spec, seed).rng_``, so equal step counts give the compiled
+    path's θ bit for bit.
+    """
+    domain = InvertedPendulum()
+    domain.reset(seed=seed)
+    agent_rng = make_agent().setup(domain.domain_spec, seed).rng_
+    weights = np.zeros((_SIDE * _SIDE * NUM_TILINGS, 3))
+    pendulum, progress = reference_state(cap)
+
+    def advance(num_steps: int) -> int:
+        return reference_loop(
+            num_steps, weights, domain.np_random, agent_rng, pendulum, progress, cap
+        )
+
+    return advance, weights
+
+
+def runners(num_steps: int) -> tuple[dict, Callable[[], bool]]:
+    """Every measured path, keyed by (workload, path), and whether the tile paths' θ agree."""
+    tiles, agent = _paths("tiles", num_steps)
+    rbf, _ = _paths("rbf", num_steps)
+    advance, weights = hand_written(0)
+    paths = {**tiles, ("tiles", "hand-written"): (advance, num_steps), **rbf}
+    return paths, lambda: np.array_equal(agent.weights_, weights)
 
 
 _COMPILE_SNIPPET = """
@@ -235,7 +295,7 @@ def main() -> None:
     parser.add_argument("--repeats", type=int, default=5)
     parser.add_argument("--no-compile-times", action="store_true")
     args = parser.parse_args()
-    table = runners(args.steps)
+    table, is_same_work = runners(args.steps)
     for advance, _ in table.values():
         advance(2_000)  # warm-up: compilation or cache loading
     rates: dict[str, list[float]] = {name: [] for name in table}
@@ -257,6 +317,9 @@ def main() -> None:
             if kind == workload:
                 out.add_row(path, f"{rate:,.0f}", f"{1e6 / rate:.3f}", f"{reference / rate:.2f}")
         console.print(out)
+    # Equal step counts (warm-up included): the same arithmetic gives the same θ bit for bit.
+    same = "yes" if is_same_work() else "NO: the reference does other work"
+    console.print(f"hand-written θ == compiled θ after the same steps: {same}")
     if not args.no_compile_times:
         for workload in WORKLOADS:
             for label, (seconds, imported) in compile_times(workload).items():
