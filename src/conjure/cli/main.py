@@ -1,7 +1,7 @@
 """The ``conjure`` command line: ``run``, ``list``, ``plot``, and the lazily loaded rest.
 
-``sweep``, ``tune``, ``report`` and ``solve`` live beside their machinery and are imported
-only when they run.
+``sweep``, ``tune``, ``report``, ``solve`` and ``reproduce`` live beside their machinery and
+are imported only when they run.
 
 Examples
 --------
@@ -13,6 +13,8 @@ Examples
     conjure list planners
     conjure list --search cbba
     conjure plot results/pendulum --metric num_features
+    conjure reproduce --list
+    conjure reproduce fig_5_8 --scale quick
 
 Any `ConjureError` (a bad config, an unknown kind, a full disk, ...) prints one clean line and
 exits with status 2; failed runs inside an experiment are reported and give status 1; Ctrl-C
@@ -35,7 +37,7 @@ from typing import Any
 import click
 
 from conjure.core.errors import ConjureError, InvalidParameterError, RunsInterruptedError
-from conjure.experiments.options import max_memory_option, out_dir_option
+from conjure.experiments.options import max_memory_option, out_dir_option, overrides_option
 
 __all__ = ["LAZY_COMMANDS", "main"]
 
@@ -55,6 +57,11 @@ LAZY_COMMANDS = {
         "conjure.reporting.report",
         "report_command",
         "Collect the runs in RESULTS_DIR into results.parquet and write report.md with figures.",
+    ),
+    "reproduce": (
+        "conjure.cli.reproduce",
+        "reproduce_command",
+        "Rerun thesis figures and compare them with the thesis.",
     ),
     "solve": (
         "conjure.experiments.solve",
@@ -112,13 +119,7 @@ def main() -> None:
 @click.argument("config", type=click.Path(dir_okay=False, path_type=Path))
 @click.option("--seeds", type=click.IntRange(min=1), default=None, help="Run seeds 0..N-1.")
 @out_dir_option("Experiment folder (default results/<config name>).")
-@click.option(
-    "--set",
-    "overrides",
-    multiple=True,
-    metavar="PATH=VALUE",
-    help="Override a config value, e.g. agents.sarsa.params.step_size=0.05 (repeatable).",
-)
+@overrides_option("Override a config value, e.g. agents.sarsa.params.step_size=0.05 (repeatable).")
 @click.option("--max-workers", type=click.IntRange(min=1), default=None, help="Worker processes.")
 @max_memory_option
 @click.option("--quiet", is_flag=True, help="No progress bar or summary table.")

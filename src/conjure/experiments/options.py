@@ -18,7 +18,7 @@ import click
 from conjure.core.errors import InvalidParameterError
 from conjure.experiments.memory import parse_memory_size
 
-__all__ = ["max_memory_option", "out_dir_option"]
+__all__ = ["max_memory_option", "out_dir_option", "overrides_option"]
 
 
 def out_dir_option(help_text: str) -> Callable[[Any], Any]:
@@ -37,6 +37,22 @@ def out_dir_option(help_text: str) -> Callable[[Any], Any]:
     return click.option(
         "--out", "out_dir", type=click.Path(path_type=Path), default=None, help=help_text
     )
+
+
+def overrides_option(help_text: str) -> Callable[[Any], Any]:
+    """The repeatable ``--set PATH=VALUE`` option (parameter ``overrides``, a tuple of str).
+
+    Examples
+    --------
+    >>> from click.testing import CliRunner
+    >>> @click.command()
+    ... @overrides_option("Override a config value (repeatable).")
+    ... def show(overrides):
+    ...     click.echo(repr(overrides))
+    >>> CliRunner().invoke(show, ["--set", "seeds=3", "--set", "x=1"]).output.strip()
+    "('seeds=3', 'x=1')"
+    """
+    return click.option("--set", "overrides", multiple=True, metavar="PATH=VALUE", help=help_text)
 
 
 def _parse_memory(context: click.Context, parameter: click.Parameter, value: Any) -> int | None:

@@ -62,7 +62,7 @@ from conjure.experiments.config import (
     set_component_value,
 )
 from conjure.experiments.numbers import format_value
-from conjure.experiments.options import max_memory_option, out_dir_option
+from conjure.experiments.options import max_memory_option, out_dir_option, overrides_option
 from conjure.experiments.parallel import (
     ExperimentResult,
     open_executor,
@@ -88,6 +88,7 @@ __all__ = [
     "grid_keys_for",
     "load_sweep",
     "parse_sweep",
+    "read_sweep_data",
     "resolve_sweep",
     "run_sweep",
     "setting_runs",
@@ -370,6 +371,18 @@ def load_sweep(path: str | Path, overrides: Sequence[str] = ()) -> SweepConfig:
     Overrides take the paths of `apply_sweep_overrides`; a value that makes the file invalid is
     reported against its ``--set`` flag (`conjure.experiments.config.parse_overridden`).
     """
+    data = read_sweep_data(path)
+    return parse_overridden(data, overrides, apply_sweep_overrides, parse_sweep, source=str(path))
+
+
+def read_sweep_data(path: str | Path) -> dict[str, Any]:
+    """Return the raw mapping of the sweep YAML at ``path``, not yet validated.
+
+    Raises
+    ------
+    InvalidParameterError
+        When the file cannot be read, is not YAML, or does not hold a mapping.
+    """
     path = Path(path)
     try:
         text = path.read_text()
@@ -378,7 +391,7 @@ def load_sweep(path: str | Path, overrides: Sequence[str] = ()) -> SweepConfig:
     data = load_yaml(text, source=str(path))
     if not isinstance(data, Mapping):
         raise InvalidParameterError(f"{path}: a sweep config must be a mapping.")
-    return parse_overridden(data, overrides, apply_sweep_overrides, parse_sweep, source=str(path))
+    return dict(data)
 
 
 def apply_sweep_overrides(data: Mapping[str, Any], overrides: Sequence[str]) -> dict[str, Any]:
@@ -444,13 +457,8 @@ def apply_sweep_overrides(data: Mapping[str, Any], overrides: Sequence[str]) -> 
 )
 @click.option("--max-workers", type=click.IntRange(min=1), default=None, help="Worker processes.")
 @max_memory_option
-@click.option(
-    "--set",
-    "overrides",
-    multiple=True,
-    metavar="PATH=VALUE",
-    help="Override a config value, e.g. seeds=3 or agents.sarsa.params.step_size=0.05 "
-    "(repeatable).",
+@overrides_option(
+    "Override a config value, e.g. seeds=3 or agents.sarsa.params.step_size=0.05 (repeatable)."
 )
 @click.option("--quiet", is_flag=True, help="No progress bar or summary table.")
 def sweep_command(

@@ -1,0 +1,833 @@
+"""The reproduced figures of Geramifard (2012): their shipped configs, scales and claims.
+
+`FIGURES` catalogues every figure with a shipped sweep config under
+``examples/reproduction/`` (chapters 4 and 5 and Section 6.2.6; Fig. 3-15 is a batch
+evaluation run by ``docs/reproduction/fig_3_15.py``, not a sweep). Each `Figure` names its
+config, the curve columns it plots and its claims: a sentence of the thesis, the thesis's
+value, and how to measure it from the final policy checks (`finals_table`). ``conjure
+reproduce`` (`conjure.cli.reproduce`) runs a figure at a `SCALES` scale and writes
+`comparison_markdown`; ``docs/reproduction/chapter5.py`` renders the stored chapter-5 results
+with the same claims.
+
+Scales
+------
+- ``thesis``: the config as shipped: the grid searched on the search seeds, each method's
+  setting selected, then rerun on the fresh seeds (`conjure.sweeps.sweep.run_sweep`).
+- ``quick``: `QUICK_SEEDS` seeds and no search. A config with a ``selection`` starts at the
+  settings its search selected (tests/test_reproduction_docs.py checks it), so quick drops the
+  grid and the selection and runs those settings on the first `QUICK_SEEDS` of the fresh seeds
+  (seeds that took no part in the choice). A config without a selection keeps its grid (there
+  the grid is the figure's x-axis, e.g. Fig. 4-11's initial cut counts) and runs its first
+  `QUICK_SEEDS` seeds. The budget, policy checks and evaluation episodes are unchanged: every
+  claim is about the end of the curve, which fewer steps would move.
+
+Notes
+-----
+- Choice: the cost of a scale is counted in runs and learning steps (runs × ``budget_steps``),
+  read from the config without running anything; policy-check episodes are not counted, and no
+  time is given, because the speed per step differs by two orders of magnitude between
+  workloads (compiled SARSA on a grid world against Monte-Carlo risk analysis on UAV 7-2).
+- Choice: "ends above" claims need the 95% Welch interval of the difference to lie above the
+  margin; ``at_most`` and ``ratio_within`` compare means (their text shows the ratio).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+from scipy import stats
+
+from conjure.core.errors import InvalidParameterError
+from conjure.core.params import did_you_mean
+from conjure.experiments.config import parse_overridden
+from conjure.experiments.metric_ranges import clip_interval, metric_range
+from conjure.experiments.numbers import format_interval
+from conjure.experiments.results import group_columns, t_confidence
+from conjure.sweeps.selection import fresh_seeds, score_runs
+from conjure.sweeps.sweep import (
+    SweepConfig,
+    apply_sweep_overrides,
+    grid_keys_for,
+    parse_sweep,
+    read_sweep_data,
+)
+
+__all__ = [
+    "FIGURES",
+    "METRICS",
+    "QUICK_SEEDS",
+    "SCALES",
+    "Claim",
+    "Figure",
+    "above",
+    "above_best",
+    "at_most",
+    "check_scale",
+    "claim_rows",
+    "comparison_markdown",
+    "curve_table",
+    "figure_cost",
+    "figure_names",
+    "finals_markdown",
+    "finals_table",
+    "load_figure_sweep",
+    "ratio_within",
+    "summary_table",
+    "within",
+]
+
+#: The scales of ``conjure reproduce`` (see the module docstring).
+SCALES = ("quick", "thesis")
+#: Seeds per method at the quick scale.
+QUICK_SEEDS = 3
+
+#: The curve columns of the chapter-5 tables, with their headings.
+METRICS = {
+    "return": "final return",
+    "value_ratio": "V/V*",
+    "optimality": "optimality",
+    "failure_rate": "failure rate",
+    "learning_failures": "failures while learning",
+}
+
+Measure = Callable[[pd.DataFrame], tuple[str, bool]]
+
+
+# ------------------------------------------------------------------------------------ tables
+
+
+def finals_table(frame: pd.DataFrame, metric: str = "return") -> pd.DataFrame:
+    """One row per run: label, seed, the last policy check's metrics and ``auc_<metric>``.
+
+    The metrics are `METRICS` and ``metric`` (those the results hold); ``auc_<metric>`` is the
+    selection's area under the curve (`conjure.sweeps.selection.score_runs`). ``domain_label``
+    and ``setting`` are kept where a label has several (a grid that is the figure's x-axis).
+    """
+    columns = [m for m in dict.fromkeys([*METRICS, metric]) if m in frame.columns]
+    per_label = frame.groupby("label")
+    keys = [
+        c
+        for c in group_columns(frame)
+        if c != "label" and per_label[c].nunique(dropna=False).max() > 1
+    ]
+    last = frame.sort_values("learning_steps").groupby("run_id", sort=False).tail(1)
+    finals = last[["run_id", "label", *keys, "seed", "learning_steps", *columns]].copy()
+    auc = score_runs(frame, metric, "auc")
+    finals[f"auc_{metric}"] = finals["run_id"].map(auc).to_numpy(dtype=float)
+    order = {label: k for k, label in enumerate(frame["label"].drop_duplicates())}
+    finals = finals.assign(_order=finals["label"].map(order)).sort_values(["_order", "seed"])
+    return finals.drop(columns=["_order", "run_id"]).reset_index(drop=True)
+
+
+def curve_table(frame: pd.DataFrame) -> pd.DataFrame:
+    """Mean, 95% t half-width and cut interval of every `METRICS` column per label and check."""
+    rows = []
+    for (label, steps), group in frame.groupby(["label", "learning_steps"], sort=False):
+        row = {"label": label, "learning_steps": int(steps), "seeds": group["seed"].nunique()}
+        for metric in METRICS:
+            mean, half = t_confidence(group[metric])
+            row[f"{metric}_mean"], row[f"{metric}_ci95"] = mean, half
+            cut = clip_interval(mean, half, metric_range(group, metric))
+            row[f"{metric}_low"], row[f"{metric}_high"] = cut
+        rows.append(row)
+    return pd.DataFrame(rows)
+
+
+def finals_markdown(finals: pd.DataFrame) -> str:
+    """The markdown table of the final policy check (`finals_table`), one row per method.
+
+    Columns: the metrics with a finite value (`METRICS` headings, else ``final <metric>``)
+    and the area under the curve, each as mean ± 95% t half-width.
+    """
+    areas = [c for c in finals.columns if c.startswith("auc_")]
+    metrics = [
+        c
+        for c in finals.columns
+        if c not in (*areas, "label", "domain_label", "setting", "seed", "learning_steps")
+        and np.isfinite(finals[c].to_numpy(dtype=float)).any()
+    ]
+    heading = [
+        "method",
+        "seeds",
+        *(METRICS.get(m, f"final {m}") for m in metrics),
+        *(f"AUC of {a.removeprefix('auc_')}" for a in areas),
+    ]
+    keys = [c for c in ("label", "domain_label", "setting") if c in finals.columns]
+    lines = ["| " + " | ".join(heading) + " |", "|" + "---|" * len(heading)]
+    for name, group in finals.groupby(keys, sort=False):
+        parts = name if isinstance(name, tuple) else (name,)
+        cells = [" ".join(str(part) for part in parts), str(group["seed"].nunique())]
+        for metric in [*metrics, *areas]:
+            mean, half = t_confidence(group[metric])
+            cells.append(format_interval(mean, half, metric_range(group, metric)))
+        lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+def summary_table(finals: pd.DataFrame) -> pd.DataFrame:
+    """Per method (label, and setting where the grid is the figure's), each final metric.
+
+    Columns: the method's keys, ``seeds``, then ``<metric>_mean``, ``<metric>_ci95`` (the
+    Student-t half-width) and ``<metric>_low``/``<metric>_high`` (cut at the metric's range)
+    for every metric column of ``finals`` (`finals_table`).
+    """
+    keys = [c for c in ("label", "domain_label", "setting") if c in finals.columns]
+    metrics = [c for c in finals.columns if c not in (*keys, "seed", "learning_steps")]
+    rows = []
+    for name, group in finals.groupby(keys, sort=False, dropna=False):
+        row = dict(zip(keys, name if isinstance(name, tuple) else (name,), strict=True))
+        row["seeds"] = group["seed"].nunique()
+        for metric in metrics:
+            mean, half = t_confidence(group[metric])
+            low, high = clip_interval(mean, half, metric_range(group, metric))
+            row.update(
+                {
+                    f"{metric}_mean": mean,
+                    f"{metric}_ci95": half,
+                    f"{metric}_low": low,
+                    f"{metric}_high": high,
+                }
+            )
+        rows.append(row)
+    return pd.DataFrame(rows)
+
+
+# ------------------------------------------------------------------------------------ claims
+
+
+@dataclass(frozen=True)
+class Claim:
+    """A sentence of the thesis, its number, and how to measure it from the finals."""
+
+    text: str
+    thesis: str
+    measure: Measure
+
+
+def values(finals: pd.DataFrame, label: str, metric: str) -> np.ndarray:
+    """The per-seed final ``metric`` of ``label``.
+
+    Raises
+    ------
+    InvalidParameterError
+        When the finals hold no run of ``label``.
+    """
+    chosen = finals.loc[finals["label"] == label, metric].to_numpy(dtype=float)
+    if chosen.size == 0:
+        known = ", ".join(finals["label"].drop_duplicates())
+        raise InvalidParameterError(f"No results for {label!r}; the labels are {known}.")
+    return chosen
+
+
+def welch(a: np.ndarray, b: np.ndarray) -> tuple[float, float]:
+    """mean(a) − mean(b) and its 95% Welch half-width (0 when both have no spread)."""
+    difference = float(a.mean() - b.mean())
+    va, vb = a.var(ddof=1) / a.size, b.var(ddof=1) / b.size
+    if va + vb == 0.0:
+        return difference, 0.0
+    dof = (va + vb) ** 2 / (va**2 / (a.size - 1) + vb**2 / (b.size - 1))
+    return difference, float(stats.t.ppf(0.975, dof) * np.sqrt(va + vb))
+
+
+def above(
+    better: str, worse: str, metric: str = "return", *, by: float = 0.0, significant: bool = True
+) -> Measure:
+    """``better`` ends above ``worse`` by more than ``by`` × |worse|.
+
+    With ``significant`` the 95% Welch interval of the difference must lie above that margin;
+    otherwise ("at or above") it must not lie below it: no significant shortfall.
+    """
+
+    def measure(finals: pd.DataFrame) -> tuple[str, bool]:
+        a, b = values(finals, better, metric), values(finals, worse, metric)
+        difference, half = welch(a, b)
+        base = abs(b.mean())
+        relative = f" ({difference / base:+.1%})" if base > 0 else ""
+        text = f"{better} − {worse}: {format_interval(difference, half)}{relative}"
+        if significant:
+            return text, bool(difference - half > by * base)
+        return text, bool(difference + half >= by * base)
+
+    return measure
+
+
+def above_best(
+    label: str, others: tuple[str, ...], metric: str = "return", *, by: float = 0.0
+) -> Measure:
+    """``label`` ends above the best of ``others`` (by mean) by more than ``by``, significantly."""
+
+    def measure(finals: pd.DataFrame) -> tuple[str, bool]:
+        best = max(others, key=lambda other: values(finals, other, metric).mean())
+        return above(label, best, metric, by=by)(finals)
+
+    return measure
+
+
+def ratio_within(
+    label: str, other: str, low: float, high: float, metric: str = "return"
+) -> Measure:
+    """The ratio of the means of ``label`` and ``other``, minus 1, lies in [low, high]."""
+
+    def measure(finals: pd.DataFrame) -> tuple[str, bool]:
+        a, b = values(finals, label, metric).mean(), values(finals, other, metric).mean()
+        change = a / b - 1.0
+        return f"{label} / {other} − 1 = {change:+.1%}", bool(low <= change <= high)
+
+    return measure
+
+
+def at_most(label: str, other: str, fraction: float, metric: str = "learning_failures") -> Measure:
+    """The mean ``metric`` of ``label`` is at most ``fraction`` × that of ``other``."""
+
+    def measure(finals: pd.DataFrame) -> tuple[str, bool]:
+        a, b = values(finals, label, metric).mean(), values(finals, other, metric).mean()
+        ratio = a / b if b > 0 else np.inf
+        return f"{label} / {other}: {a:,.0f} / {b:,.0f} = {ratio:.2f}", bool(ratio <= fraction)
+
+    return measure
+
+
+def within(label: str, metric: str, low: float, high: float) -> Measure:
+    """The mean final ``metric`` of ``label`` lies in [low, high]."""
+
+    def measure(finals: pd.DataFrame) -> tuple[str, bool]:
+        mean, half = t_confidence(values(finals, label, metric))
+        text = format_interval(mean, half, metric_range(finals, metric))
+        return f"{label}: {text}", bool(low <= mean <= high)
+
+    return measure
+
+
+def claim_rows(claims: Sequence[Claim], finals: pd.DataFrame) -> str:
+    """The markdown table of ``claims``: thesis, measured (95% interval), holds.
+
+    A claim about a method ``finals`` does not hold is "not measured", naming the method.
+    """
+    lines = ["| claim | thesis | measured (95% interval) | holds? |", "|---|---|---|---|"]
+    for claim in claims:
+        try:
+            measured, holds = claim.measure(finals)
+            verdict = "yes" if holds else "no"
+        except InvalidParameterError as exc:  # a method the results do not hold
+            measured, verdict = str(exc), "not measured"
+        lines.append(f"| {claim.text} | {claim.thesis} | {measured} | {verdict} |")
+    return "\n".join(lines)
+
+
+# ------------------------------------------------------------------------------------ figures
+
+
+@dataclass(frozen=True)
+class Figure:
+    """One reproduced figure: its sweep config, the curve columns it plots, and its claims."""
+
+    title: str
+    config: str
+    plots: tuple[str, ...]
+    claims: tuple[Claim, ...] = ()
+
+
+def _ifdd_beats_random(domain: str, metric: str) -> Figure:
+    return Figure(
+        f"Fig. 4-7 ({domain}): iFDD vs random expansion at a fixed discovery rate",
+        f"examples/reproduction/fig_4_7_{domain}.yaml",
+        (metric,),
+        (
+            Claim(
+                "iFDD ends above random expansion",
+                "yes, in all four domains",
+                above("ifdd_fixed_rate", "random_fixed_rate", metric),
+            ),
+        ),
+    )
+
+
+def _fig_4_5(domain: str, panel: str, metric: str, claims: tuple[Claim, ...]) -> Figure:
+    return Figure(
+        f"Fig. 4-5({panel}) ({domain}): SARSA with initial, tabular, iFDD, ATC, SDM",
+        f"examples/reproduction/fig_4_5_{domain}.yaml",
+        (metric, "num_features"),
+        claims,
+    )
+
+
+FIGURES: dict[str, Figure] = {
+    "fig_4_5_pendulum": _fig_4_5(
+        "pendulum",
+        "a",
+        "episode_length",
+        (
+            Claim(
+                "iFDD ends above initial",
+                "initial never balances",
+                above("ifdd", "initial", "episode_length"),
+            ),
+            Claim(
+                "iFDD learns earlier than tabular (AUC)",
+                "tabular gets there later",
+                above("ifdd", "tabular", "auc_episode_length"),
+            ),
+        ),
+    ),
+    "fig_4_5_blocksworld": _fig_4_5(
+        "blocksworld",
+        "b",
+        "return",
+        (
+            Claim("iFDD ends above initial", "initial does poorly", above("ifdd", "initial")),
+            Claim(
+                "iFDD learns earlier than tabular (AUC)",
+                "tabular slower",
+                above("ifdd", "tabular", "auc_return"),
+            ),
+        ),
+    ),
+    "fig_4_5_surveillance": _fig_4_5(
+        "surveillance",
+        "c",
+        "return",
+        (
+            Claim(
+                "iFDD learns more than tabular (AUC)",
+                "iFDD far ahead; tabular stuck near 0",
+                above("ifdd", "tabular", "auc_return"),
+            ),
+        ),
+    ),
+    "fig_4_5_rescue": _fig_4_5(
+        "rescue",
+        "d",
+        "return",
+        (
+            Claim(
+                "iFDD ends above initial",
+                "iFDD outperforms all after 2·10⁴ steps",
+                above("ifdd", "initial"),
+            ),
+            Claim("iFDD ends above tabular", "tabular worst", above("ifdd", "tabular")),
+        ),
+    ),
+    "fig_4_7_pendulum": _ifdd_beats_random("pendulum", "episode_length"),
+    "fig_4_7_blocksworld": _ifdd_beats_random("blocksworld", "return"),
+    "fig_4_7_surveillance": _ifdd_beats_random("surveillance", "return"),
+    "fig_4_7_rescue": _ifdd_beats_random("rescue", "return"),
+    "fig_4_8_pendulum_ifdd_plus": Figure(
+        "Fig. 4-8 (pendulum): online iFDD⁺ (Eq. 4.3 as printed)",
+        "examples/reproduction/fig_4_8_pendulum_ifdd_plus.yaml",
+        ("episode_length", "num_features"),
+    ),
+    "fig_4_11": Figure(
+        "Fig. 4-11: ARiFDD vs iFDD vs initial vs tabular across initial cut counts",
+        "examples/reproduction/fig_4_11.yaml",
+        ("episode_length",),
+    ),
+    "fig_5_5": Figure(
+        "Fig. 5-5: GridWorld-1, Actor-Critic vs iCCA",
+        "examples/reproduction/fig_5_5.yaml",
+        ("return", "learning_failures"),
+        (
+            Claim(
+                "iCCA ends above the VI planner",
+                "yes, from 6,000 steps",
+                above("icca", "vi_planner"),
+            ),
+            Claim(
+                "iCCA fails at most half as often as Actor-Critic while learning",
+                "fewer failures",
+                at_most("icca", "actor_critic", 0.5),
+            ),
+            Claim("iCCA ends above Actor-Critic", "yes", above("icca", "actor_critic")),
+            Claim(
+                "Actor-Critic ends below the planner",
+                "yes, at 10⁴ steps",
+                above("vi_planner", "actor_critic"),
+            ),
+            Claim(
+                "Algorithm 23 as printed (λ = 100, Q critic) ends above the planner",
+                "yes (as iCCA)",
+                above("icca_printed", "vi_planner"),
+            ),
+            Claim(
+                "the first variant (Algorithm 12's actor step) ends above the planner",
+                "(not in the thesis)",
+                above("icca_features", "vi_planner"),
+            ),
+            Claim(
+                "iCCA learns earlier than its learner alone (AUC)",
+                "(not in the thesis)",
+                above("icca", "actor_critic_advantage", "auc_return"),
+            ),
+            Claim(
+                "iCCA fails less than its learner alone while learning",
+                "(not in the thesis)",
+                at_most("icca", "actor_critic_advantage", 1.0),
+            ),
+        ),
+    ),
+    "fig_5_8": Figure(
+        "Fig. 5-8: GridWorld-1, SARSA vs CSARSA",
+        "examples/reproduction/fig_5_8.yaml",
+        ("return", "learning_failures"),
+        (
+            Claim("CSARSA ends above SARSA", "yes", above("csarsa", "sarsa")),
+            Claim(
+                "CSARSA ends above the VI planner",
+                "yes, given enough interactions",
+                above("csarsa", "vi_planner"),
+            ),
+            Claim(
+                "CSARSA fails less than SARSA while learning",
+                "yes",
+                at_most("csarsa", "sarsa", 1.0),
+            ),
+            Claim(
+                "Algorithm 24 as printed ends above the VI planner",
+                "(as CSARSA)",
+                above("csarsa_printed", "vi_planner"),
+            ),
+        ),
+    ),
+    "fig_5_6": Figure(
+        "Fig. 5-6: UAV 7-2 without noise, Actor-Critic vs iCCA vs CBBA",
+        "examples/reproduction/fig_5_6.yaml",
+        ("return", "value_ratio", "learning_failures"),
+        (
+            Claim("iCCA ends at least 3% above CBBA", "+10%", above("icca", "cbba", by=0.03)),
+            Claim(
+                "iCCA crashes at most a tenth as often as Actor-Critic while learning",
+                "risky actions filtered",
+                at_most("icca", "actor_critic", 0.1),
+            ),
+            Claim("Actor-Critic ends below CBBA", "yes", above("cbba", "actor_critic")),
+            Claim(
+                "Algorithm 23 as printed ends above CBBA",
+                "yes (as iCCA)",
+                above("icca_printed", "cbba"),
+            ),
+            Claim(
+                "the first variant (Algorithm 12's actor step) ends above CBBA",
+                "(not in the thesis)",
+                above("icca_features", "cbba"),
+            ),
+            Claim(
+                "iCCA crashes less than its learner alone while learning",
+                "(not in the thesis)",
+                at_most("icca", "actor_critic_advantage", 0.3),
+            ),
+        ),
+    ),
+    "fig_5_7": Figure(
+        "Fig. 5-7: UAV 10-2 without noise, Actor-Critic vs iCCA vs CBBA",
+        "examples/reproduction/fig_5_7.yaml",
+        ("return", "value_ratio", "learning_failures"),
+        (
+            Claim("iCCA ends above CBBA", "yes, significantly", above("icca", "cbba")),
+            Claim(
+                "Actor-Critic ends below CBBA",
+                "yes, no sensible policy after 10⁵ steps",
+                above("cbba", "actor_critic"),
+            ),
+            Claim(
+                "iCCA crashes at most a tenth as often as Actor-Critic while learning",
+                "risky actions filtered",
+                at_most("icca", "actor_critic", 0.1),
+            ),
+            Claim(
+                "Algorithm 23 as printed ends above CBBA",
+                "yes (as iCCA)",
+                above("icca_printed", "cbba"),
+            ),
+        ),
+    ),
+    "fig_5_9_13": Figure(
+        "Figs. 5-9 and 5-13: UAV 7-2 with 5% traverse failures",
+        "examples/reproduction/fig_5_9_13.yaml",
+        ("return", "value_ratio", "failure_rate", "learning_failures"),
+        (
+            Claim(
+                "SARSA: optimality below 0.5", "< 50%", within("sarsa", "optimality", -np.inf, 0.5)
+            ),
+            Claim(
+                "SARSA: crash probability above 0.8",
+                "> 80% (≈ 90%)",
+                within("sarsa", "failure_rate", 0.8, 1.0),
+            ),
+            Claim(
+                "aggressive CBBA: V/V* in [0.70, 0.92]",
+                "> 80%",
+                within("cbba_aggressive", "value_ratio", 0.70, 0.92),
+            ),
+            Claim(
+                "aggressive CBBA: crash probability in [0.15, 0.35]",
+                "≈ 25%",
+                within("cbba_aggressive", "failure_rate", 0.15, 0.35),
+            ),
+            Claim(
+                "conservative CBBA: 2-8% below aggressive",
+                "≈ 5% below",
+                ratio_within("cbba_conservative", "cbba_aggressive", -0.08, -0.02),
+            ),
+            Claim(
+                "conservative CBBA: crash probability at most 0.05",
+                "rare",
+                within("cbba_conservative", "failure_rate", 0.0, 0.05),
+            ),
+            Claim(
+                "CSARSA ends at least 3% above its CBBA (aggressive)",
+                "+7%",
+                above("csarsa", "cbba_aggressive", by=0.03),
+            ),
+            Claim(
+                "CSARSA crashes at most 0.3× as often as SARSA while learning",
+                "far fewer",
+                at_most("csarsa", "sarsa", 0.3),
+            ),
+            Claim(
+                "iCCA (static model) ends above conservative CBBA",
+                "yes, at ≈ 20% risk",
+                above("icca", "cbba_conservative"),
+            ),
+            Claim(
+                "AM-iCCA ends at least 5% above the better CBBA",
+                "+22% (≈ 0.9 optimal)",
+                above_best("am_icca", ("cbba_aggressive", "cbba_conservative"), by=0.05),
+            ),
+            Claim(
+                "AM-iCCA crashes at most 0.3× as often as SARSA while learning",
+                "far fewer",
+                at_most("am_icca", "sarsa", 0.3),
+            ),
+            Claim(
+                "AM-iCCA: crash probability in [0.1, 0.3]",
+                "≈ 20% (= ε)",
+                within("am_icca", "failure_rate", 0.1, 0.3),
+            ),
+            Claim(
+                "AM-iCCA with risk ≤ 20% allowed ends at least 5% above the better CBBA",
+                '+22% ("allowed risk level of 20%")',
+                above_best("am_icca_tolerant", ("cbba_aggressive", "cbba_conservative"), by=0.05),
+            ),
+            Claim(
+                "AM-iCCA with risk ≤ 20% allowed ends above the better CBBA",
+                "yes",
+                above_best("am_icca_tolerant", ("cbba_aggressive", "cbba_conservative")),
+            ),
+            Claim(
+                "AM-iCCA with risk ≤ 20% crashes at most 0.3× as often as SARSA while learning",
+                "far fewer",
+                at_most("am_icca_tolerant", "sarsa", 0.3),
+            ),
+            Claim(
+                "AM-iCCA with risk ≤ 20%: crash probability in [0.1, 0.3]",
+                "≈ 20% (= ε)",
+                within("am_icca_tolerant", "failure_rate", 0.1, 0.3),
+            ),
+        ),
+    ),
+    "fig_5_12": Figure(
+        "Fig. 5-12: GridWorld-2, SARSA vs iCCA vs AM-iCCA",
+        "examples/reproduction/fig_5_12.yaml",
+        ("return", "learning_failures"),
+        (
+            Claim(
+                "iCCA (static model) ends at or above the conservative policy",
+                "above both static policies",
+                above("icca", "conservative", significant=False),
+            ),
+            Claim(
+                "SARSA ends above the aggressive policy",
+                "above both static policies",
+                above("sarsa", "aggressive"),
+            ),
+            Claim(
+                "AM-iCCA ends above the aggressive policy",
+                "above both static policies",
+                above("am_icca", "aggressive"),
+            ),
+            Claim(
+                "AM-iCCA learns faster than iCCA (AUC)",
+                "half the data",
+                above("am_icca", "icca", "auc_return"),
+            ),
+            Claim(
+                "AM-iCCA learns faster than SARSA (AUC)",
+                "half the data",
+                above("am_icca", "sarsa", "auc_return"),
+            ),
+        ),
+    ),
+    "fig_5_14": Figure(
+        "Section 5.5.3: GridWorld-3, AM-iCCA with and without the safety check switched off",
+        "examples/reproduction/fig_5_14.yaml",
+        ("return", "learning_failures"),
+        (
+            Claim(
+                "the extension ends above AM-iCCA",
+                "converges to the optimum; AM-iCCA does not",
+                above("am_icca_switch_off", "am_icca"),
+            ),
+        ),
+    ),
+    "ifdd_csarsa": Figure(
+        "Section 6.2.6: CSARSA with online iFDD⁺ on UAV 10-2 with 5% failures",
+        "examples/reproduction/ifdd_csarsa.yaml",
+        ("return", "value_ratio", "failure_rate"),
+        (
+            Claim(
+                "CSARSA + iFDD⁺ ends above tabular CSARSA",
+                "(future work)",
+                above("csarsa_ifdd", "csarsa_tabular"),
+            ),
+        ),
+    ),
+}
+
+
+def figure_names(names: Sequence[str]) -> list[str]:
+    """Return ``names`` checked against `FIGURES` (``fig_5_5``, ``5_5`` and ``5-5`` all name one).
+
+    Raises
+    ------
+    InvalidParameterError
+        For an unknown name, with a did-you-mean and the known names.
+    """
+    chosen = []
+    for name in names:
+        key = name.strip().lower().replace("-", "_").replace(".", "_")
+        key = key if key in FIGURES else f"fig_{key}"
+        if key == "fig_3_15":
+            raise InvalidParameterError(
+                "Fig. 3-15 is a batch evaluation, not a sweep: run `python "
+                "docs/reproduction/fig_3_15.py` (its docstring gives the thesis's setting)."
+            )
+        if key not in FIGURES:
+            raise InvalidParameterError(
+                f"Unknown figure {name!r}.{did_you_mean(name, list(FIGURES))} Known: "
+                f"{', '.join(FIGURES)} (`conjure reproduce --list`)."
+            )
+        chosen.append(key)
+    return list(dict.fromkeys(chosen))
+
+
+# ------------------------------------------------------------------------------------ scales
+
+
+def check_scale(scale: str) -> str:
+    """Return ``scale`` if it is one of `SCALES`.
+
+    Raises
+    ------
+    InvalidParameterError
+        Otherwise, with a did-you-mean.
+    """
+    if scale not in SCALES:
+        raise InvalidParameterError(
+            f"Unknown scale {scale!r}.{did_you_mean(scale, list(SCALES))} Known: "
+            f"{', '.join(SCALES)}."
+        )
+    return scale
+
+
+def _quick(data: dict[str, Any]) -> dict[str, Any]:
+    """The quick scale of raw sweep ``data`` (see the module docstring)."""
+    quick = dict(data)
+    sweep = SweepConfig.model_validate(quick)
+    if sweep.selection is not None:
+        seeds = fresh_seeds(sweep.seed_list(), sweep.selection.fresh_seeds)
+        quick.pop("selection")
+        quick["grid"], quick["domain_grids"] = {}, {}
+    else:
+        seeds = sweep.seed_list()
+    quick["seeds"] = seeds[:QUICK_SEEDS]
+    return quick
+
+
+def load_figure_sweep(
+    name: str, scale: str, root: str | Path, overrides: Sequence[str] = ()
+) -> SweepConfig:
+    """Return figure ``name``'s shipped sweep at ``scale``, with ``--set`` ``overrides`` applied.
+
+    Parameters
+    ----------
+    name : str
+        A `FIGURES` key.
+    scale : {"quick", "thesis"}
+        See the module docstring.
+    root : str or Path
+        The folder the figure's ``config`` path is relative to (the repository).
+    overrides : sequence of str
+        ``dotted.path=value`` as ``conjure sweep --set`` takes, applied after the scale.
+    """
+    check_scale(scale)
+    figure = FIGURES[name]
+    data = read_sweep_data(Path(root) / figure.config)
+    if scale == "quick":
+        data = _quick(data)
+    source = f"{figure.config} ({scale})"
+    return parse_overridden(data, overrides, apply_sweep_overrides, parse_sweep, source=source)
+
+
+def _num_runs(sweep: SweepConfig) -> int:
+    seeds = len(sweep.seed_list())
+    runs = 0
+    for domain_label in sweep.domain_specs():
+        grid = {**sweep.grid, **sweep.domain_grids.get(domain_label, {})}
+        for agent_label in sweep.agents:
+            keys = grid_keys_for(list(grid), domain_label, agent_label)
+            runs += math.prod(len(grid[key]) for key in keys) * seeds
+            if sweep.selection is not None:
+                runs += len(fresh_seeds(sweep.seed_list(), sweep.selection.fresh_seeds))
+    return runs
+
+
+def figure_cost(name: str, scale: str, root: str | Path) -> tuple[int, int]:
+    """Return (runs, learning steps) of figure ``name`` at ``scale``, read from its config.
+
+    Runs: per (domain, agent), the grid settings that concern it × the seeds, plus the fresh
+    seeds of the selection rerun; learning steps: runs × ``budget_steps`` (policy checks are
+    not counted). Reads the config without building its runs, so it is quick.
+    """
+    check_scale(scale)
+    data = read_sweep_data(Path(root) / FIGURES[name].config)
+    sweep = SweepConfig.model_validate(_quick(data) if scale == "quick" else data)
+    runs = _num_runs(sweep)
+    return runs, runs * sweep.budget_steps
+
+
+# ------------------------------------------------------------------------------------ output
+
+
+def comparison_markdown(name: str, finals: pd.DataFrame, *, scale: str) -> str:
+    """The ``comparison.md`` of figure ``name``: its claims against ``finals`` (`finals_table`).
+
+    Each claim's row gives the thesis's value, the measured value with its 95% interval and
+    whether it holds (`claim_rows`).
+    """
+    figure = FIGURES[name]
+    seeds = finals.groupby("label")["seed"].nunique()
+    counts = f"{seeds.min()}" if seeds.min() == seeds.max() else f"{seeds.min()}-{seeds.max()}"
+    lines = [
+        f"# {figure.title}",
+        "",
+        f"`conjure reproduce {name} --scale {scale}` on `{figure.config}`: {counts} seeds per "
+        "method. Final policy check, mean ± 95% t half-width; differences use Welch's interval.",
+        "",
+    ]
+    if scale == "quick":
+        lines += [
+            f"Quick scale: with {counts} seeds a 'no' on an \"ends above\" claim often means "
+            "the interval is too wide to decide; `--scale thesis` decides.",
+            "",
+        ]
+    lines += [finals_markdown(finals), ""]
+    if not figure.claims:
+        lines.append("No claims are catalogued for this figure; see the table and the plots.")
+    else:
+        lines.append(claim_rows(figure.claims, finals))
+    return "\n".join(lines) + "\n"

@@ -1,0 +1,118 @@
+"""Tests of the figure catalogue: names, scales, costs, and every claim against its config."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+import yaml
+
+from conjure.core.errors import InvalidParameterError
+from conjure.sweeps.reproduction import (
+    FIGURES,
+    METRICS,
+    QUICK_SEEDS,
+    comparison_markdown,
+    figure_cost,
+    figure_names,
+    finals_table,
+    load_figure_sweep,
+    summary_table,
+)
+from conjure.sweeps.sweep import expand_sweep
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def fake_finals(name, seeds=3):
+    """Finals of every agent of the figure's config, with random metrics."""
+    config = yaml.safe_load((ROOT / FIGURES[name].config).read_text())
+    rng = np.random.default_rng(0)
+    rows = []
+    metric = config.get("metric", "return")
+    for label in config["agents"]:
+        for seed in range(seeds):
+            row = {"label": label, "seed": seed, "learning_steps": 100}
+            row.update({m: rng.uniform(0.0, 1.0) for m in dict.fromkeys([*METRICS, metric])})
+            row[f"auc_{metric}"] = rng.uniform(0.0, 1.0)
+            rows.append(row)
+    return pd.DataFrame(rows)
+
+
+@pytest.mark.parametrize("name", list(FIGURES))
+def test_every_claim_measures_methods_its_config_runs(name):
+    text = comparison_markdown(name, fake_finals(name), scale="quick")
+    assert "not measured" not in text
+    texts = [claim.text for claim in FIGURES[name].claims]
+    rows = [line for line in text.splitlines() if line.split(" | ")[0][2:] in texts]
+    assert [row.split(" | ")[0][2:] for row in rows] == texts
+    assert (ROOT / FIGURES[name].config).is_file()
+
+
+def test_a_claim_on_a_missing_method_says_so_in_its_row():
+    finals = fake_finals("fig_5_8")
+    text = comparison_markdown("fig_5_8", finals[finals["label"] != "csarsa"], scale="thesis")
+    assert text.count("not measured") == 3  # the three claims about csarsa
+    assert "No results for 'csarsa'" in text
+
+
+def test_names_take_short_forms_and_unknown_ones_suggest():
+    assert figure_names(["5-8", "fig_5_8", "FIG_5_12", "ifdd_csarsa"]) == [
+        "fig_5_8",
+        "fig_5_12",
+        "ifdd_csarsa",
+    ]
+    with pytest.raises(InvalidParameterError, match="Did you mean 'fig_5_12'"):
+        figure_names(["fig_5_2"])
+
+
+def test_quick_runs_the_selected_settings_on_fresh_seeds():
+    thesis = load_figure_sweep("fig_5_8", "thesis", ROOT)
+    quick = load_figure_sweep("fig_5_8", "quick", ROOT)
+    assert quick.grid == {} and quick.selection is None
+    assert quick.seed_list() == [5, 6, 7]  # after search seeds 0-4
+    assert quick.budget_steps == thesis.budget_steps
+    assert quick.agents == thesis.agents
+    shrunk = load_figure_sweep("fig_5_8", "quick", ROOT, ["budget_steps=50"])
+    assert shrunk.budget_steps == 50
+
+
+def test_quick_keeps_a_grid_that_is_the_figures_axis():
+    thesis = load_figure_sweep("fig_4_11", "thesis", ROOT)
+    quick = load_figure_sweep("fig_4_11", "quick", ROOT)
+    assert quick.grid == thesis.grid and thesis.selection is None
+    assert quick.seed_list() == thesis.seed_list()[:QUICK_SEEDS]
+
+
+def test_cost_counts_the_runs_the_sweep_expands():
+    quick = load_figure_sweep("fig_5_8", "quick", ROOT)
+    assert figure_cost("fig_5_8", "quick", ROOT) == (len(expand_sweep(quick)), 15 * 10_000)
+    thesis = load_figure_sweep("fig_4_8_pendulum_ifdd_plus", "thesis", ROOT)
+    runs, steps = figure_cost("fig_4_8_pendulum_ifdd_plus", "thesis", ROOT)
+    assert runs == len(expand_sweep(thesis)) + thesis.selection.fresh_seeds
+    assert steps == runs * thesis.budget_steps
+
+
+def test_an_unknown_scale_is_refused():
+    with pytest.raises(InvalidParameterError, match="Unknown scale 'huge'"):
+        load_figure_sweep("fig_5_8", "huge", ROOT)
+
+
+def test_finals_and_summary_of_a_results_frame():
+    frame = pd.DataFrame(
+        {
+            "run_id": ["a", "a", "b", "b"],
+            "label": ["x", "x", "x", "x"],
+            "setting": ["k=1"] * 4,
+            "seed": [0, 0, 1, 1],
+            "learning_steps": [0, 10, 0, 10],
+            "return": [0.0, 1.0, 0.0, 3.0],
+        }
+    )
+    finals = finals_table(frame)
+    assert list(finals.columns) == ["label", "seed", "learning_steps", "return", "auc_return"]
+    assert finals["auc_return"].tolist() == [0.5, 1.5]
+    summary = summary_table(finals)
+    assert summary.loc[0, "seeds"] == 2 and summary.loc[0, "return_mean"] == 2.0
