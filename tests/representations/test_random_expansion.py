@@ -26,11 +26,16 @@ def sequence(seed, num_flags, length):
         yield active, float(rng.normal())
 
 
+def random_word(rep):
+    """The seed word of the representation's random draws, as saved."""
+    return int(rep.state_arrays()["ints"][kernels.COUNTERS.index("random_word")])
+
+
 @pytest.mark.parametrize("sparsify", [True, False])
 def test_matches_the_oracle_and_follows_eq_4_6(sparsify):
     rep = flag_random(12, discovery_rate=3.0, sparsify=sparsify)
     oracle = OracleIFDD(12, rate=3.0, selection="random", sparsify=sparsify,
-                        random_word=int(rep._ints[kernels.I_RANDOM_WORD]))  # fmt: skip
+                        random_word=random_word(rep))  # fmt: skip
     for t, (active, delta) in enumerate(sequence(2, 12, 1500), start=1):
         phi = rep.active_features(flags(12, active))
         assert phi.tolist() == oracle.activate(active)

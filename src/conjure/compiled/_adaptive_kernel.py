@@ -26,9 +26,8 @@ Arguments besides those of ``advance_kernel`` (``ints``, ``floats``, ``dparams``
 - ``dstate`` int64: the constrained domain's internal state (see
   `conjure.compiled.combination`), and ``fstate`` float64 the unconstrained one's (each empty
   for the other kind).
-- ``activate_args`` and ``discover_args``: `OnlineIFDD`'s own argument tuples of `activate`
-  and `discover` (its tables, updated in place), or empty stand-ins of the same types without
-  iFDD (``ints[I_IFDD] == 0``).
+- ``ifdd``: `OnlineIFDD.kernel_tables` (its tables, updated in place), or the stand-in
+  `empty_tables` without iFDD (``ints[I_IFDD] == 0``).
 - ``weights``: θ with at least as many rows as the representation can hold features
   (``feat_start``'s length), so a discovery never outgrows it; rows past n_t are scratch.
   ``actor_weights``: Actor-Critic's ω, likewise (θ itself for the other learners).
@@ -94,7 +93,12 @@ from conjure.domains._uav_kernels import (
     rescue_fill_legal_mask,
     rescue_step,
 )
-from conjure.representations._ifdd_kernels import I_NUM_FEATURES, activate, discover, discover_room
+from conjure.representations._ifdd_kernels import (
+    IFDDTables,
+    activate,
+    discover_fitting,
+    discover_room,
+)
 
 # Domain codes (after those of `conjure.compiled._kernels`).
 BLOCKS, PERSISTENT_SURVEILLANCE, RESCUE, UAV_MISSION = 3, 4, 5, 6
@@ -120,7 +124,7 @@ def _encode(
     rep: tuple,
     num_tilings: int,
     scratch: tuple,
-    activate_args: tuple,
+    ifdd: IFDDTables,
 ) -> np.ndarray:
     """φ⁰(s) of the base representation, or φ̇(s) from it (`OnlineIFDD.active_features`).
 
@@ -134,7 +138,7 @@ def _encode(
         quanta, tiles = scratch
         initial = encode(kind, obs, rep, num_tilings, quanta, tiles)
     if is_ifdd:
-        return activate(initial, *activate_args)
+        return activate(initial, ifdd)
     return initial
 
 
@@ -286,8 +290,7 @@ def adaptive_kernel(
     fstate: np.ndarray,
     domain_rng: np.random.Generator,
     rep: tuple,
-    activate_args: tuple,
-    discover_args: tuple,
+    ifdd: IFDDTables,
     weights: np.ndarray,
     actor_weights: np.ndarray,
     trace_slots: np.ndarray,
@@ -314,9 +317,7 @@ def adaptive_kernel(
     scratch = (np.empty(obs.shape[0], dtype=np.int64), np.empty(ints[I_MAX_ACTIVE], np.int64))
     is_units = d_kind == BLOCKS or d_kind == PERSISTENT_SURVEILLANCE
     num_units = int(dparams[0]) if is_units else 0  # blocks or UAVs
-    feat_len, feat_parents = discover_args[3], discover_args[4]
-    pool, node_key, table = discover_args[1], discover_args[5], discover_args[12]
-    r_ints = discover_args[14]
+    feat_parents = ifdd.feat_parents
     num_actions = ints[I_NUM_ACTIONS]
     # The actor's preferences choose actions for Actor-Critic (shared features), θ otherwise.
     is_actor_critic = agent == ACTOR_CRITIC
@@ -337,7 +338,7 @@ def adaptive_kernel(
      total, discounted, weight) = load_loop(loop, loop_f)  # fmt: skip
     phi = np.empty(0, dtype=np.int64)
     if phase == IN_EPISODE:
-        phi = _encode(r_kind, is_ifdd, obs, rep, num_tilings, scratch, activate_args)
+        phi = _encode(r_kind, is_ifdd, obs, rep, num_tilings, scratch, ifdd)
     while done < num_steps:
         if phase == NEEDS_RESET:
             _reset(d_kind, dparams, dcells, dstate, fstate, obs, domain_rng)
@@ -346,14 +347,15 @@ def adaptive_kernel(
             episode += 1
             if traces != NO_TRACES:
                 clear_traces(trace_slots, trace_features, trace_actions, trace_count)
-            phi = _encode(r_kind, is_ifdd, obs, rep, num_tilings, scratch, activate_args)
+            phi = _encode(r_kind, is_ifdd, obs, rep, num_tilings, scratch, ifdd)
             q_values_into(chooser, phi, None, q)
             legal = _legal(d_kind, domain, num_units, mask, False, legal_buffer)
             action = select_action(policy, q, legal, parameter, agent_rng)
             episode_steps = episode_failures = 0
             total, discounted, weight = 0.0, 0.0, 1.0
             phase = IN_EPISODE
-        if is_ifdd and discover_room(phi, feat_len, pool, node_key, table, r_ints) < 0:
+        room = discover_room(phi, ifdd) if is_ifdd else 0  # Σ|f| for discover_fitting
+        if room < 0:
             status = GROW_REPRESENTATION
             break
         if traces != NO_TRACES and trace_count[0] + phi.shape[0] > trace_values.shape[0]:
@@ -367,7 +369,7 @@ def adaptive_kernel(
         next_action = 0
         target = reward
         if not terminated:
-            next_phi = _encode(r_kind, is_ifdd, next_obs, rep, num_tilings, scratch, activate_args)
+            next_phi = _encode(r_kind, is_ifdd, next_obs, rep, num_tilings, scratch, ifdd)
             q_values_into(chooser, next_phi, None, q)
             next_legal = _legal(d_kind, domain, num_units, mask, True, next_buffer)
             next_action = select_action(policy, q, next_legal, parameter, agent_rng)
@@ -392,8 +394,8 @@ def adaptive_kernel(
             break
         grew = False
         if is_ifdd:  # Algorithm 20/21; new features start at θ_g + θ_h (Section 4.1.1)
-            before = r_ints[I_NUM_FEATURES]
-            added = discover(phi, delta, *discover_args)
+            before = ifdd.num_features[0]
+            added = discover_fitting(phi, delta, room, ifdd)
             for f in range(before, before + added):
                 _grow_row(weights, feat_parents, f)
                 if is_actor_critic:
@@ -416,7 +418,7 @@ def adaptive_kernel(
         else:
             copy_into(obs, next_obs)
             if grew:  # φ(s) with the new features, as the Python learner re-encodes
-                next_phi = _encode(r_kind, is_ifdd, obs, rep, num_tilings, scratch, activate_args)
+                next_phi = _encode(r_kind, is_ifdd, obs, rep, num_tilings, scratch, ifdd)
             phi = next_phi
             action = next_action
     store_loop(loop, loop_f, phase, action, episode_steps, episode, learning_steps,

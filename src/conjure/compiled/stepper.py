@@ -47,7 +47,6 @@ from numba.core import types
 from conjure.compiled import _adaptive_kernel as ak
 from conjure.compiled import _kernels as k
 from conjure.compiled.combination import (
-    EMPTY_FLOAT_TABLE,
     EMPTY_FLOATS,
     EMPTY_INT_TABLE,
     EMPTY_INTS,
@@ -56,7 +55,7 @@ from conjure.compiled.combination import (
 )
 from conjure.core.errors import DivergenceError, InvalidParameterError
 from conjure.core.interfaces import Agent, Domain
-from conjure.representations._ifdd_kernels import I_NUM_FEATURES
+from conjure.representations._ifdd_kernels import empty_tables
 from conjure.representations.weights import _is_leading_view
 
 __all__ = [
@@ -70,9 +69,6 @@ __all__ = [
 
 #: Stand-ins of `OnlineIFDD`'s `activate` and `discover` argument tuples (same types) for
 #: the indicators alone, so both run in one compilation of the adaptive kernel.
-_I1, _I2, _F1, _F2 = EMPTY_INTS, EMPTY_INT_TABLE, EMPTY_FLOATS, EMPTY_FLOAT_TABLE
-_NO_ACTIVATE = (_I1, _I1, _I1, _I1, _I2, _I2, _I2, _I2, _I1, _I2, _I1)
-_NO_DISCOVER = (_I1, _I1, _I1, _I1, _I2, _I1, _I1, _I1, _I1, _I2, _F2, _I1, _I1, _I1, _I1, _F1)
 #: Steps per kernel call at most: a fraction of a second on the fast combinations, a few
 #: seconds on the slowest (online iFDD on the UAV missions, about 10⁵ steps/s).
 MAX_KERNEL_STEPS = 2**18
@@ -198,7 +194,7 @@ class CompiledStepper:
                 if status == k.GROW_TRACES:
                     agent._grow_trace_capacity()
                 elif combo.is_adaptive and status == ak.GROW_REPRESENTATION:
-                    agent.representation_._grow()
+                    agent.representation_.grow_tables()
                 elif status == k.DIVERGED:
                     diverged = delta
                     break
@@ -248,7 +244,6 @@ def _call_kernel(
         if buffers is not None:  # θ, ω, slots: the first n_t rows of the buffers it grew
             weights, actor, slots = buffers
             rep = agent.representation_
-            rep.num_features_ = int(rep._ints[I_NUM_FEATURES])
             agent.weights_ = weights[: rep.num_features_]
             if actor is not weights:
                 agent.actor_weights_ = actor[: rep.num_features_]
@@ -305,16 +300,16 @@ def _adaptive_arguments(combo: Combination, agent: Agent) -> tuple:
     base = combo.representation_arrays
     if not combo.ints[k.I_IFDD]:
         weights = (agent.weights_, _actor(combo, agent))
-        return None, (base, _NO_ACTIVATE, _NO_DISCOVER, *weights, *_traces(combo, agent))
+        return None, (base, empty_tables(), *weights, *_traces(combo, agent))
     rep = agent.representation_
-    capacity = rep._discover_args[2].shape[0]  # feat_start: the most features it holds
+    capacity = rep.feature_capacity_  # the most features its tables hold
     weights = _row_buffer(agent.weights_, capacity)
     actor = _actor(combo, agent)
     actor = weights if actor is agent.weights_ else _row_buffer(actor, capacity)
     has_traces = combo.ints[k.I_TRACES] != k.NO_TRACES
     slots = _row_buffer(agent.trace_slots_, capacity) if has_traces else None
     traces = _traces(combo, agent, slots)
-    tables = (rep._activate_args, rep._discover_args, weights, actor, *traces)
+    tables = (rep.kernel_tables(), weights, actor, *traces)
     return (weights, actor, slots), (base, *tables)
 
 

@@ -194,17 +194,18 @@ class OnlineIFDD(Representation):
         rng = make_rng(seeds["conjunctions"])
         relevance, selection, threshold, rate = self._settings()
         ints = np.zeros(_k.NUM_INTS, dtype=np.int64)
-        ints[_k.I_NUM_FEATURES] = n0
-        ints[_k.I_NUM_INITIAL] = n0
-        ints[_k.I_POOL_USED] = n0
-        ints[_k.I_RELEVANCE] = relevance
-        ints[_k.I_SELECTION] = selection
-        ints[_k.I_MAX_FEATURES] = (
+        counts = dict(zip(_k.COUNTERS, ints[:, None], strict=True))  # named one-cell views
+        counts["num_features"][0] = n0
+        counts["num_initial"][0] = n0
+        counts["pool_used"][0] = n0
+        counts["relevance"][0] = relevance
+        counts["selection"][0] = selection
+        counts["max_features"][0] = (
             np.iinfo(np.int64).max if self.max_features is None else (self.max_features)
         )
-        ints[_k.I_RANDOM_WORD] = rng.integers(0, 2**63 - 1, dtype=np.int64)
-        ints[_k.I_SPARSIFY] = int(self.sparsify)
-        floats = np.array([threshold, rate], dtype=np.float64)
+        counts["random_word"][0] = rng.integers(0, 2**63 - 1, dtype=np.int64)
+        counts["sparsify"][0] = int(self.sparsify)
+        floats = np.array([threshold, rate], dtype=np.float64)  # the order of _k.SETTINGS
         node_capacity = 1024
         arrays: dict[str, np.ndarray] = {
             "words": rng.integers(-(2**63), 2**63 - 1, size=n0, dtype=np.int64, endpoint=True),
@@ -237,38 +238,39 @@ class OnlineIFDD(Representation):
     def _install(
         self, arrays: dict[str, np.ndarray], cache: tuple[np.ndarray, ...] | None = None
     ) -> None:
-        """Bind the state arrays, the activation cache (fresh if none) and the argument tuples."""
+        """Bind the state arrays, the activation cache (fresh if none) and the kernel tables."""
         self._arrays = arrays
-        self._ints = arrays["ints"]
+        # named one-cell views of the counters (the kernels' own, `_k.COUNTERS`)
+        self._counts = dict(zip(_k.COUNTERS, arrays["ints"][:, None], strict=True))
         if cache is None:
             cache = (
                 np.zeros((_CACHE_ROWS, _k.NUM_C), dtype=np.int64),
                 np.zeros(_CACHE_CELLS, dtype=np.int64),
             )
-            self._ints[_k.I_CACHE_WRITTEN] = 0
+            self._counts["cache_written"][0] = 0
         self._centry, self._cpool = cache
-        a = arrays
-        capacity = a["feat_start"].shape[0]
+        capacity = arrays["feat_start"].shape[0]
         # the parent index, derived from feat_parents (filled lazily by the kernel)
-        links = np.zeros((capacity, _k.NUM_L), dtype=np.int64)
-        children = np.empty((4 * capacity + 8, 2), dtype=np.int64)
-        pair_table = np.full((1 << int(2 * capacity - 1).bit_length(), 3), -1, dtype=np.int64)
-        self._ints[_k.I_LINKED] = 0
-        self._ints[_k.I_CHILDREN_USED] = 0
-        self._activate_args = (
-            a["words"], a["pool"], a["feat_start"], a["feat_len"], a["feat_parents"], links,
-            children, pair_table, a["ints"], self._centry, self._cpool,
-        )  # fmt: skip
-        self._discover_args = (
-            a["words"], a["pool"], a["feat_start"], a["feat_len"], a["feat_parents"],
-            a["node_key"], a["node_start"], a["node_len"], a["node_feature"], a["node_parents"],
-            a["node_stats"], a["node_slot"], a["table"], a["heap"], a["ints"], a["floats"],
-        )  # fmt: skip
+        index = {
+            "links": np.zeros((capacity, _k.NUM_L), dtype=np.int64),
+            "children": np.empty((4 * capacity + 8, 2), dtype=np.int64),
+            "pair_table": np.full((1 << int(2 * capacity - 1).bit_length(), 3), -1, dtype=np.int64),
+        }
+        for name in ("linked", "children_used", "search_capacity"):  # for the new index
+            self._counts[name][0] = 0
+        self._tables = _k.new_tables(
+            {**arrays, **index, "centry": self._centry, "cpool": self._cpool},
+            arrays["ints"],
+            arrays["floats"],
+        )
         self._encode_base = self.base_.active_features
-        self.num_features_ = int(self._ints[_k.I_NUM_FEATURES])
 
-    def _grow(self) -> None:
-        """Double the node, feature and pool capacities and rebuild the hash table."""
+    def grow_tables(self) -> None:
+        """Double the node, feature and pool capacities and rebuild the hash table.
+
+        `discover` calls it when a discovery would not fit; the compiled loop calls it when
+        `discover_room` says so. The features, relevances and cached covers are unchanged.
+        """
         a = dict(self._arrays)
         n0 = self.num_initial_features_
         node_capacity = 2 * a["node_key"].shape[0]
@@ -281,7 +283,7 @@ class OnlineIFDD(Representation):
             grown[: old.shape[0]] = old
             a[name] = grown
         a["table"] = np.full(4 * node_capacity, -1, dtype=np.int64)
-        _k.rebuild_table(a["table"], a["node_key"], int(self._ints[_k.I_NUM_NODES]))
+        _k.rebuild_table(a["table"], a["node_key"], int(self._counts["num_nodes"][0]))
         cache = (self._centry, self._cpool)
         self._install(a, cache)  # cached covers stay valid: no feature was added
 
@@ -294,7 +296,7 @@ class OnlineIFDD(Representation):
         except AttributeError:
             check_is_set_up(self, "active_features")
             raise
-        return _k.activate(encode(state), *self._activate_args)
+        return _k.activate(encode(state), self._tables)
 
     def activate_initial(self, initial: np.ndarray) -> np.ndarray:
         """Return φ̇ for a sorted set of active initial feature ids (Alg 19 without φ⁰)."""
@@ -306,7 +308,7 @@ class OnlineIFDD(Representation):
                 f"{type(self).__name__}.activate_initial: initial feature ids must lie in "
                 f"[0, {n0}); got {initial.tolist()}."
             )
-        return _k.activate(initial, *self._activate_args)
+        return _k.activate(initial, self._tables)
 
     # ------------------------------------------------------------------ Algorithms 20 and 21
 
@@ -321,17 +323,46 @@ class OnlineIFDD(Representation):
         check_is_set_up(self, "discover")
         before = self.num_features_
         while True:
-            added = _k.discover(active, float(td_error), *self._discover_args)
+            added = _k.discover(active, float(td_error), self._tables)
             if added >= 0:
                 break
-            self._grow()
+            self.grow_tables()
         if added == 0:
             return None
-        self.num_features_ = before + added
         parents = self._arrays["feat_parents"][before : before + added].copy()
         return Expansion(first_new=before, parents=parents)
 
+    # ------------------------------------------------------------------ the compiled form
+
+    def kernel_tables(self) -> _k.IFDDTables:
+        """Return the tables the kernels read and update in place, as one named value.
+
+        `conjure.representations._ifdd_kernels.IFDDTables` (a numba structref) holds every
+        table of the module's docstring and the counters and settings by name; the compiled
+        loop passes it to the same `activate`, `discover_room` and `discover_fitting` that
+        `active_features` and `discover` call. It is replaced (not resized) when the tables
+        grow: ask again after `grow_tables`.
+        """
+        check_is_set_up(self, "kernel_tables")
+        return self._tables
+
+    @property
+    def feature_capacity_(self) -> int:
+        """The number of features the current tables hold (θ needs as many rows)."""
+        check_is_set_up(self, "feature_capacity_")
+        return int(self._arrays["feat_start"].shape[0])
+
     # ------------------------------------------------------------------ inspection
+
+    @property
+    def num_features_(self) -> int:
+        """n_t, the current number of features (the kernels' counter)."""
+        try:
+            counts = self._counts
+        except AttributeError:
+            check_is_set_up(self, "num_features_")
+            raise
+        return int(counts["num_features"][0])
 
     @property
     def num_discovered_(self) -> int:
@@ -343,7 +374,7 @@ class OnlineIFDD(Representation):
     def num_discover_calls_(self) -> int:
         """t, the number of `discover` calls so far."""
         check_is_set_up(self, "num_discover_calls_")
-        return int(self._ints[_k.I_NUM_CALLS])
+        return int(self._counts["num_calls"][0])
 
     @property
     def parents_(self) -> np.ndarray:
@@ -372,13 +403,13 @@ class OnlineIFDD(Representation):
         """Return the potential features: (initial sets, last parents (P, 2), relevances ψ)."""
         check_is_set_up(self, "potential_features")
         a = self._arrays
-        num_nodes = int(self._ints[_k.I_NUM_NODES])
+        num_nodes = int(self._counts["num_nodes"][0])
         nodes = np.flatnonzero(a["node_feature"][:num_nodes] < 0)
         sets = [
             a["pool"][a["node_start"][v] : a["node_start"][v] + a["node_len"][v]].copy()
             for v in nodes
         ]
-        kind = int(self._ints[_k.I_RELEVANCE])
+        kind = int(self._counts["relevance"][0])
         relevances = np.array(
             [_k.relevance_of(a["node_stats"][v], kind) for v in nodes], dtype=np.float64
         )
@@ -399,7 +430,8 @@ class OnlineIFDD(Representation):
         """
         check_is_set_up(self, "state_arrays")
         arrays = {name: self._arrays[name].copy() for name in _STATE_ARRAYS}
-        arrays["ints"][_k.TRANSIENT_INTS] = 0
+        for name in _k.TRANSIENT_COUNTERS:  # rebuilt on load
+            arrays["ints"][_k.COUNTERS.index(name)] = 0
         arrays.update({f"base.{k}": v for k, v in self.base_.state_arrays().items()})
         return arrays
 
