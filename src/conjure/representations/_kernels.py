@@ -17,13 +17,14 @@ import numpy as np
 from numba import njit
 
 from conjure.core.errors import InvalidParameterError
-from conjure.core.interfaces import DomainSpec
+from conjure.core.interfaces import DomainSpec, check_is_set_up
 from conjure.core.params import Constraint, Interval, Predicate
 
 __all__ = [
     "EMPTY_SLOT",
     "MAX_FEATURES",
     "dimension_table",
+    "dims_and_state",
     "hashed_tile_features",
     "independent_features",
     "per_dimension",
@@ -54,6 +55,21 @@ def positive_ints() -> Constraint:
         ),
         "a non-empty list of ints in [1, inf)",
     )
+
+
+def dims_and_state(representation: Any, state: Any) -> tuple[np.ndarray, np.ndarray]:
+    """Return (``representation._dims``, the checked ``state``): `active_features`' opening.
+
+    For the representations whose setup builds a bucket table ``_dims`` (`Tabular`,
+    `IndependentDiscretization`, `HashedTabular`, `TileCoding`). Before setup it raises
+    `NotSetUpError` naming ``active_features``; the set-up path is one attribute read.
+    """
+    try:
+        dims = representation._dims
+    except AttributeError:
+        check_is_set_up(representation, "active_features")
+        raise
+    return dims, representation.check_state(state)
 
 
 def per_dimension(owner: Any, name: str, spec: DomainSpec) -> np.ndarray:

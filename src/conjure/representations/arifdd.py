@@ -152,6 +152,7 @@ class ARiFDD(OnlineIFDD):
     # fixed settings of the OnlineIFDD machinery (not parameters of ARiFDD)
     sparsify = True
     discovery_rate = None
+    expansion = "relevance"
 
     def __init__(
         self,

@@ -11,7 +11,12 @@ from conjure.core.interfaces import DomainSpec, Representation, check_is_set_up
 from conjure.core.params import Interval
 from conjure.core.seeding import as_seed_sequence
 from conjure.representations import _hashed_tabular_kernels as _hk
-from conjure.representations._kernels import dimension_table, per_dimension, positive_ints
+from conjure.representations._kernels import (
+    dimension_table,
+    dims_and_state,
+    per_dimension,
+    positive_ints,
+)
 
 __all__ = ["HashedTabular"]
 
@@ -125,12 +130,7 @@ class HashedTabular(Representation):
 
     def active_features(self, state: np.ndarray) -> np.ndarray:
         """Return φ(s) = [index of s's cell], indexing the cell first if it is new."""
-        try:
-            dims = self._dims
-        except AttributeError:
-            check_is_set_up(self, "active_features")
-            raise
-        state = self.check_state(state)
+        dims, state = dims_and_state(self, state)
         phi = _hk.find_cell(state, dims, self._slots, self._cells, self._counts)
         if phi[0] == _hk.FULL:
             self._raise_full(state)

@@ -4,10 +4,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from conjure.core.interfaces import DomainSpec, Representation, check_is_set_up
+from conjure.core.interfaces import DomainSpec, Representation
 from conjure.core.seeding import as_seed_sequence
 from conjure.representations._kernels import (
     dimension_table,
+    dims_and_state,
     independent_features,
     per_dimension,
     positive_ints,
@@ -94,10 +95,5 @@ class IndependentDiscretization(Representation):
 
     def active_features(self, state: np.ndarray) -> np.ndarray:
         """Return φ(s): the sorted int64 indices of the d active buckets, one per dimension."""
-        try:
-            dims = self._dims
-        except AttributeError:
-            check_is_set_up(self, "active_features")
-            raise
-        state = self.check_state(state)
+        dims, state = dims_and_state(self, state)
         return independent_features(state, dims, self.offsets_)

@@ -66,8 +66,13 @@ class OnlineIFDD(Representation):
         to k discovered features, pass n₀ + k.
     discovery_rate : float or None, default None
         C in (0, inf) of Eq. 4.6: if set, the threshold is ignored and after the t-th call of
-        `discover` the most relevant potential features are added while fewer than
+        `discover` potential features are added (chosen by ``expansion``) while fewer than
         n₀ + ⌊√(C t)⌋ features exist.
+    expansion : {"relevance", "random"}, default "relevance"
+        Which potential feature the fixed rate adds: "relevance" the most relevant (Section
+        4.1.4's online iFDD at a fixed rate), "random" one drawn uniformly (the Random
+        Expansion baseline of Section 4.1.4, Fig. 4-7; `RandomExpansion` names it). "random"
+        needs ``discovery_rate``.
 
     Attributes
     ----------
@@ -108,6 +113,12 @@ class OnlineIFDD(Representation):
     - Choice (Eq. 4.6): n_t = n₀ + ⌊√(C t)⌋ with t the number of `discover` calls; the most
       relevant potential feature goes first (ties to the first seen). Relevances keep being
       tracked after ``max_features`` is reached.
+    - Choice (``expansion="random"``): the potential features are kept in a list with
+      swap-removal, and the i-th draw picks index ⌊u_i · P⌋ with
+      u_i = splitmix64(word + i · 0xD1B54A32D192ED03) / 2⁶⁴ (top 53 bits), ``word`` drawn
+      from the setup seed: counter-based randomness, so saving and restoring needs only the
+      draw count, and the draws never touch numpy's global RNG. Relevances are still
+      tracked, for inspection only.
     - Choice: keys are XORs of per-initial-feature random 64-bit words drawn from the setup
       seed; every hash hit is checked against the stored index list, so a key collision never
       merges two conjunctions.
@@ -149,6 +160,7 @@ class OnlineIFDD(Representation):
         "sparsify": InstanceOf(bool, "a bool"),
         "max_features": OPTIONAL_MAX_FEATURES,
         "discovery_rate": Interval(float, 0, None, closed="neither") | InstanceOf(type(None)),
+        "expansion": Options(("relevance", "random")),
     }
 
     is_adaptive = True
@@ -162,6 +174,7 @@ class OnlineIFDD(Representation):
         sparsify: bool = True,
         max_features: int | None = None,
         discovery_rate: float | None = None,
+        expansion: str = "relevance",
     ):
         self.base = base
         self.discovery_threshold = discovery_threshold
@@ -169,22 +182,29 @@ class OnlineIFDD(Representation):
         self.sparsify = sparsify
         self.max_features = max_features
         self.discovery_rate = discovery_rate
+        self.expansion = expansion
 
     # ------------------------------------------------------------------ settings
 
-    def _settings(self) -> tuple[int, int, float, float]:
-        """Return (relevance kind, selection rule, ξ, C) for the kernels."""
+    def _selection(self) -> tuple[int, float]:
+        """Return the kernels' selection rule and C (0 for the threshold rule)."""
         if self.discovery_rate is None:
-            selection, rate = _k.SELECT_THRESHOLD, 0.0
-        else:
-            selection, rate = _k.SELECT_RATE_RELEVANCE, float(self.discovery_rate)
-        return _RELEVANCES[self.relevance], selection, float(self.discovery_threshold), rate
+            if self.expansion == "random":
+                raise InvalidParameterError(
+                    f"{type(self).__name__}: expansion='random' adds features at the fixed "
+                    f"rate of Eq. 4.6; set discovery_rate (C > 0)."
+                )
+            return _k.SELECT_THRESHOLD, 0.0
+        if self.expansion == "random":
+            return _k.SELECT_RATE_RANDOM, float(self.discovery_rate)
+        return _k.SELECT_RATE_RELEVANCE, float(self.discovery_rate)
 
     # ------------------------------------------------------------------ lifecycle
 
     def setup(self, spec: DomainSpec, seed: int | np.random.SeedSequence) -> OnlineIFDD:
         """Validate the parameters, set up a clone of ``base`` and start from its n₀ features."""
         self.validate_params()
+        selection, rate = self._selection()
         seeds = split_seed(seed, ("base", "conjunctions"))
         base = self.base.clone().setup(spec, seeds["base"])
         check_binary_features(base, f"{type(self).__name__}.base: iFDD")
@@ -192,20 +212,19 @@ class OnlineIFDD(Representation):
         where = f"{type(base).__name__} on {spec.name!r}"
         check_max_features(type(self).__name__, self.max_features, n0, where)
         rng = make_rng(seeds["conjunctions"])
-        relevance, selection, threshold, rate = self._settings()
         ints = np.zeros(_k.NUM_INTS, dtype=np.int64)
         counts = dict(zip(_k.COUNTERS, ints[:, None], strict=True))  # named one-cell views
         counts["num_features"][0] = n0
         counts["num_initial"][0] = n0
         counts["pool_used"][0] = n0
-        counts["relevance"][0] = relevance
+        counts["relevance"][0] = _RELEVANCES[self.relevance]
         counts["selection"][0] = selection
         counts["max_features"][0] = (
             np.iinfo(np.int64).max if self.max_features is None else (self.max_features)
         )
         counts["random_word"][0] = rng.integers(0, 2**63 - 1, dtype=np.int64)
         counts["sparsify"][0] = int(self.sparsify)
-        floats = np.array([threshold, rate], dtype=np.float64)  # the order of _k.SETTINGS
+        floats = np.array([self.discovery_threshold, rate], dtype=np.float64)  # _k.SETTINGS
         node_capacity = 1024
         arrays: dict[str, np.ndarray] = {
             "words": rng.integers(-(2**63), 2**63 - 1, size=n0, dtype=np.int64, endpoint=True),

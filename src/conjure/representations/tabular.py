@@ -5,11 +5,12 @@ from __future__ import annotations
 import numpy as np
 
 from conjure.core.errors import InvalidParameterError
-from conjure.core.interfaces import DomainSpec, Representation, check_is_set_up
+from conjure.core.interfaces import DomainSpec, Representation
 from conjure.core.seeding import as_seed_sequence
 from conjure.representations._kernels import (
     MAX_FEATURES,
     dimension_table,
+    dims_and_state,
     per_dimension,
     positive_ints,
     tabular_feature,
@@ -100,10 +101,5 @@ class Tabular(Representation):
 
     def active_features(self, state: np.ndarray) -> np.ndarray:
         """Return φ(s) as the one-element sorted int64 array of the cell holding ``state``."""
-        try:
-            dims = self._dims
-        except AttributeError:
-            check_is_set_up(self, "active_features")
-            raise
-        state = self.check_state(state)
+        dims, state = dims_and_state(self, state)
         return tabular_feature(state, dims, self._strides)

@@ -14,6 +14,7 @@ from conjure.representations._kernels import (
     EMPTY_SLOT,
     MAX_FEATURES,
     dimension_table,
+    dims_and_state,
     hashed_tile_features,
     per_dimension,
     positive_ints,
@@ -223,12 +224,7 @@ class TileCoding(Representation):
 
     def active_features(self, state: np.ndarray) -> np.ndarray:
         """Return φ(s): the sorted, unique int64 indices of the active tiles."""
-        try:
-            dims = self._dims
-        except AttributeError:
-            check_is_set_up(self, "active_features")
-            raise
-        state = self.check_state(state)
+        dims, state = dims_and_state(self, state)
         if self._is_hashed:
             return hashed_tile_features(
                 state,
