@@ -1,7 +1,7 @@
 """Online iFDD's speed: per-step cost vs. the number of features, and the cost of a discovery.
 
 Usage: ``python benchmarks/ifdd_speed.py [--steps N] [--repeats R] [--growth-only |
---paths-only]``
+--paths-only | --scaling FEATURES ...]``
 
 The thesis's claim (Geramifard 2012, Section 4.1.3) is that online iFDD's per-step cost does
 not depend on the total number of features n_t. Four measurements, after a warm-up (numba
@@ -28,6 +28,12 @@ compilation excluded), each the median of ``repeats`` runs:
    steps from the same seeds; the compiled kernels' first calls in this process (compile, or
    load from numba's disk cache) are timed separately and not in steps/s. ``--paths-only``
    runs only this table.
+
+``--scaling 10000 50000 200000`` runs only Persistent Surveillance's per-step cost at 100
+discovered features against each given count (as in 1.), with where it goes: µs per step in
+``active_features`` and in ``discover`` (timed separately, not interleaved), how often the
+tables grew in that window, and the node hash table's entries, load, mean successful probe
+length and size with the node arrays and pool.
 """
 
 from __future__ import annotations

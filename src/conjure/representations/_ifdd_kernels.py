@@ -678,8 +678,9 @@ def _expand(initial, links, children, pair_table, found, sets, slots):
     found when the first of its parents to be expanded, at position x of the found list, is
     expanded with the other already found: either by walking that parent's block of children
     (keeping those whose other parent is found) or by looking up its pairs with the x
-    features found before it, whichever is shorter. The cost is at most Θ(m²) for the m
-    features found and never depends on n_t; which features are found is looked up in
+    features found before it, whichever is cheaper (a walk while the block holds at most
+    `WALK_WEIGHT` rows per lookup). The cost is at most Θ(m²) for the m features found and
+    never depends on n_t; which features are found is looked up in
     ``slots``, a small hash table local to the call, so a walk reads ``children`` in order
     and touches no per-feature memory.
 
