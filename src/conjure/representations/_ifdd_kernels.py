@@ -38,8 +38,11 @@ from __future__ import annotations
 import functools
 
 import numpy as np
+from llvmlite import ir
 from numba import njit, types
+from numba.core import cgutils
 from numba.experimental import structref
+from numba.extending import intrinsic
 
 __all__ = [
     "COUNTERS",
@@ -213,6 +216,45 @@ def empty_tables() -> IFDDTables:
         for name, kind in TABLES
     }
     return new_tables(arrays, np.zeros(NUM_INTS, np.int64), np.zeros(len(SETTINGS)))
+
+
+# ---------------------------------------------------------------------------------------------
+# a cache hint
+
+
+@intrinsic
+def _prefetch(typingctx, array, row):
+    """Ask the processor to start loading ``array[row]`` into its caches (LLVM's prefetch).
+
+    A hint only: it changes no value. The activation's search reads one row of ``links``
+    per feature it expands, at an address known well before it is needed; at 10⁵ features
+    those rows are cache misses that would otherwise be paid one after the other.
+    """
+    if not isinstance(array, types.Array) or not isinstance(row, types.Integer):
+        return None
+
+    def codegen(context, builder, signature, args):
+        array_type, row_type = signature.args
+        data = context.make_array(array_type)(context, builder, args[0])
+        index = context.cast(builder, args[1], row_type, types.intp)
+        zeros = [context.get_constant(types.intp, 0)] * (array_type.ndim - 1)
+        pointer = cgutils.get_item_pointer2(
+            context,
+            builder,
+            data.data,
+            cgutils.unpack_tuple(builder, data.shape),
+            cgutils.unpack_tuple(builder, data.strides),
+            array_type.layout,
+            [index, *zeros],
+        )
+        byte_pointer = builder.bitcast(pointer, ir.IntType(8).as_pointer())
+        i32 = ir.IntType(32)
+        kind = ir.FunctionType(ir.VoidType(), [byte_pointer.type, i32, i32, i32])
+        function = cgutils.get_or_insert_function(builder.module, kind, "llvm.prefetch.p0")
+        builder.call(function, [byte_pointer, i32(0), i32(3), i32(1)])  # read, keep, data
+        return context.get_dummy_value()
+
+    return types.void(array, row), codegen
 
 
 # ---------------------------------------------------------------------------------------------
@@ -699,6 +741,8 @@ def _expand(initial, links, children, pair_table, found, sets, slots):
     m = k
     x = 0
     while x < m:
+        if x + 1 < m:  # the next parent's block (its links row was prefetched when found)
+            _prefetch(children, links[found[x + 1], L_START])
         parent = found[x]
         count = links[parent, L_COUNT]
         block = links[parent, L_START]
@@ -728,6 +772,7 @@ def _expand(initial, links, children, pair_table, found, sets, slots):
             if m == found.shape[0]:
                 return -1
             found[m] = child
+            _prefetch(links, child)  # its row is read when it is expanded, later
             for w in range(sets.shape[1]):
                 sets[m, w] = sets[x, w] | sets[y, w]
             slots[slot] = m  # the free slot the probe stopped at
