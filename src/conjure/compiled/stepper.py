@@ -67,8 +67,6 @@ __all__ = [
     "warm_up",
 ]
 
-#: Stand-ins of `OnlineIFDD`'s `activate` and `discover` argument tuples (same types) for
-#: the indicators alone, so both run in one compilation of the adaptive kernel.
 #: Steps per kernel call at most: a fraction of a second on the fast combinations, a few
 #: seconds on the slowest (online iFDD on the UAV missions, about 10⁵ steps/s).
 MAX_KERNEL_STEPS = 2**18
@@ -300,6 +298,7 @@ def _adaptive_arguments(combo: Combination, agent: Agent) -> tuple:
     base = combo.representation_arrays
     if not combo.ints[k.I_IFDD]:
         weights = (agent.weights_, _actor(combo, agent))
+        # a stand-in of the iFDD tables (same type): both run in one compilation
         return None, (base, empty_tables(), *weights, *_traces(combo, agent))
     rep = agent.representation_
     capacity = rep.feature_capacity_  # the most features its tables hold
