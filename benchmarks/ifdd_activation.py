@@ -22,7 +22,8 @@ import statistics
 import time
 
 import numpy as np
-from ifdd_speed import loop_at  # this folder: the growth benchmark's loops
+from ifdd_speed import loop_at
+from numba import njit  # this folder: the growth benchmark's loops
 from rich.console import Console
 from rich.table import Table
 
@@ -32,10 +33,21 @@ from conjure.representations import IndependentDiscretization
 from conjure.representations import _ifdd_kernels as kernels
 
 
+@njit(cache=True)
+def parent_index(tables: kernels.IFDDTables) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The parent index of `OnlineIFDD.kernel_tables`: (links, children, pair_table)."""
+    return tables.links, tables.children, tables.pair_table
+
+
+@njit(cache=True)
+def cache_written(tables: kernels.IFDDTables) -> int:
+    """How many cells the activation cache has written (a miss writes some)."""
+    return tables.cache_written[0]
+
+
 def live(loop: LearningLoop, steps: int) -> tuple[list[np.ndarray], dict[str, list[float]]]:
     """The initial sets of ``steps`` learning steps, and their activations' µs by hit/miss."""
     rep = loop.agent.representation_
-    ints = rep._ints
     encode, activate = rep._encode_base, kernels.activate
     sets: list[np.ndarray] = []
     times: dict[str, list[float]] = {"hit": [], "miss": []}
@@ -44,12 +56,12 @@ def live(loop: LearningLoop, steps: int) -> tuple[list[np.ndarray], dict[str, li
         sets.append(encode(state).copy())
         return sets[-1]
 
-    def timed(*args):
-        written = int(ints[kernels.I_CACHE_WRITTEN])
+    def timed(initial, tables):
+        written = cache_written(tables)
         start = time.perf_counter_ns()
-        phi = activate(*args)
+        phi = activate(initial, tables)
         elapsed = (time.perf_counter_ns() - start) / 1e3
-        times["miss" if ints[kernels.I_CACHE_WRITTEN] != written else "hit"].append(elapsed)
+        times["miss" if cache_written(tables) != written else "hit"].append(elapsed)
         return phi
 
     rep._encode_base, kernels.activate = recorded, timed
@@ -68,12 +80,12 @@ def rows_walked(found: np.ndarray, links: np.ndarray) -> int:
 
 def recorded(loop: LearningLoop, sets: list[np.ndarray]) -> tuple[float, float, float]:
     """(µs per `_features_within` call, median m, median child rows walked) over ``sets``."""
-    args = loop.agent.representation_._activate_args
-    links, children, pair_table = args[5], args[6], args[7]
-    found = [kernels._features_within(s, links, children, pair_table)[0] for s in sets]
+    links, children, pair_table = parent_index(loop.agent.representation_.kernel_tables())
+    hint = np.zeros(1, dtype=np.int64)  # the search's capacity, learnt by the first pass
+    found = [kernels._features_within(s, links, children, pair_table, hint)[0] for s in sets]
     start = time.process_time()
     for s in sets:
-        kernels._features_within(s, links, children, pair_table)
+        kernels._features_within(s, links, children, pair_table, hint)
     seconds = time.process_time() - start
     walked = [rows_walked(f, links) for f in found]
     sizes = [f.shape[0] for f in found]
@@ -83,11 +95,14 @@ def recorded(loop: LearningLoop, sets: list[np.ndarray]) -> tuple[float, float, 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--states", type=int, default=3_000)
+    parser.add_argument(
+        "--features", type=int, nargs="+", default=[100, 10_000], help="discovered features"
+    )
     args = parser.parse_args()
     table = Table(title="OnlineIFDD activation on PersistentSurveillance (k_0 = 12)")
     for name in ("discovered", "hits", "µs/hit", "misses", "µs/miss", "m", "rows", "µs/search"):
         table.add_column(name, justify="right")
-    for num in (100, 10_000):
+    for num in args.features:
         loop, _ = loop_at(PersistentSurveillance, IndependentDiscretization(), num)
         sets, times = live(loop, args.states)
         search, size, walked = recorded(loop, sets)

@@ -1,7 +1,7 @@
 """Online iFDD's speed: per-step cost vs. the number of features, and the cost of a discovery.
 
 Usage: ``python benchmarks/ifdd_speed.py [--steps N] [--repeats R] [--growth-only |
---paths-only]``
+--paths-only | --scaling FEATURES ...]``
 
 The thesis's claim (Geramifard 2012, Section 4.1.3) is that online iFDD's per-step cost does
 not depend on the total number of features n_t. Four measurements, after a warm-up (numba
@@ -28,6 +28,12 @@ compilation excluded), each the median of ``repeats`` runs:
    steps from the same seeds; the compiled kernels' first calls in this process (compile, or
    load from numba's disk cache) are timed separately and not in steps/s. ``--paths-only``
    runs only this table.
+
+``--scaling 10000 50000 200000`` runs only Persistent Surveillance's per-step cost at 100
+discovered features against each given count (as in 1.), with where it goes: µs per step in
+``active_features`` and in ``discover`` (timed separately, not interleaved), how often the
+tables grew in that window, and the node hash table's entries, load, mean successful probe
+length and size with the node arrays and pool.
 """
 
 from __future__ import annotations
@@ -93,6 +99,92 @@ def per_step_interleaved(loops: list[LearningLoop], steps: int, repeats: int) ->
             loop.advance(chunk)
             samples.append((time.process_time() - start) / chunk * 1e6)
     return [statistics.median(samples) for samples in times]
+
+
+def table_stats(rep: OnlineIFDD) -> dict[str, float]:
+    """The node hash table's size, load and mean successful probe length (public arrays)."""
+    arrays = rep.state_arrays()
+    table, node_key = arrays["table"], arrays["node_key"]
+    used = table[table >= 0]
+    mask = table.shape[0] - 1
+    home = node_key[used] & mask
+    position = np.flatnonzero(table >= 0)
+    probes = ((position - home) & mask) + 1
+    node_bytes = sum(arrays[name].nbytes for name in arrays if name.startswith("node_"))
+    return {
+        "nodes": float(used.shape[0]),
+        "load": used.shape[0] / table.shape[0],
+        "probes": float(probes.mean()),
+        "megabytes": (table.nbytes + node_bytes + arrays["pool"].nbytes) / 2**20,
+    }
+
+
+def split_costs(loop: LearningLoop, steps: int) -> tuple[float, float, int]:
+    """µs per step in ``active_features`` and in ``discover``, and the tables' growths.
+
+    Both methods are wrapped on the instance for ``steps`` steps (the wrapper costs the same
+    at every size); a growth is seen as a change of the node arrays' capacity.
+    """
+    rep = loop.agent.representation_
+    spent = {"active_features": 0, "discover": 0}
+
+    def timed(name):
+        method = getattr(rep, name)
+
+        def call(*args, **kwargs):
+            start = time.perf_counter_ns()
+            result = method(*args, **kwargs)
+            spent[name] += time.perf_counter_ns() - start
+            return result
+
+        return call
+
+    capacity = rep.state_arrays()["node_key"].shape[0]
+    growths = 0
+    rep.active_features, rep.discover = timed("active_features"), timed("discover")
+    try:
+        for _ in range(steps // 1_000):
+            loop.advance(1_000)
+            now = rep.state_arrays()["node_key"].shape[0] if steps <= 20_000 else capacity
+            growths += now != capacity
+            capacity = now
+    finally:
+        del rep.active_features, rep.discover
+    return spent["active_features"] / steps / 1e3, spent["discover"] / steps / 1e3, growths
+
+
+def print_scaling(console: Console, sizes: list[int], steps: int, repeats: int) -> None:
+    """Persistent Surveillance's per-step cost at 100 and at each of ``sizes`` features."""
+    base = IndependentDiscretization()
+    table = Table(title="PersistentSurveillance, SARSA + OnlineIFDD (xi = 0): cost vs features")
+    for column in (
+        "discovered (cap)",
+        "total features",
+        "us/step",
+        "ratio to 100",
+        "activate us",
+        "discover us",
+        "growths",
+        "nodes",
+        "load",
+        "probes",
+        "MB",
+    ):
+        table.add_column(column, justify="right")  # fmt: skip
+    for size in sizes:
+        loops = [loop_at(PersistentSurveillance, base, num) for num in (100, size)]
+        costs = per_step_interleaved([loop for loop, _ in loops], steps, repeats)
+        for (loop, total), num, cost in zip(loops, (100, size), costs, strict=True):
+            activate_us, discover_us, growths = split_costs(loop, steps)
+            stats = table_stats(loop.agent.representation_)
+            table.add_row(
+                f"{num:,}", f"{total:,}", f"{cost:.2f}", f"{cost / costs[0]:.2f}",
+                f"{activate_us:.2f}", f"{discover_us:.2f}", f"{growths}",
+                f"{stats['nodes']:,.0f}", f"{stats['load']:.3f}", f"{stats['probes']:.2f}",
+                f"{stats['megabytes']:.1f}",
+            )  # fmt: skip
+            console.print(f"{num:,} discovered: {cost:.2f} us/step", highlight=False)
+    console.print(table)
 
 
 def domain_rate(make_domain, representation, steps: int, repeats: int) -> tuple[float, int]:
@@ -273,8 +365,19 @@ def main() -> None:
     parser.add_argument(
         "--paths-only", action="store_true", help="only the Python vs compiled paths"
     )
+    parser.add_argument(
+        "--scaling",
+        type=int,
+        nargs="+",
+        metavar="FEATURES",
+        help="only Persistent Surveillance's cost at 100 vs each FEATURES discovered, with "
+        "where it goes (activate, discover, growths, hash table load and probes)",
+    )
     args = parser.parse_args()
     console = Console()
+    if args.scaling:
+        print_scaling(console, args.scaling, args.steps, args.repeats)
+        return
     if args.paths_only:
         print_both_paths(console, 5 * args.steps, args.repeats)
         return

@@ -3,7 +3,7 @@
 import numpy as np
 
 from conjure.representations import BinaryIndicators, OnlineIFDD, Tabular
-from conjure.representations.compiled_ifdd import discover_from, fixed, has_room, sparsify
+from conjure.representations.compiled_ifdd import discover_from, fixed, room_for, sparsify
 from conjure.representations.compiled_representation import encode_into
 from conjure.testing.checks import box_spec
 
@@ -26,12 +26,12 @@ def test_sparsify_and_discover_match_the_python_methods():
             sparsify(form, encode_into(form.base, state, empty, empty)), phi
         )
         expansion = python.discover(phi, delta)
-        assert has_room(form, phi)
-        first, added, parents = discover_from(form, phi, delta)
+        room = room_for(form, phi)
+        assert room >= 0
+        first, added, parents = discover_from(form, phi, delta, room)
         assert added == (0 if expansion is None else expansion.num_new)
         if added:
             np.testing.assert_array_equal(parents[first : first + added], expansion.parents)
-        compiled.load_compiled_form(form)
         assert compiled.num_features_ == python.num_features_
     assert python.num_features_ > 5  # something was discovered
 

@@ -283,10 +283,17 @@ def test_parent_index_blocks_hold_every_child_after_compaction():
     children = np.empty((4 * capacity + 8, 2), dtype=np.int64)
     assert doubled > children.shape[0]  # so compaction must have run
     pair_table = np.full((1024, 3), -1, dtype=np.int64)
+    arrays = {
+        name: np.zeros((1,) * kind.ndim, dtype=np.float64 if name == "node_stats" else np.int64)
+        for name, kind in kernels.TABLES
+    }  # the tables link_children does not read: stand-ins
+    arrays.update(feat_len=feat_len, feat_parents=feat_parents, links=links, children=children,
+                  pair_table=pair_table)  # fmt: skip
     ints = np.zeros(kernels.NUM_INTS, dtype=np.int64)
+    tables = kernels.new_tables(arrays, ints, np.zeros(len(kernels.SETTINGS)))
     for n in range(n0 + 10, capacity + 1, 10):  # linked in batches, as discoveries arrive
-        ints[kernels.I_NUM_FEATURES] = n
-        kernels.link_children(feat_len, feat_parents, links, children, pair_table, ints)
+        ints[kernels.COUNTERS.index("num_features")] = n
+        kernels.link_children(tables)
     for p in range(capacity):
         start, count = links[p, kernels.L_START], links[p, kernels.L_COUNT]
         rows = sorted(map(tuple, children[start : start + count].tolist()))

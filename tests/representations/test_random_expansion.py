@@ -5,6 +5,7 @@ import pytest
 from ifdd_oracle import FlagFeatures, OracleIFDD, flags, flags_spec
 
 from conjure.agents import SARSA
+from conjure.core.errors import InvalidParameterError
 from conjure.domains import InvertedPendulum
 from conjure.experiments.loop import LearningLoop
 from conjure.representations import IndependentDiscretization
@@ -26,11 +27,16 @@ def sequence(seed, num_flags, length):
         yield active, float(rng.normal())
 
 
+def random_word(rep):
+    """The seed word of the representation's random draws, as saved."""
+    return int(rep.state_arrays()["ints"][kernels.COUNTERS.index("random_word")])
+
+
 @pytest.mark.parametrize("sparsify", [True, False])
 def test_matches_the_oracle_and_follows_eq_4_6(sparsify):
     rep = flag_random(12, discovery_rate=3.0, sparsify=sparsify)
     oracle = OracleIFDD(12, rate=3.0, selection="random", sparsify=sparsify,
-                        random_word=int(rep._ints[kernels.I_RANDOM_WORD]))  # fmt: skip
+                        random_word=random_word(rep))  # fmt: skip
     for t, (active, delta) in enumerate(sequence(2, 12, 1500), start=1):
         phi = rep.active_features(flags(12, active))
         assert phi.tolist() == oracle.activate(active)
@@ -108,3 +114,22 @@ def test_with_sarsa_save_restore_continues(tmp_path):
 
 def test_common_checks():
     check_component(RandomExpansion(base=IndependentDiscretization(num_buckets=5)))
+
+
+def test_is_online_ifdd_with_random_expansion():
+    # the variant is OnlineIFDD's `expansion` parameter: same seed, same features
+    named = flag_random(10, discovery_rate=2.0)
+    plain = OnlineIFDD(base=FlagFeatures(num_flags=10), discovery_rate=2.0, expansion="random")
+    plain.setup(flags_spec(10), seed=0)
+    for active, delta in sequence(4, 10, 400):
+        for rep in (named, plain):
+            rep.discover(rep.active_features(flags(10, active)), delta)
+    assert named.num_discovered_ > 10
+    assert named.parents_.tolist() == plain.parents_.tolist()
+    assert named.get_params()["expansion"] == "random"
+
+
+def test_random_expansion_needs_a_rate():
+    rep = OnlineIFDD(base=FlagFeatures(num_flags=4), expansion="random")
+    with pytest.raises(InvalidParameterError, match="discovery_rate"):
+        rep.setup(flags_spec(4), seed=0)

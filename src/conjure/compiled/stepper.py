@@ -49,7 +49,6 @@ from conjure.compiled import learning_loop as lp
 from conjure.compiled.combination import Selection, agent_form, representation_form, select
 from conjure.core.errors import DivergenceError, InvalidParameterError
 from conjure.core.interfaces import Agent, Domain
-from conjure.representations.compiled_ifdd import num_features
 
 __all__ = [
     "AdvanceStats",
@@ -176,7 +175,7 @@ class CompiledStepper:
                 if status == lp.GROW_TRACES:
                     agent.grow_trace_capacity()
                 elif status == lp.GROW_REPRESENTATION:
-                    agent.representation_.grow()
+                    agent.representation_.grow_tables()
                 elif status == lp.DIVERGED:
                     diverged = delta
                     break
@@ -199,7 +198,7 @@ class CompiledStepper:
         agent, representation = self.agent, self.agent.representation_
         rep = representation_form(agent)
         assert rep is not None  # `select` checked it
-        rows = representation.capacity_ if rep.is_ifdd else 0
+        rows = representation.feature_capacity_ if rep.is_ifdd else 0
         arrays = agent.compiled_arrays(rows)
         args = (domain_form, self.domain.np_random, rep, agent_form(agent), arrays, agent.rng_,
                 self.selection.max_episode_steps, self._obs, self._state)  # fmt: skip
@@ -210,10 +209,9 @@ class CompiledStepper:
             _COMPILE_SECONDS[name] = time.perf_counter() - started
         try:
             return lp.learning_loop(num_steps, *args)
-        finally:
-            if rep.is_ifdd:
-                representation.load_compiled_form(rep)
-            agent.load_compiled_arrays(arrays, int(num_features(rep)) if rep.is_ifdd else None)
+        finally:  # θ's rows in use: n_t after the discoveries (a fixed φ keeps its n)
+            rows_in_use = representation.num_features_ if rep.is_ifdd else None
+            agent.load_compiled_arrays(arrays, rows_in_use)
 
 
 def _kernel_name(selection: Selection) -> str:

@@ -18,45 +18,79 @@ Arrays (all preallocated by the Python class, which grows them when a kernel ret
   position in ``heap`` (fixed-rate modes) or -1.
 - ``heap``: a max-heap of potential nodes by (relevance, then lower node id) for fixed-rate
   iFDD, or an unordered list (swap-remove) for random expansion.
-- ``ints``/``floats``: counters and settings, indexed by the ``I_*``/``F_*`` constants.
+- the counters and settings: one-element views of two vectors (`COUNTERS` of int64,
+  `SETTINGS` of float64, saved as ``ints`` and ``floats``), so a kernel writes
+  ``t.num_features[0]`` through to the saved vector.
 - ``links (capacity, NUM_L)``, ``children (4 capacity + 8, 2)`` and ``pair_table``: the
   parent index of Algorithm 19's activation (derived from ``feat_parents``, never saved;
   `link_children` adds new features). Feature p's children lie in one contiguous block of
   ``children`` rows (child, its other parent), so walking them reads memory in order.
 - The activation cache (``centry`` rows, ``cpool`` ring) maps an initial active set to its
   sparsified φ̇ together with the feature count it was computed at.
+
+Every kernel takes these as one named value, `IFDDTables` (a numba structref: `new_tables`
+builds it, `OnlineIFDD.kernel_tables` returns the representation's own), never as positional
+arguments.
 """
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
-from numba import njit
+from llvmlite import ir
+from numba import njit, types
+from numba.core import cgutils
+from numba.experimental import structref
+from numba.extending import intrinsic
 
-__all__ = ["activate", "discover", "discover_room", "rebuild_table", "relevance_of"]
+__all__ = [
+    "COUNTERS",
+    "SETTINGS",
+    "TABLES",
+    "IFDDTables",
+    "activate",
+    "discover",
+    "discover_fitting",
+    "discover_room",
+    "empty_tables",
+    "new_tables",
+    "rebuild_table",
+    "relevance_of",
+]
 
-# ints layout
-I_NUM_FEATURES = 0
-I_NUM_INITIAL = 1
-I_NUM_NODES = 2
-I_POOL_USED = 3
-I_NUM_CALLS = 4
-I_NUM_DRAWS = 5
-I_HEAP_SIZE = 6
-I_RELEVANCE = 7
-I_SELECTION = 8
-I_MAX_FEATURES = 9
-I_RANDOM_WORD = 10
-I_SPARSIFY = 11
-I_CACHE_WRITTEN = 12
-I_LINKED = 13
-I_CHILDREN_USED = 14
-#: the counters of the activation cache and the child lists: rebuilt on load, never saved
-TRANSIENT_INTS = slice(I_CACHE_WRITTEN, I_CHILDREN_USED + 1)
+#: The int64 counters and integer settings, in the order of the saved ``ints`` vector.
+#: ``cache_written``, ``linked``, ``children_used`` and ``search_capacity`` belong to the
+#: activation cache, the parent index and its search: rebuilt on load, never saved.
+COUNTERS = ("num_features", "num_initial", "num_nodes", "pool_used", "num_calls", "num_draws",
+            "heap_size", "relevance", "selection", "max_features", "random_word", "sparsify",
+            "cache_written", "linked", "children_used", "search_capacity")  # fmt: skip
+TRANSIENT_COUNTERS = ("cache_written", "linked", "children_used", "search_capacity")
 NUM_INTS = 16
-# floats layout
-F_THRESHOLD = 0
-F_RATE = 1
-NUM_FLOATS = 2
+#: The float64 settings, in the order of the saved ``floats`` vector: ξ and C (Eq. 4.6).
+SETTINGS = ("threshold", "rate")
+#: The tables: (name, numba type), in the order `new_tables` takes them.
+TABLES = (
+    ("words", types.int64[::1]),
+    ("pool", types.int64[::1]),
+    ("feat_start", types.int64[::1]),
+    ("feat_len", types.int64[::1]),
+    ("feat_parents", types.int64[:, ::1]),
+    ("node_key", types.int64[::1]),
+    ("node_start", types.int64[::1]),
+    ("node_len", types.int64[::1]),
+    ("node_feature", types.int64[::1]),
+    ("node_parents", types.int64[:, ::1]),
+    ("node_stats", types.float64[:, ::1]),
+    ("node_slot", types.int64[::1]),
+    ("heap", types.int64[::1]),
+    ("table", types.int64[::1]),
+    ("links", types.int64[:, ::1]),
+    ("children", types.int64[:, ::1]),
+    ("pair_table", types.int64[:, ::1]),
+    ("centry", types.int64[:, ::1]),
+    ("cpool", types.int64[::1]),
+)
 
 RELEVANCE_IFDD = 0
 RELEVANCE_IFDD_PLUS = 1
@@ -81,6 +115,146 @@ NUM_C = 5
 #: a stale cache entry is patched (instead of recomputed) if at most this many features were
 #: discovered since it was computed and none of them lies within its initial set
 PATCH_LIMIT = 32
+#: the activation's search walks a parent's block of children when it holds at most this
+#: many rows per pair it would look up instead: a walked row is read in order from a short
+#: block, a looked-up pair is a random read of ``pair_table`` (a cache miss once the table
+#: outgrows the processor's caches, as at 10⁵ features)
+WALK_WEIGHT = 8
+
+
+# ---------------------------------------------------------------------------------------------
+# the named state
+
+
+@structref.register
+class IFDDTablesType(types.StructRef):
+    """The numba type of `IFDDTables`."""
+
+    def preprocess_fields(self, fields):
+        return tuple((name, types.unliteral(kind)) for name, kind in fields)
+
+
+class IFDDTables(structref.StructRefProxy):
+    """Online iFDD's kernel state by name (a numba structref).
+
+    The tables of the module docstring, the counters (`COUNTERS`) and the settings
+    (`SETTINGS`), each counter or setting a one-element array. Built by `new_tables`; read
+    and written only by the kernels.
+    """
+
+
+structref.define_boxing(IFDDTablesType, IFDDTables)
+_TABLES_TYPE = IFDDTablesType(
+    [*TABLES]
+    + [(name, types.int64[::1]) for name in COUNTERS]
+    + [(name, types.float64[::1]) for name in SETTINGS]
+)
+
+
+@njit(cache=True)
+def _new_tables(words, pool, feat_start, feat_len, feat_parents, node_key, node_start,
+                node_len, node_feature, node_parents, node_stats, node_slot, heap, table, links,
+                children, pair_table, centry, cpool, ints, floats):  # fmt: skip
+    t = structref.new(_TABLES_TYPE)
+    t.words = words
+    t.pool = pool
+    t.feat_start = feat_start
+    t.feat_len = feat_len
+    t.feat_parents = feat_parents
+    t.node_key = node_key
+    t.node_start = node_start
+    t.node_len = node_len
+    t.node_feature = node_feature
+    t.node_parents = node_parents
+    t.node_stats = node_stats
+    t.node_slot = node_slot
+    t.heap = heap
+    t.table = table
+    t.links = links
+    t.children = children
+    t.pair_table = pair_table
+    t.centry = centry
+    t.cpool = cpool
+    t.num_features = ints[0:1]  # the order of COUNTERS
+    t.num_initial = ints[1:2]
+    t.num_nodes = ints[2:3]
+    t.pool_used = ints[3:4]
+    t.num_calls = ints[4:5]
+    t.num_draws = ints[5:6]
+    t.heap_size = ints[6:7]
+    t.relevance = ints[7:8]
+    t.selection = ints[8:9]
+    t.max_features = ints[9:10]
+    t.random_word = ints[10:11]
+    t.sparsify = ints[11:12]
+    t.cache_written = ints[12:13]
+    t.linked = ints[13:14]
+    t.children_used = ints[14:15]
+    t.search_capacity = ints[15:16]
+    t.threshold = floats[0:1]  # the order of SETTINGS
+    t.rate = floats[1:2]
+    return t
+
+
+def new_tables(tables: dict[str, np.ndarray], ints: np.ndarray, floats: np.ndarray) -> IFDDTables:
+    """Return `IFDDTables` over ``tables`` and the counter and setting vectors.
+
+    ``tables`` holds every name of `TABLES` (C-contiguous), ``ints`` the `COUNTERS` (int64)
+    and ``floats`` the `SETTINGS` (float64), in order. The arrays are shared, not copied:
+    the kernels update them in place.
+    """
+    return _new_tables(*(tables[name] for name, _ in TABLES), ints, floats)
+
+
+@functools.cache
+def empty_tables() -> IFDDTables:
+    """A stand-in `IFDDTables` of empty arrays, for a compiled loop without iFDD."""
+    arrays = {
+        name: np.zeros(
+            (0,) * kind.ndim, dtype=np.float64 if kind.dtype == types.float64 else np.int64
+        )
+        for name, kind in TABLES
+    }
+    return new_tables(arrays, np.zeros(NUM_INTS, np.int64), np.zeros(len(SETTINGS)))
+
+
+# ---------------------------------------------------------------------------------------------
+# a cache hint
+
+
+@intrinsic
+def _prefetch(typingctx, array, row):
+    """Ask the processor to start loading ``array[row]`` into its caches (LLVM's prefetch).
+
+    A hint only: it changes no value. The activation's search reads one row of ``links``
+    per feature it expands, at an address known well before it is needed; at 10⁵ features
+    those rows are cache misses that would otherwise be paid one after the other.
+    """
+    if not isinstance(array, types.Array) or not isinstance(row, types.Integer):
+        return None
+
+    def codegen(context, builder, signature, args):
+        array_type, row_type = signature.args
+        data = context.make_array(array_type)(context, builder, args[0])
+        index = context.cast(builder, args[1], row_type, types.intp)
+        zeros = [context.get_constant(types.intp, 0)] * (array_type.ndim - 1)
+        pointer = cgutils.get_item_pointer2(
+            context,
+            builder,
+            data.data,
+            cgutils.unpack_tuple(builder, data.shape),
+            cgutils.unpack_tuple(builder, data.strides),
+            array_type.layout,
+            [index, *zeros],
+        )
+        byte_pointer = builder.bitcast(pointer, ir.IntType(8).as_pointer())
+        i32 = ir.IntType(32)
+        kind = ir.FunctionType(ir.VoidType(), [byte_pointer.type, i32, i32, i32])
+        function = cgutils.get_or_insert_function(builder.module, kind, "llvm.prefetch.p0")
+        builder.call(function, [byte_pointer, i32(0), i32(3), i32(1)])  # read, keep, data
+        return context.get_dummy_value()
+
+    return types.void(array, row), codegen
 
 
 # ---------------------------------------------------------------------------------------------
@@ -210,10 +384,10 @@ def _sift_down(heap, node_slot, pos, size, node_stats, kind):
 
 
 @njit(cache=True)
-def _pool_remove(heap, node_slot, node, ints, node_stats, kind, is_heap):
+def _pool_remove(heap, node_slot, node, heap_size, node_stats, kind, is_heap):
     pos = node_slot[node]
-    last = ints[I_HEAP_SIZE] - 1
-    ints[I_HEAP_SIZE] = last
+    last = heap_size[0] - 1
+    heap_size[0] = last
     node_slot[node] = -1
     if pos == last:
         return
@@ -246,53 +420,77 @@ def random_index(random_word, draw, size):
 
 
 @njit(cache=True)
-def _make_feature(node, ints, node_feature, node_start, node_len, node_parents, feat_start,
-                  feat_len, feat_parents):  # fmt: skip
-    f = ints[I_NUM_FEATURES]
+def _make_feature(node, num_features, node_feature, node_start, node_len, node_parents,
+                  feat_start, feat_len, feat_parents):  # fmt: skip
+    f = num_features[0]
     node_feature[node] = f
     feat_start[f] = node_start[node]
     feat_len[f] = node_len[node]
     feat_parents[f, 0] = node_parents[node, 0]
     feat_parents[f, 1] = node_parents[node, 1]
-    ints[I_NUM_FEATURES] = f + 1
+    num_features[0] = f + 1
 
 
 @njit(cache=True)
-def discover_room(active, feat_len, pool, node_key, table, ints):
-    """Σ of the active features' set sizes if `discover` fits in the arrays, else -1."""
+def discover_room(active, t):
+    """Σ of the active features' set sizes if `discover` fits in the tables ``t``, else -1.
+
+    Pass the result to `discover_fitting` (the compiled loop checks the room before its step
+    and grows the tables if needed; `discover` does both at once).
+    """
+    feat_len = t.feat_len
     k = active.shape[0]
     num_pairs = k * (k - 1) // 2
     total = 0
     for i in range(k):
         total += feat_len[active[i]]
-    num_nodes = ints[I_NUM_NODES]
+    num_nodes = t.num_nodes[0]
     if (
-        ints[I_POOL_USED] + (k - 1) * total > pool.shape[0]
-        or num_nodes + num_pairs > node_key.shape[0]
-        or 2 * (num_nodes + num_pairs) > table.shape[0]
+        t.pool_used[0] + (k - 1) * total > t.pool.shape[0]
+        or num_nodes + num_pairs > t.node_key.shape[0]
+        or 2 * (num_nodes + num_pairs) > t.table.shape[0]
     ):
         return -1
     return total
 
 
 @njit(cache=True)
-def discover(active, td_error, words, pool, feat_start, feat_len, feat_parents, node_key,
-             node_start, node_len, node_feature, node_parents, node_stats, node_slot, table,
-             heap, ints, floats):  # fmt: skip
+def discover(active, td_error, t):
     """Update the relevances of every co-active pair and discover features; Alg 20/21.
 
     Returns the number of features added (their ids follow the previous count, their parents
-    are in ``feat_parents``), or -1 before changing anything if an array is too small.
+    are in ``t.feat_parents``), or -1 before changing anything if a table is too small.
     """
-    total = discover_room(active, feat_len, pool, node_key, table, ints)
+    total = discover_room(active, t)
     if total < 0:
         return -1
+    return discover_fitting(active, td_error, total, t)
+
+
+@njit(cache=True)
+def discover_fitting(active, td_error, total, t):
+    """`discover` once `discover_room` returned ``total`` >= 0 for the same ``active``."""
+    words, pool, feat_start, feat_len = t.words, t.pool, t.feat_start, t.feat_len
+    feat_parents, node_key, node_start, node_len = (
+        t.feat_parents,
+        t.node_key,
+        t.node_start,
+        t.node_len,
+    )
+    node_feature, node_parents, node_stats = t.node_feature, t.node_parents, t.node_stats
+    node_slot, table, heap = t.node_slot, t.table, t.heap
+    num_features, num_nodes, pool_used, heap_size = (
+        t.num_features,
+        t.num_nodes,
+        t.pool_used,
+        t.heap_size,
+    )
     k = active.shape[0]
-    before = ints[I_NUM_FEATURES]
-    kind = ints[I_RELEVANCE]
-    selection = ints[I_SELECTION]
-    max_features = ints[I_MAX_FEATURES]
-    threshold = floats[F_THRESHOLD]
+    before = num_features[0]
+    kind = t.relevance[0]
+    selection = t.selection[0]
+    max_features = t.max_features[0]
+    threshold = t.threshold[0]
     magnitude = abs(td_error)
     buf = np.empty(max(total, 1), dtype=np.int64)
     for i in range(k):  # line 1: every pair (g, h) of active features
@@ -307,12 +505,12 @@ def discover(active, td_error, words, pool, feat_start, feat_len, feat_parents, 
             if node >= 0 and node_feature[node] >= 0:
                 continue  # line 3: f is already a feature
             if node < 0:  # a new potential feature
-                node = ints[I_NUM_NODES]
-                ints[I_NUM_NODES] = node + 1
-                start = ints[I_POOL_USED]
-                for t in range(m):  # a loop: see `conjure.compiled.learning_loop._copy`
-                    pool[start + t] = buf[t]
-                ints[I_POOL_USED] = start + m
+                node = num_nodes[0]
+                num_nodes[0] = node + 1
+                start = pool_used[0]
+                for c in range(m):  # a loop: see `conjure.compiled.learning_loop._copy`
+                    pool[start + c] = buf[c]
+                pool_used[0] = start + m
                 node_key[node] = key
                 node_start[node] = start
                 node_len[node] = m
@@ -323,10 +521,10 @@ def discover(active, td_error, words, pool, feat_start, feat_len, feat_parents, 
                 node_slot[node] = -1
                 table[slot] = node
                 if selection != SELECT_THRESHOLD:
-                    size = ints[I_HEAP_SIZE]
+                    size = heap_size[0]
                     heap[size] = node
                     node_slot[node] = size
-                    ints[I_HEAP_SIZE] = size + 1
+                    heap_size[0] = size + 1
             node_stats[node, 0] += magnitude  # Alg 20 line 4: ψ_f += |δ|
             node_stats[node, 1] += td_error  # Alg 21 line 4: Δ_f += δ
             node_stats[node, 2] += 1.0  # Alg 21 line 5: ν_f += 1
@@ -336,31 +534,33 @@ def discover(active, td_error, words, pool, feat_start, feat_len, feat_parents, 
                 # Alg 20 line 5 / Alg 21 line 7: discover when ψ_f > ξ
                 if (
                     relevance_of(node_stats[node], kind) > threshold
-                    and ints[I_NUM_FEATURES] < max_features
+                    and num_features[0] < max_features
                 ):
-                    _make_feature(node, ints, node_feature, node_start, node_len, node_parents,
-                                  feat_start, feat_len, feat_parents)  # fmt: skip
+                    _make_feature(node, num_features, node_feature, node_start, node_len,
+                                  node_parents, feat_start, feat_len, feat_parents)  # fmt: skip
             elif selection == SELECT_RATE_RELEVANCE:
                 pos = node_slot[node]
                 _sift_up(heap, node_slot, pos, node_stats, kind)
-                _sift_down(heap, node_slot, node_slot[node], ints[I_HEAP_SIZE], node_stats, kind)
-    ints[I_NUM_CALLS] += 1
+                _sift_down(heap, node_slot, node_slot[node], heap_size[0], node_stats, kind)
+    num_calls = t.num_calls
+    num_calls[0] += 1
     if selection != SELECT_THRESHOLD:
         # Eq. 4.6: keep n_t = n_0 + floor(sqrt(C t)) features
-        target = ints[I_NUM_INITIAL] + int(np.floor(np.sqrt(floats[F_RATE] * ints[I_NUM_CALLS])))
+        target = t.num_initial[0] + int(np.floor(np.sqrt(t.rate[0] * num_calls[0])))
         target = min(target, max_features)
         is_heap = selection == SELECT_RATE_RELEVANCE
-        while ints[I_NUM_FEATURES] < target and ints[I_HEAP_SIZE] > 0:
+        num_draws = t.num_draws
+        while num_features[0] < target and heap_size[0] > 0:
             if is_heap:
                 node = heap[0]
             else:
-                pick = random_index(ints[I_RANDOM_WORD], ints[I_NUM_DRAWS], ints[I_HEAP_SIZE])
-                ints[I_NUM_DRAWS] += 1
+                pick = random_index(t.random_word[0], num_draws[0], heap_size[0])
+                num_draws[0] += 1
                 node = heap[pick]
-            _pool_remove(heap, node_slot, node, ints, node_stats, kind, is_heap)
-            _make_feature(node, ints, node_feature, node_start, node_len, node_parents,
+            _pool_remove(heap, node_slot, node, heap_size, node_stats, kind, is_heap)
+            _make_feature(node, num_features, node_feature, node_start, node_len, node_parents,
                           feat_start, feat_len, feat_parents)  # fmt: skip
-    return ints[I_NUM_FEATURES] - before
+    return num_features[0] - before
 
 
 # ---------------------------------------------------------------------------------------------
@@ -392,37 +592,42 @@ def _pair_slot(a, b, mask):
 
 
 @njit(cache=True)
-def link_children(feat_len, feat_parents, links, children, pair_table, ints):
+def link_children(t):
     """Index the features discovered since the last call by their parents.
 
     Feature f = g ∪ h is a row (f, h) in g's block of ``children`` and (f, g) in h's.
     ``pair_table`` (open addressing) finds the feature whose parents are a given pair.
     Features of one initial feature (ARiFDD's split tiles) have no parents to index.
     """
-    n = ints[I_NUM_FEATURES]
+    feat_len, feat_parents, links, children = t.feat_len, t.feat_parents, t.links, t.children
+    pair_table, used = t.pair_table, t.children_used
+    n = t.num_features[0]
     mask = pair_table.shape[0] - 1
-    for f in range(ints[I_LINKED], n):
+    for f in range(t.linked[0], n):
         if feat_len[f] < 2:
             continue
         a = min(feat_parents[f, 0], feat_parents[f, 1])
         b = max(feat_parents[f, 0], feat_parents[f, 1])
-        _add_child(a, f, b, links, children, ints)
-        _add_child(b, f, a, links, children, ints)
+        _add_child(a, f, b, links, children, used)
+        _add_child(b, f, a, links, children, used)
         slot = _pair_slot(a, b, mask)
         while pair_table[slot, 0] != -1:
             slot = (slot + 1) & mask
         pair_table[slot, 0] = f
         pair_table[slot, 1] = a
         pair_table[slot, 2] = b
-    ints[I_LINKED] = n
+    t.linked[0] = n
 
 
 @njit(cache=True, inline="always")
-def _add_child(parent, child, other, links, children, ints):
-    """Append the row (child, other) to parent's block, moving a full block to the end."""
+def _add_child(parent, child, other, links, children, used):
+    """Append the row (child, other) to parent's block, moving a full block to the end.
+
+    ``used`` is the one-element count of ``children`` rows in use (``children_used``).
+    """
     count = links[parent, L_COUNT]
     if count == links[parent, L_CAPACITY]:
-        _move_block(parent, max(4, 2 * count), links, children, ints)
+        _move_block(parent, max(4, 2 * count), links, children, used)
     row = links[parent, L_START] + count
     children[row, 0] = child
     children[row, 1] = other
@@ -430,43 +635,43 @@ def _add_child(parent, child, other, links, children, ints):
 
 
 @njit(cache=True)
-def _move_block(parent, capacity, links, children, ints):
+def _move_block(parent, capacity, links, children, used):
     """Give parent's block ``capacity`` rows at the end of ``children`` (compacting if full).
 
     The old rows become garbage until `_compact`. ``children`` holds 4 C + 8 rows for C
     features: the live rows are two per feature (at most 2 C) and a block at most doubles
     (at most 2 C more), so after compaction the block always fits.
     """
-    if ints[I_CHILDREN_USED] + capacity > children.shape[0]:
-        _compact(links, children, ints)
-    start = ints[I_CHILDREN_USED]
+    if used[0] + capacity > children.shape[0]:
+        _compact(links, children, used)
+    start = used[0]
     old = links[parent, L_START]
     for t in range(links[parent, L_COUNT]):
         children[start + t, 0] = children[old + t, 0]
         children[start + t, 1] = children[old + t, 1]
     links[parent, L_START] = start
     links[parent, L_CAPACITY] = capacity
-    ints[I_CHILDREN_USED] = start + capacity
+    used[0] = start + capacity
 
 
 @njit(cache=True)
-def _compact(links, children, ints):
+def _compact(links, children, used):
     """Pack every block to its live rows, in feature order, dropping the garbage."""
-    live = np.empty((ints[I_CHILDREN_USED], 2), dtype=np.int64)
-    used = 0
+    live = np.empty((used[0], 2), dtype=np.int64)
+    rows = 0
     for p in range(links.shape[0]):
         old = links[p, L_START]
         count = links[p, L_COUNT]
         for t in range(count):
-            live[used + t, 0] = children[old + t, 0]
-            live[used + t, 1] = children[old + t, 1]
-        links[p, L_START] = used
+            live[rows + t, 0] = children[old + t, 0]
+            live[rows + t, 1] = children[old + t, 1]
+        links[p, L_START] = rows
         links[p, L_CAPACITY] = count
-        used += count
-    for r in range(used):
+        rows += count
+    for r in range(rows):
         children[r, 0] = live[r, 0]
         children[r, 1] = live[r, 1]
-    ints[I_CHILDREN_USED] = used
+    used[0] = rows
 
 
 @njit(cache=True, inline="always")
@@ -484,16 +689,18 @@ def _pair_child(a, b, pair_table):
 
 
 @njit(cache=True)
-def _features_within(initial, links, children, pair_table):
+def _features_within(initial, links, children, pair_table, search_capacity):
     """Every feature whose initial set lies within ``initial``, found from the parent index.
 
     Returns the found features (the initial ones first) and their initial sets as bit sets
     over the positions in ``initial`` (row i is found[i]'s; ``words`` uint64 words a row).
-    The found list starts with room for 16 k features and doubles (starting again) if full.
+    The found list starts with room for 16 k features, or the ``search_capacity[0]`` an
+    earlier search needed, and doubles (starting again, and kept in ``search_capacity``) if
+    full: as features accumulate within the active sets, the searches stop restarting.
     """
     k = initial.shape[0]
     words = (k + 63) // 64
-    capacity = max(16 * k, 64)
+    capacity = max(16 * k, 64, search_capacity[0])
     while True:
         found = np.empty(capacity, dtype=np.int64)
         sets = np.zeros((capacity, words), dtype=np.uint64)
@@ -502,6 +709,7 @@ def _features_within(initial, links, children, pair_table):
         if m >= 0:
             return found[:m], sets[:m]
         capacity *= 2
+        search_capacity[0] = capacity
 
 
 @njit(cache=True)
@@ -512,8 +720,9 @@ def _expand(initial, links, children, pair_table, found, sets, slots):
     found when the first of its parents to be expanded, at position x of the found list, is
     expanded with the other already found: either by walking that parent's block of children
     (keeping those whose other parent is found) or by looking up its pairs with the x
-    features found before it, whichever is shorter. The cost is at most Θ(m²) for the m
-    features found and never depends on n_t; which features are found is looked up in
+    features found before it, whichever is cheaper (a walk while the block holds at most
+    `WALK_WEIGHT` rows per lookup). The cost is at most Θ(m²) for the m features found and
+    never depends on n_t; which features are found is looked up in
     ``slots``, a small hash table local to the call, so a walk reads ``children`` in order
     and touches no per-feature memory.
 
@@ -532,10 +741,12 @@ def _expand(initial, links, children, pair_table, found, sets, slots):
     m = k
     x = 0
     while x < m:
+        if x + 1 < m:  # the next parent's block (its links row was prefetched when found)
+            _prefetch(children, links[found[x + 1], L_START])
         parent = found[x]
         count = links[parent, L_COUNT]
         block = links[parent, L_START]
-        walk = count <= x  # else look up the pairs with found[:x]
+        walk = count <= WALK_WEIGHT * x  # else look up the pairs with found[:x]
         for i in range(count if walk else x):
             if walk:  # y: the position of the other parent, if found
                 child, other = children[block + i, 0], children[block + i, 1]
@@ -561,6 +772,7 @@ def _expand(initial, links, children, pair_table, found, sets, slots):
             if m == found.shape[0]:
                 return -1
             found[m] = child
+            _prefetch(links, child)  # its row is read when it is expanded, later
             for w in range(sets.shape[1]):
                 sets[m, w] = sets[x, w] | sets[y, w]
             slots[slot] = m  # the free slot the probe stopped at
@@ -586,16 +798,24 @@ def _slot(feature, mask):
 
 
 @njit(cache=True)
-def _cover(k, found, sets, feat_len):
+def _cover(k, found, sets):
     """Greedy covering (Alg 19 lines 3-8): largest first, ties to the latest discovered.
 
     ``found[:k]`` are the initial features, the rest the discovered ones within them; a
-    feature is taken if none of its initial features is covered yet.
+    feature is taken if none of its initial features is covered yet. A feature's size is
+    the number of bits of its row of ``sets`` (its initial set), so the cover reads no
+    per-feature table.
     """
     m = found.shape[0]
     key = np.empty(m - k, dtype=np.int64)
     for r in range(k, m):  # largest first, then the latest discovered (ids are unique)
-        key[r - k] = -((feat_len[found[r]] << 40) + found[r])
+        size = 0
+        for w in range(sets.shape[1]):
+            bits = sets[r, w]
+            while bits:
+                bits &= bits - np.uint64(1)
+                size += 1
+        key[r - k] = -((size << 40) + found[r])
     order = np.argsort(key)
     words = sets.shape[1]
     covered = np.zeros(words, dtype=np.uint64)
@@ -621,16 +841,16 @@ def _cover(k, found, sets, feat_len):
 
 
 @njit(cache=True)
-def _compute(initial, feat_len, feat_parents, links, children, pair_table, ints):
-    link_children(feat_len, feat_parents, links, children, pair_table, ints)
-    found, sets = _features_within(initial, links, children, pair_table)
-    if ints[I_SPARSIFY] == 0:
+def _compute(initial, t):
+    link_children(t)
+    found, sets = _features_within(initial, t.links, t.children, t.pair_table, t.search_capacity)
+    if t.sparsify[0] == 0:
         return np.sort(found)
-    return _cover(initial.shape[0], found, sets, feat_len)
+    return _cover(initial.shape[0], found, sets)
 
 
 @njit(cache=True)
-def _cached(initial, key, n, pool, feat_start, feat_len, centry, cpool, ints):
+def _cached(initial, key, n, pool, feat_start, feat_len, centry, cpool, written):
     """The cached φ̇ of ``initial`` (patched forward to n features), or an empty array."""
     k = initial.shape[0]
     row = key & (centry.shape[0] - 1)
@@ -638,7 +858,7 @@ def _cached(initial, key, n, pool, feat_start, feat_len, centry, cpool, ints):
     if (
         centry[row, C_KEY] != key
         or centry[row, C_A_LEN] != k
-        or start < ints[I_CACHE_WRITTEN] - cpool.shape[0]
+        or start < written[0] - cpool.shape[0]
     ):
         return np.empty(0, dtype=np.int64)
     size = cpool.shape[0]
@@ -660,7 +880,7 @@ def _cached(initial, key, n, pool, feat_start, feat_len, centry, cpool, ints):
 
 
 @njit(cache=True)
-def _remember(initial, key, n, phi, centry, cpool, ints):
+def _remember(initial, key, n, phi, centry, cpool, written):
     """Write (φ⁰, φ̇) at the head of the ring ``cpool`` into row ``key mod rows``.
 
     Only the row's previous entry and the oldest data the ring overwrites are forgotten.
@@ -670,12 +890,12 @@ def _remember(initial, key, n, phi, centry, cpool, ints):
     size = cpool.shape[0]
     if need > size:
         return
-    start = ints[I_CACHE_WRITTEN]
+    start = written[0]
     for t in range(k):
         cpool[(start + t) % size] = initial[t]
     for t in range(phi.shape[0]):
         cpool[(start + k + t) % size] = phi[t]
-    ints[I_CACHE_WRITTEN] = start + need
+    written[0] = start + need
     row = key & (centry.shape[0] - 1)
     centry[row, C_KEY] = key
     centry[row, C_START] = start
@@ -685,22 +905,23 @@ def _remember(initial, key, n, phi, centry, cpool, ints):
 
 
 @njit(cache=True)
-def activate(initial, words, pool, feat_start, feat_len, feat_parents, links, children,
-             pair_table, ints, centry, cpool):  # fmt: skip
+def activate(initial, t):
     """φ̇(s) from the sorted initial active features φ⁰(s) (Algorithm 19), cached per set.
 
     The cache is direct-mapped (row = key of φ⁰ modulo the rows) over a ring of cells: a
     miss overwrites one row, and an entry expires when the ring has wrapped past its cells.
     """
-    n = ints[I_NUM_FEATURES]
-    if n == ints[I_NUM_INITIAL]:
+    n = t.num_features[0]
+    if n == t.num_initial[0]:
         return initial.copy()  # nothing discovered: φ̇ = φ⁰
+    words = t.words
     key = 0
     for i in range(initial.shape[0]):
         key ^= words[initial[i]]
-    phi = _cached(initial, key, n, pool, feat_start, feat_len, centry, cpool, ints)
+    phi = _cached(initial, key, n, t.pool, t.feat_start, t.feat_len, t.centry, t.cpool,
+                  t.cache_written)  # fmt: skip
     if phi.shape[0]:
         return phi
-    phi = _compute(initial, feat_len, feat_parents, links, children, pair_table, ints)
-    _remember(initial, key, n, phi, centry, cpool, ints)
+    phi = _compute(initial, t)
+    _remember(initial, key, n, phi, t.centry, t.cpool, t.cache_written)
     return phi

@@ -17,12 +17,13 @@ import numpy as np
 from numba import njit
 
 from conjure.core.errors import InvalidParameterError
-from conjure.core.interfaces import DomainSpec
+from conjure.core.interfaces import DomainSpec, check_is_set_up
 from conjure.core.params import Constraint, Interval, Predicate
 
 __all__ = [
     "EMPTY_SLOT",
     "MAX_FEATURES",
+    "BucketTable",
     "dimension_table",
     "hashed_tile_features",
     "independent_features",
@@ -54,6 +55,25 @@ def positive_ints() -> Constraint:
         ),
         "a non-empty list of ints in [1, inf)",
     )
+
+
+class BucketTable:
+    """Mixin of the representations whose setup builds a bucket table ``_dims``.
+
+    `Tabular`, `IndependentDiscretization`, `HashedTabular` and `TileCoding` open
+    ``active_features`` with `_dims_and_state`.
+    """
+
+    _dims: np.ndarray
+
+    def _dims_and_state(self, state: Any) -> tuple[np.ndarray, np.ndarray]:
+        """(the bucket table, the checked ``state``); `NotSetUpError` before setup."""
+        try:
+            dims = self._dims
+        except AttributeError:
+            check_is_set_up(self, "active_features")
+            raise
+        return dims, self.check_state(state)  # type: ignore[attr-defined]
 
 
 def per_dimension(owner: Any, name: str, spec: DomainSpec) -> np.ndarray:

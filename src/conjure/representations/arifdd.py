@@ -152,6 +152,7 @@ class ARiFDD(OnlineIFDD):
     # fixed settings of the OnlineIFDD machinery (not parameters of ARiFDD)
     sparsify = True
     discovery_rate = None
+    expansion = "relevance"
 
     def __init__(
         self,
@@ -186,7 +187,7 @@ class ARiFDD(OnlineIFDD):
         per_dimension(self, "initial_tiles_per_dim", spec)  # a clear error naming ARiFDD
         super().setup(spec, seed)
         self._split_threshold = float(self.split_threshold)
-        self._max_features = int(self._ints[_k.I_MAX_FEATURES])
+        self._max_features = int(self._counts["max_features"][0])
         return self
 
     def _install(
@@ -212,9 +213,9 @@ class ARiFDD(OnlineIFDD):
         """Grow the tables until ``num_new`` more features (and their pool entries) fit."""
         while (
             self.num_features_ + num_new > self._arrays["feat_start"].shape[0]
-            or self._ints[_k.I_POOL_USED] + num_new > self._arrays["pool"].shape[0]
+            or self._counts["pool_used"][0] + num_new > self._arrays["pool"].shape[0]
         ):
-            self.grow()
+            self.grow_tables()
 
     # ------------------------------------------------------------------ Algorithm 22
 
@@ -238,7 +239,7 @@ class ARiFDD(OnlineIFDD):
             return super().discover(active, td_error)
         state = self.check_state(state)
         tiles = self.base_
-        self._ints[_k.I_NUM_CALLS] += 1
+        self._counts["num_calls"][0] += 1
         dim, slot, point = _ak.record_errors(  # lines 2-13
             state,
             abs(float(td_error)),
@@ -262,18 +263,17 @@ class ARiFDD(OnlineIFDD):
         self._reserve(2)
         first = self.num_features_
         tile = self.base_.split(dim, slot, point, first)
-        a, ints = self._arrays, self._ints
-        seed_word = int(ints[_k.I_RANDOM_WORD])
+        a, counts = self._arrays, self._counts
+        seed_word = int(counts["random_word"][0])
         for feature in (first, first + 1):  # line 15: {f₁}, {f₂} join χ as initial sets
-            used = int(ints[_k.I_POOL_USED])
+            used = int(counts["pool_used"][0])
             a["pool"][used] = feature
-            ints[_k.I_POOL_USED] = used + 1
+            counts["pool_used"][0] = used + 1
             a["feat_start"][feature] = used
             a["feat_len"][feature] = 1
             a["feat_parents"][feature] = (tile, -1)
             a["words"][feature] = _word(seed_word, feature)
-        ints[_k.I_NUM_FEATURES] = first + 2
-        self.num_features_ = first + 2
+        counts["num_features"][0] = first + 2
         # lines 16-18: no conjunction on the retired tile is ever activated again
         return Expansion(
             first_new=first, parents=np.array([[tile, -1], [tile, -1]], dtype=np.int64)
@@ -317,15 +317,16 @@ class ARiFDD(OnlineIFDD):
                 f"saved from another representation?"
             )
         loaded = {name: np.array(arrays[name]) for name in _STATE_ARRAYS}
-        num_features = int(loaded["ints"][_k.I_NUM_FEATURES])
+        saved = dict(zip(_k.COUNTERS, loaded["ints"].tolist(), strict=True))
+        num_features = saved["num_features"]
         if (
-            int(loaded["ints"][_k.I_NUM_INITIAL]) != self.num_initial_features_
+            saved["num_initial"] != self.num_initial_features_
             or loaded["words"].shape[0] < num_features
             or loaded["feat_start"].shape[0] < num_features
         ):
             raise InvalidParameterError(
                 f"{type(self).__name__}.load_state_arrays: saved with "
-                f"{int(loaded['ints'][_k.I_NUM_INITIAL])} initial tiles and {num_features} "
+                f"{saved['num_initial']} initial tiles and {num_features} "
                 f"features, but set up with {self.num_initial_features_} initial tiles; was it "
                 f"saved with another spec or initial_tiles_per_dim?"
             )

@@ -15,18 +15,16 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from conjure.representations._ifdd_kernels import I_NUM_FEATURES, activate, discover, discover_room
+from conjure.representations._ifdd_kernels import (
+    IFDDTables,
+    activate,
+    discover_fitting,
+    discover_room,
+    empty_tables,
+)
 from conjure.representations.compiled_representation import RepresentationKernel
 
-__all__ = ["IFDDKernel", "discover_from", "fixed", "has_room", "num_features", "sparsify"]
-
-_I1 = np.zeros(0, dtype=np.int64)
-_I2 = np.zeros((0, 0), dtype=np.int64)
-_F1 = np.zeros(0)
-_F2 = np.zeros((0, 0))
-#: Stand-ins of `activate`'s and `discover`'s tables (same types) for a base alone.
-_NO_ACTIVATION = (_I1, _I1, _I1, _I1, _I2, _I2, _I2, _I2, _I1, _I2, _I1)
-_NO_DISCOVERY = (_I1, _I1, _I1, _I1, _I2, _I1, _I1, _I1, _I1, _I2, _F2, _I1, _I1, _I1, _I1, _F1)
+__all__ = ["IFDDKernel", "discover_from", "fixed", "room_for", "sparsify"]
 
 
 class IFDDKernel(NamedTuple):
@@ -37,21 +35,20 @@ class IFDDKernel(NamedTuple):
     base : RepresentationKernel
         φ⁰, the initial features.
     is_ifdd : bool
-        Whether iFDD sits on ``base`` (else the tables are empty stand-ins).
-    activation, discovery : tuple of ndarray
-        `activate`'s and `discover`'s tables after their first arguments (`OnlineIFDD`'s
-        own arrays, updated in place).
+        Whether iFDD sits on ``base`` (else ``tables`` is the empty stand-in).
+    tables : IFDDTables
+        `OnlineIFDD.kernel_tables`: its own tables, updated in place (one reference, a
+        numba structref).
     """
 
     base: RepresentationKernel
     is_ifdd: bool
-    activation: tuple
-    discovery: tuple
+    tables: IFDDTables
 
 
 def fixed(base: RepresentationKernel) -> IFDDKernel:
     """A fixed representation's kernel in the loop's growing-representation slot."""
-    return IFDDKernel(base, False, _NO_ACTIVATION, _NO_DISCOVERY)
+    return IFDDKernel(base, False, empty_tables())
 
 
 @njit(cache=True, inline="always")
@@ -60,26 +57,24 @@ def sparsify(rep: IFDDKernel, initial: np.ndarray) -> np.ndarray:
 
     The loop encodes φ⁰ with the base's `encode_into` and calls this when ``rep.is_ifdd``.
     """
-    return activate(initial, *rep.activation)
+    return activate(initial, rep.tables)
 
 
 @njit(cache=True, inline="always")
-def has_room(rep: IFDDKernel, phi: np.ndarray) -> bool:
-    """Whether a discovery from φ(s) fits in the tables (else the representation grows)."""
-    d = rep.discovery
-    return discover_room(phi, d[3], d[1], d[5], d[12], d[14]) >= 0
+def room_for(rep: IFDDKernel, phi: np.ndarray) -> int:
+    """`discover_room` of φ(s): what a discovery from it needs, or −1 when it does not fit."""
+    return discover_room(phi, rep.tables)
 
 
 @njit(cache=True, inline="always")
-def discover_from(rep: IFDDKernel, phi: np.ndarray, delta: float) -> tuple[int, int, np.ndarray]:
-    """Algorithm 20/21 on φ(s) with δ: (first new feature id, number added, parents table)."""
-    d = rep.discovery
-    before = d[14][I_NUM_FEATURES]
-    added = discover(phi, delta, *d)
-    return before, added, d[4]
+def discover_from(
+    rep: IFDDKernel, phi: np.ndarray, delta: float, room: int
+) -> tuple[int, int, np.ndarray]:
+    """Algorithm 20/21 on φ(s) with δ: (first new feature id, number added, parents table).
 
-
-@njit(cache=True, inline="always")
-def num_features(rep: IFDDKernel) -> int:
-    """n_t, the features the tables hold now."""
-    return rep.discovery[14][I_NUM_FEATURES]
+    ``room``: `room_for`'s answer for this φ(s), so that the room is counted once.
+    """
+    tables = rep.tables
+    before = tables.num_features[0]
+    added = discover_fitting(phi, delta, room, tables)
+    return before, added, tables.feat_parents

@@ -11,7 +11,12 @@ from conjure.core.interfaces import DomainSpec, Representation, check_is_set_up
 from conjure.core.params import Interval
 from conjure.core.seeding import as_seed_sequence
 from conjure.representations import _hashed_tabular_kernels as _hk
-from conjure.representations._kernels import dimension_table, per_dimension, positive_ints
+from conjure.representations._kernels import (
+    BucketTable,
+    dimension_table,
+    per_dimension,
+    positive_ints,
+)
 
 __all__ = ["HashedTabular"]
 
@@ -19,7 +24,7 @@ __all__ = ["HashedTabular"]
 MAX_INDEX_BYTES = 8 * 2**30
 
 
-class HashedTabular(Representation):
+class HashedTabular(BucketTable, Representation):
     """Tabular φ(s) over the states actually seen: a cell gets its feature when first visited.
 
     Geramifard (2012), Section 4.1.4: the tabular baseline of Fig. 4-5 "potentially demands"
@@ -125,12 +130,7 @@ class HashedTabular(Representation):
 
     def active_features(self, state: np.ndarray) -> np.ndarray:
         """Return φ(s) = [index of s's cell], indexing the cell first if it is new."""
-        try:
-            dims = self._dims
-        except AttributeError:
-            check_is_set_up(self, "active_features")
-            raise
-        state = self.check_state(state)
+        dims, state = self._dims_and_state(state)
         phi = _hk.find_cell(state, dims, self._slots, self._cells, self._counts)
         if phi[0] == _hk.FULL:
             self._raise_full(state)

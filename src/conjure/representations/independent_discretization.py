@@ -7,6 +7,7 @@ import numpy as np
 from conjure.core.interfaces import DomainSpec, Representation, check_is_set_up
 from conjure.core.seeding import as_seed_sequence
 from conjure.representations._kernels import (
+    BucketTable,
     dimension_table,
     independent_features,
     per_dimension,
@@ -21,7 +22,7 @@ from conjure.representations.compiled_representation import (
 __all__ = ["IndependentDiscretization"]
 
 
-class IndependentDiscretization(Representation):
+class IndependentDiscretization(BucketTable, Representation):
     """φ(s) with one active feature per dimension: the bucket of s_d within dimension d.
 
     Geramifard (2012), Section 4.1.4: "The initial features consisted of discretizing each
@@ -107,10 +108,5 @@ class IndependentDiscretization(Representation):
 
     def active_features(self, state: np.ndarray) -> np.ndarray:
         """Return φ(s): the sorted int64 indices of the d active buckets, one per dimension."""
-        try:
-            dims = self._dims
-        except AttributeError:
-            check_is_set_up(self, "active_features")
-            raise
-        state = self.check_state(state)
+        dims, state = self._dims_and_state(state)
         return independent_features(state, dims, self.offsets_)

@@ -68,8 +68,13 @@ class OnlineIFDD(Representation):
         to k discovered features, pass n₀ + k.
     discovery_rate : float or None, default None
         C in (0, inf) of Eq. 4.6: if set, the threshold is ignored and after the t-th call of
-        `discover` the most relevant potential features are added while fewer than
+        `discover` potential features are added (chosen by ``expansion``) while fewer than
         n₀ + ⌊√(C t)⌋ features exist.
+    expansion : {"relevance", "random"}, default "relevance"
+        Which potential feature the fixed rate adds: "relevance" the most relevant (Section
+        4.1.4's online iFDD at a fixed rate), "random" one drawn uniformly (the Random
+        Expansion baseline of Section 4.1.4, Fig. 4-7; `RandomExpansion` names it). "random"
+        needs ``discovery_rate``.
 
     Attributes
     ----------
@@ -110,6 +115,12 @@ class OnlineIFDD(Representation):
     - Choice (Eq. 4.6): n_t = n₀ + ⌊√(C t)⌋ with t the number of `discover` calls; the most
       relevant potential feature goes first (ties to the first seen). Relevances keep being
       tracked after ``max_features`` is reached.
+    - Choice (``expansion="random"``): the potential features are kept in a list with
+      swap-removal, and the i-th draw picks index ⌊u_i · P⌋ with
+      u_i = splitmix64(word + i · 0xD1B54A32D192ED03) / 2⁶⁴ (top 53 bits), ``word`` drawn
+      from the setup seed: counter-based randomness, so saving and restoring needs only the
+      draw count, and the draws never touch numpy's global RNG. Relevances are still
+      tracked, for inspection only.
     - Choice: keys are XORs of per-initial-feature random 64-bit words drawn from the setup
       seed; every hash hit is checked against the stored index list, so a key collision never
       merges two conjunctions.
@@ -121,11 +132,13 @@ class OnlineIFDD(Representation):
     `active_features`: a miss finds the m features within the active initial set from a
     parent index (each feature is found from its later-found parent, by walking that parent's
     children or by looking up its pairs with the features found before it, whichever is
-    shorter: at most Θ(m²), m ≤ 2^k₀ as in Algorithm 19's Θ(k₀ 2^k₀)), then covers greedily
-    with bit sets, Θ(m log m). Covers are cached per initial set in a direct-mapped table over
-    a ring of cells (a miss overwrites one row; the oldest cells expire first, never the whole
-    cache); a hit is re-checked against the features discovered since, Θ(k₀) each. Neither
-    depends on n_t.
+    cheaper: at most Θ(m²), m ≤ 2^k₀ as in Algorithm 19's Θ(k₀ 2^k₀)), then covers greedily
+    with bit sets, Θ(m log m). The m found per miss grows with n_t toward that bound (on
+    Persistent Surveillance, a median of 42 at 100 discovered features and 205 at 200,000).
+    Covers are cached per initial set in a direct-mapped table over a ring of cells (a miss
+    overwrites one row; the oldest cells expire first, never the whole cache); a hit is
+    re-checked against the features discovered since, Θ(k₀) each. Neither bound depends on
+    n_t.
 
     Examples
     --------
@@ -151,6 +164,7 @@ class OnlineIFDD(Representation):
         "sparsify": InstanceOf(bool, "a bool"),
         "max_features": OPTIONAL_MAX_FEATURES,
         "discovery_rate": Interval(float, 0, None, closed="neither") | InstanceOf(type(None)),
+        "expansion": Options(("relevance", "random")),
     }
 
     is_adaptive = True
@@ -164,6 +178,7 @@ class OnlineIFDD(Representation):
         sparsify: bool = True,
         max_features: int | None = None,
         discovery_rate: float | None = None,
+        expansion: str = "relevance",
     ):
         self.base = base
         self.discovery_threshold = discovery_threshold
@@ -171,22 +186,29 @@ class OnlineIFDD(Representation):
         self.sparsify = sparsify
         self.max_features = max_features
         self.discovery_rate = discovery_rate
+        self.expansion = expansion
 
     # ------------------------------------------------------------------ settings
 
-    def _settings(self) -> tuple[int, int, float, float]:
-        """Return (relevance kind, selection rule, ξ, C) for the kernels."""
+    def _selection(self) -> tuple[int, float]:
+        """Return the kernels' selection rule and C (0 for the threshold rule)."""
         if self.discovery_rate is None:
-            selection, rate = _k.SELECT_THRESHOLD, 0.0
-        else:
-            selection, rate = _k.SELECT_RATE_RELEVANCE, float(self.discovery_rate)
-        return _RELEVANCES[self.relevance], selection, float(self.discovery_threshold), rate
+            if self.expansion == "random":
+                raise InvalidParameterError(
+                    f"{type(self).__name__}: expansion='random' adds features at the fixed "
+                    f"rate of Eq. 4.6; set discovery_rate (C > 0)."
+                )
+            return _k.SELECT_THRESHOLD, 0.0
+        if self.expansion == "random":
+            return _k.SELECT_RATE_RANDOM, float(self.discovery_rate)
+        return _k.SELECT_RATE_RELEVANCE, float(self.discovery_rate)
 
     # ------------------------------------------------------------------ lifecycle
 
     def setup(self, spec: DomainSpec, seed: int | np.random.SeedSequence) -> OnlineIFDD:
         """Validate the parameters, set up a clone of ``base`` and start from its n₀ features."""
         self.validate_params()
+        selection, rate = self._selection()
         seeds = split_seed(seed, ("base", "conjunctions"))
         base = self.base.clone().setup(spec, seeds["base"])
         check_binary_features(base, f"{type(self).__name__}.base: iFDD")
@@ -194,19 +216,19 @@ class OnlineIFDD(Representation):
         where = f"{type(base).__name__} on {spec.name!r}"
         check_max_features(type(self).__name__, self.max_features, n0, where)
         rng = make_rng(seeds["conjunctions"])
-        relevance, selection, threshold, rate = self._settings()
         ints = np.zeros(_k.NUM_INTS, dtype=np.int64)
-        ints[_k.I_NUM_FEATURES] = n0
-        ints[_k.I_NUM_INITIAL] = n0
-        ints[_k.I_POOL_USED] = n0
-        ints[_k.I_RELEVANCE] = relevance
-        ints[_k.I_SELECTION] = selection
-        ints[_k.I_MAX_FEATURES] = (
+        counts = dict(zip(_k.COUNTERS, ints[:, None], strict=True))  # named one-cell views
+        counts["num_features"][0] = n0
+        counts["num_initial"][0] = n0
+        counts["pool_used"][0] = n0
+        counts["relevance"][0] = _RELEVANCES[self.relevance]
+        counts["selection"][0] = selection
+        counts["max_features"][0] = (
             np.iinfo(np.int64).max if self.max_features is None else (self.max_features)
         )
-        ints[_k.I_RANDOM_WORD] = rng.integers(0, 2**63 - 1, dtype=np.int64)
-        ints[_k.I_SPARSIFY] = int(self.sparsify)
-        floats = np.array([threshold, rate], dtype=np.float64)
+        counts["random_word"][0] = rng.integers(0, 2**63 - 1, dtype=np.int64)
+        counts["sparsify"][0] = int(self.sparsify)
+        floats = np.array([self.discovery_threshold, rate], dtype=np.float64)  # _k.SETTINGS
         node_capacity = 1024
         arrays: dict[str, np.ndarray] = {
             "words": rng.integers(-(2**63), 2**63 - 1, size=n0, dtype=np.int64, endpoint=True),
@@ -239,40 +261,37 @@ class OnlineIFDD(Representation):
     def _install(
         self, arrays: dict[str, np.ndarray], cache: tuple[np.ndarray, ...] | None = None
     ) -> None:
-        """Bind the state arrays, the activation cache (fresh if none) and the argument tuples."""
+        """Bind the state arrays, the activation cache (fresh if none) and the kernel tables."""
         self._arrays = arrays
-        self._ints = arrays["ints"]
+        # named one-cell views of the counters (the kernels' own, `_k.COUNTERS`)
+        self._counts = dict(zip(_k.COUNTERS, arrays["ints"][:, None], strict=True))
         if cache is None:
             cache = (
                 np.zeros((_CACHE_ROWS, _k.NUM_C), dtype=np.int64),
                 np.zeros(_CACHE_CELLS, dtype=np.int64),
             )
-            self._ints[_k.I_CACHE_WRITTEN] = 0
+            self._counts["cache_written"][0] = 0
         self._centry, self._cpool = cache
-        a = arrays
-        capacity = a["feat_start"].shape[0]
+        capacity = arrays["feat_start"].shape[0]
         # the parent index, derived from feat_parents (filled lazily by the kernel)
-        links = np.zeros((capacity, _k.NUM_L), dtype=np.int64)
-        children = np.empty((4 * capacity + 8, 2), dtype=np.int64)
-        pair_table = np.full((1 << int(2 * capacity - 1).bit_length(), 3), -1, dtype=np.int64)
-        self._ints[_k.I_LINKED] = 0
-        self._ints[_k.I_CHILDREN_USED] = 0
-        self._activate_args = (
-            a["words"], a["pool"], a["feat_start"], a["feat_len"], a["feat_parents"], links,
-            children, pair_table, a["ints"], self._centry, self._cpool,
-        )  # fmt: skip
-        self._discover_args = (
-            a["words"], a["pool"], a["feat_start"], a["feat_len"], a["feat_parents"],
-            a["node_key"], a["node_start"], a["node_len"], a["node_feature"], a["node_parents"],
-            a["node_stats"], a["node_slot"], a["table"], a["heap"], a["ints"], a["floats"],
-        )  # fmt: skip
+        index = {
+            "links": np.zeros((capacity, _k.NUM_L), dtype=np.int64),
+            "children": np.empty((4 * capacity + 8, 2), dtype=np.int64),
+            "pair_table": np.full((1 << int(2 * capacity - 1).bit_length(), 3), -1, dtype=np.int64),
+        }
+        for name in ("linked", "children_used", "search_capacity"):  # for the new index
+            self._counts[name][0] = 0
+        self._tables = _k.new_tables(
+            {**arrays, **index, "centry": self._centry, "cpool": self._cpool},
+            arrays["ints"],
+            arrays["floats"],
+        )
         self._encode_base = self.base_.active_features
-        self.num_features_ = int(self._ints[_k.I_NUM_FEATURES])
 
     compiled_methods = ("active_features", "encode", "discover", "activate_initial")
 
     def compiled_form(self) -> IFDDKernel | None:
-        """The base's kernel with iFDD's own tables (updated in place), or None.
+        """The base's kernel with iFDD's own tables (`kernel_tables`, updated in place).
 
         None when the base has no compiled kernel or real-valued φ (iFDD needs binary φ⁰).
         """
@@ -280,23 +299,13 @@ class OnlineIFDD(Representation):
         base = compiled_form(self.base_)
         if base is None or base.rbf is not None:
             return None
-        return IFDDKernel(base, True, self._activate_args, self._discover_args)
+        return IFDDKernel(base, True, self.kernel_tables())
 
-    def load_compiled_form(self, form: IFDDKernel) -> None:
-        """Count the features the compiled loop discovered in the tables (updated in place)."""
-        self.num_features_ = int(self._ints[_k.I_NUM_FEATURES])
-
-    @property
-    def capacity_(self) -> int:
-        """The most features the tables hold before `grow`."""
-        check_is_set_up(self, "capacity_")
-        return int(self._discover_args[2].shape[0])
-
-    def grow(self) -> None:
+    def grow_tables(self) -> None:
         """Double the node, feature and pool capacities and rebuild the hash table.
 
-        ``discover`` grows them when a discovery would not fit; the compiled loop asks first
-        (`conjure.representations.compiled_ifdd.has_room`) and calls this.
+        `discover` calls it when a discovery would not fit; the compiled loop calls it when
+        `discover_room` says so. The features, relevances and cached covers are unchanged.
         """
         a = dict(self._arrays)
         n0 = self.num_initial_features_
@@ -310,7 +319,7 @@ class OnlineIFDD(Representation):
             grown[: old.shape[0]] = old
             a[name] = grown
         a["table"] = np.full(4 * node_capacity, -1, dtype=np.int64)
-        _k.rebuild_table(a["table"], a["node_key"], int(self._ints[_k.I_NUM_NODES]))
+        _k.rebuild_table(a["table"], a["node_key"], int(self._counts["num_nodes"][0]))
         cache = (self._centry, self._cpool)
         self._install(a, cache)  # cached covers stay valid: no feature was added
 
@@ -323,7 +332,7 @@ class OnlineIFDD(Representation):
         except AttributeError:
             check_is_set_up(self, "active_features")
             raise
-        return _k.activate(encode(state), *self._activate_args)
+        return _k.activate(encode(state), self._tables)
 
     def activate_initial(self, initial: np.ndarray) -> np.ndarray:
         """Return φ̇ for a sorted set of active initial feature ids (Alg 19 without φ⁰)."""
@@ -335,7 +344,7 @@ class OnlineIFDD(Representation):
                 f"{type(self).__name__}.activate_initial: initial feature ids must lie in "
                 f"[0, {n0}); got {initial.tolist()}."
             )
-        return _k.activate(initial, *self._activate_args)
+        return _k.activate(initial, self._tables)
 
     # ------------------------------------------------------------------ Algorithms 20 and 21
 
@@ -350,17 +359,46 @@ class OnlineIFDD(Representation):
         check_is_set_up(self, "discover")
         before = self.num_features_
         while True:
-            added = _k.discover(active, float(td_error), *self._discover_args)
+            added = _k.discover(active, float(td_error), self._tables)
             if added >= 0:
                 break
-            self.grow()
+            self.grow_tables()
         if added == 0:
             return None
-        self.num_features_ = before + added
         parents = self._arrays["feat_parents"][before : before + added].copy()
         return Expansion(first_new=before, parents=parents)
 
+    # ------------------------------------------------------------------ the compiled form
+
+    def kernel_tables(self) -> _k.IFDDTables:
+        """Return the tables the kernels read and update in place, as one named value.
+
+        `conjure.representations._ifdd_kernels.IFDDTables` (a numba structref) holds every
+        table of the module's docstring and the counters and settings by name; the compiled
+        loop passes it to the same `activate`, `discover_room` and `discover_fitting` that
+        `active_features` and `discover` call. It is replaced (not resized) when the tables
+        grow: ask again after `grow_tables`.
+        """
+        check_is_set_up(self, "kernel_tables")
+        return self._tables
+
+    @property
+    def feature_capacity_(self) -> int:
+        """The number of features the current tables hold (θ needs as many rows)."""
+        check_is_set_up(self, "feature_capacity_")
+        return int(self._arrays["feat_start"].shape[0])
+
     # ------------------------------------------------------------------ inspection
+
+    @property
+    def num_features_(self) -> int:
+        """n_t, the current number of features (the kernels' counter)."""
+        try:
+            counts = self._counts
+        except AttributeError:
+            check_is_set_up(self, "num_features_")
+            raise
+        return int(counts["num_features"][0])
 
     @property
     def num_discovered_(self) -> int:
@@ -372,7 +410,7 @@ class OnlineIFDD(Representation):
     def num_discover_calls_(self) -> int:
         """t, the number of `discover` calls so far."""
         check_is_set_up(self, "num_discover_calls_")
-        return int(self._ints[_k.I_NUM_CALLS])
+        return int(self._counts["num_calls"][0])
 
     @property
     def parents_(self) -> np.ndarray:
@@ -401,13 +439,13 @@ class OnlineIFDD(Representation):
         """Return the potential features: (initial sets, last parents (P, 2), relevances ψ)."""
         check_is_set_up(self, "potential_features")
         a = self._arrays
-        num_nodes = int(self._ints[_k.I_NUM_NODES])
+        num_nodes = int(self._counts["num_nodes"][0])
         nodes = np.flatnonzero(a["node_feature"][:num_nodes] < 0)
         sets = [
             a["pool"][a["node_start"][v] : a["node_start"][v] + a["node_len"][v]].copy()
             for v in nodes
         ]
-        kind = int(self._ints[_k.I_RELEVANCE])
+        kind = int(self._counts["relevance"][0])
         relevances = np.array(
             [_k.relevance_of(a["node_stats"][v], kind) for v in nodes], dtype=np.float64
         )
@@ -428,7 +466,8 @@ class OnlineIFDD(Representation):
         """
         check_is_set_up(self, "state_arrays")
         arrays = {name: self._arrays[name].copy() for name in _STATE_ARRAYS}
-        arrays["ints"][_k.TRANSIENT_INTS] = 0
+        for name in _k.TRANSIENT_COUNTERS:  # rebuilt on load
+            arrays["ints"][_k.COUNTERS.index(name)] = 0
         arrays.update({f"base.{k}": v for k, v in self.base_.state_arrays().items()})
         return arrays
 

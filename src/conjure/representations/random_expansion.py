@@ -3,9 +3,6 @@
 from __future__ import annotations
 
 from conjure.core.interfaces import Representation
-from conjure.core.params import InstanceOf, Interval
-from conjure.representations import _ifdd_kernels as _k
-from conjure.representations._max_features import OPTIONAL_MAX_FEATURES
 from conjure.representations.online_ifdd import OnlineIFDD
 
 __all__ = ["RandomExpansion"]
@@ -17,21 +14,28 @@ class RandomExpansion(OnlineIFDD):
     Geramifard (2012), Section 4.1.4, "Online iFDD vs. Random Expansion" (Fig. 4-7): the
     feature count follows n_t = n₀ + √(C t) (Eq. 4.6) exactly as for fixed-rate `OnlineIFDD`,
     but each new feature is drawn uniformly at random from the current potential features
-    (the unions of pairs of co-active features seen so far) instead of by relevance. Features,
-    the sparsified φ̇ (Algorithm 19) and the weights rule θ_f = θ_g + θ_h (Section 4.1.1) are
-    those of `OnlineIFDD`, whose machinery this class shares.
+    (the unions of pairs of co-active features seen so far) instead of by relevance. It is
+    `OnlineIFDD` with ``expansion="random"`` and a rate by default, under the name the
+    thesis and the example configs use: every parameter is `OnlineIFDD`'s, and the sparsified
+    φ̇ (Algorithm 19) and the weights rule θ_f = θ_g + θ_h (Section 4.1.1) are its too.
 
     Parameters
     ----------
     base : Representation
         The initial binary features φ⁰; ids ``0 .. n₀ - 1`` as in `OnlineIFDD`.
-    discovery_rate : float, default 0.2
-        C in (0, inf) of Eq. 4.6 (the thesis used 0.2, 0.4, 2 and 0.004 on its four domains).
+    discovery_threshold : float, default 1.0
+        ξ of `OnlineIFDD`; unused at a fixed rate.
+    relevance : {"ifdd", "ifdd_plus", "ifdd_plus_signed"}, default "ifdd"
+        The ψ tracked for inspection (`relevances_`); it does not choose features.
     sparsify : bool, default True
         Whether φ̇ is sparsified (Algorithm 19).
     max_features : int or None, default None
         Cap on the total number of features, the n₀ initial ones of ``base`` plus the added
         ones, in [n₀, inf) (a smaller cap raises at setup); ``None``: no cap.
+    discovery_rate : float, default 0.2
+        C in (0, inf) of Eq. 4.6 (the thesis used 0.2, 0.4, 2 and 0.004 on its four domains).
+    expansion : {"relevance", "random"}, default "random"
+        As `OnlineIFDD`'s; "random" is this baseline.
 
     Attributes
     ----------
@@ -46,12 +50,8 @@ class RandomExpansion(OnlineIFDD):
     -----
     Symbols: C ``discovery_rate``, t the number of `discover` calls, n_t ``num_features_``.
 
-    - Choice: n_t = n₀ + ⌊√(C t)⌋, as for fixed-rate `OnlineIFDD`.
-    - Choice: the potential features are kept in a list with swap-removal, and the i-th draw
-      picks index ⌊u_i · P⌋ with u_i = splitmix64(word + i · 0xD1B54A32D192ED03) / 2⁶⁴
-      (top 53 bits), ``word`` drawn from the setup seed: counter-based randomness, so saving
-      and restoring needs only the draw count, and the draws never touch numpy's global RNG.
-    - Choice: relevances (ψ = Σ|δ|, Eq. 4.2) are still tracked, for inspection only.
+    - Choice: n_t = n₀ + ⌊√(C t)⌋, as for fixed-rate `OnlineIFDD`; the draws are those of
+      `OnlineIFDD`'s ``expansion="random"`` (counter-based, from the setup seed).
 
     Complexity
     ----------
@@ -70,25 +70,23 @@ class RandomExpansion(OnlineIFDD):
     5
     """
 
-    parameter_constraints = {
-        "base": InstanceOf(Representation, "a binary Representation"),
-        "discovery_rate": Interval(float, 0, None, closed="neither"),
-        "sparsify": InstanceOf(bool, "a bool"),
-        "max_features": OPTIONAL_MAX_FEATURES,
-    }
-
     def __init__(
         self,
         *,
         base: Representation,
-        discovery_rate: float = 0.2,
+        discovery_threshold: float = 1.0,
+        relevance: str = "ifdd",
         sparsify: bool = True,
         max_features: int | None = None,
+        discovery_rate: float | None = 0.2,
+        expansion: str = "random",
     ):
-        self.base = base
-        self.discovery_rate = discovery_rate
-        self.sparsify = sparsify
-        self.max_features = max_features
-
-    def _settings(self) -> tuple[int, int, float, float]:
-        return _k.RELEVANCE_IFDD, _k.SELECT_RATE_RANDOM, 0.0, float(self.discovery_rate)
+        super().__init__(
+            base=base,
+            discovery_threshold=discovery_threshold,
+            relevance=relevance,
+            sparsify=sparsify,
+            max_features=max_features,
+            discovery_rate=discovery_rate,
+            expansion=expansion,
+        )

@@ -9,6 +9,7 @@ from conjure.core.interfaces import DomainSpec, Representation, check_is_set_up
 from conjure.core.seeding import as_seed_sequence
 from conjure.representations._kernels import (
     MAX_FEATURES,
+    BucketTable,
     dimension_table,
     per_dimension,
     positive_ints,
@@ -23,7 +24,7 @@ from conjure.representations.compiled_representation import (
 __all__ = ["Tabular"]
 
 
-class Tabular(Representation):
+class Tabular(BucketTable, Representation):
     """Tabular φ(s): exactly one active feature, the cell of the product grid holding s.
 
     Geramifard (2012), Section 3.1.3 (a unique feature per state reduces linear function
@@ -112,10 +113,5 @@ class Tabular(Representation):
 
     def active_features(self, state: np.ndarray) -> np.ndarray:
         """Return φ(s) as the one-element sorted int64 array of the cell holding ``state``."""
-        try:
-            dims = self._dims
-        except AttributeError:
-            check_is_set_up(self, "active_features")
-            raise
-        state = self.check_state(state)
+        dims, state = self._dims_and_state(state)
         return tabular_feature(state, dims, self._strides)

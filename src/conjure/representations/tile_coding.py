@@ -13,6 +13,7 @@ from conjure.core.seeding import as_seed_sequence
 from conjure.representations._kernels import (
     EMPTY_SLOT,
     MAX_FEATURES,
+    BucketTable,
     dimension_table,
     hashed_tile_features,
     per_dimension,
@@ -43,7 +44,7 @@ def _is_groups(value: Any) -> bool:
     )
 
 
-class TileCoding(Representation):
+class TileCoding(BucketTable, Representation):
     """Tile coding φ(s): one active tile in each of ``num_tilings`` offset uniform grids.
 
     Geramifard (2012), Section 3.1.4 (tile coding, Albus's CMAC; Fig. 3-3) with tilings over
@@ -242,12 +243,7 @@ class TileCoding(Representation):
 
     def active_features(self, state: np.ndarray) -> np.ndarray:
         """Return φ(s): the sorted, unique int64 indices of the active tiles."""
-        try:
-            dims = self._dims
-        except AttributeError:
-            check_is_set_up(self, "active_features")
-            raise
-        state = self.check_state(state)
+        dims, state = self._dims_and_state(state)
         if self._is_hashed:
             return hashed_tile_features(
                 state,
