@@ -1,4 +1,4 @@
-"""Chapter-5 tables of docs/reproduction.md equal the stored results; configs start at them."""
+"""Generated tables of docs/reproduction.md equal the stored results; configs start at them."""
 
 import csv
 import importlib.util
@@ -20,12 +20,12 @@ def load(name):
     return module
 
 
-def test_the_chapter_5_tables_equal_what_the_stored_results_give():
-    chapter5 = load("chapter5")
-    text = chapter5.DOC.read_text()
-    blocks = [name for name in chapter5.FIGURES if f"<!-- chapter5:{name} -->" in text]
+def test_the_stored_figures_tables_equal_what_the_stored_results_give():
+    figures = load("figures")
+    text = figures.DOC.read_text()
+    blocks = [name for name in figures.FIGURES if f"chapter5:{name} -->" in text]
     assert blocks, "docs/reproduction.md has no generated chapter-5 block"
-    assert chapter5.rendered(text) == text, "run `python docs/reproduction/chapter5.py render`"
+    assert figures.rendered(text) == text, "run `python docs/reproduction/figures.py render`"
 
 
 def selections():

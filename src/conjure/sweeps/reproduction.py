@@ -6,7 +6,7 @@ evaluation run by ``docs/reproduction/fig_3_15.py``, not a sweep). Each `Figure`
 config, the curve columns it plots and its claims: a sentence of the thesis, the thesis's
 value, and how to measure it from the final policy checks (`finals_table`). ``conjure
 reproduce`` (`conjure.cli.reproduce`) runs a figure at a `SCALES` scale and writes
-`comparison_markdown`; ``docs/reproduction/chapter5.py`` renders the stored chapter-5 results
+`comparison_markdown`; ``docs/reproduction/figures.py`` renders the stored results
 with the same claims.
 
 Scales
@@ -339,10 +339,10 @@ def _ifdd_beats_random(domain: str, metric: str) -> Figure:
         f"examples/reproduction/fig_4_7_{domain}.yaml",
         (metric,),
         (
-            Claim(
-                "iFDD ends above random expansion",
-                "yes, in all four domains",
-                above("ifdd_fixed_rate", "random_fixed_rate", metric),
+            Claim(  # Section 4.1.4: "learns significantly faster": the area under the curve
+                "iFDD learns faster than random expansion (AUC)",
+                "significantly, in all four domains",
+                above("ifdd_fixed_rate", "random_fixed_rate", f"auc_{metric}"),
             ),
         ),
     )

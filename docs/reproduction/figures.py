@@ -1,10 +1,11 @@
-"""Chapter 5's stored results and the tables of docs/reproduction.md made from them.
+"""The reproduced figures' stored results and the tables of docs/reproduction.md made from them.
 
-    python docs/reproduction/chapter5.py store FIGURE DIR   # DIR: a finished `conjure sweep`
-    python docs/reproduction/chapter5.py render [--check]
+    python docs/reproduction/figures.py store FIGURE DIR   # DIR: a finished sweep or reproduce
+    python docs/reproduction/figures.py render [--check]
 
 ``store`` reads DIR/selected/ (the fresh-seed rerun of the selected settings; DIR itself when the
-sweep had no selection) and writes, under docs/reproduction/chapter5/:
+sweep had no selection) and writes, under docs/reproduction/chapter<N>/ (N: the figure's
+chapter, 4 or 5; Section 6.2.6 with chapter 5):
 
 - ``FIGURE_finals.csv``: one row per method and seed: the final policy check's metrics, the
   failures while learning and the area under the return curve (the selection criterion);
@@ -15,8 +16,8 @@ sweep had no selection) and writes, under docs/reproduction/chapter5/:
 
 and the learning-curve plots (``docs/reproduction/FIGURE_<metric>.png``).
 
-``render`` rewrites every block between ``<!-- chapter5:FIGURE -->`` and
-``<!-- /chapter5:FIGURE -->`` in docs/reproduction.md from the stored CSVs: the final table
+``render`` rewrites every block between ``<!-- chapterN:FIGURE -->`` and
+``<!-- /chapterN:FIGURE -->`` in docs/reproduction.md from the stored CSVs: the final table
 and the figure's claims, each with the thesis's value, the measured value and whether it holds.
 ``--check`` changes nothing and exits with status 1 if the doc differs from what the CSVs give
 (tests/test_reproduction_docs.py runs it).
@@ -39,15 +40,20 @@ from conjure.sweeps import reproduction
 from conjure.sweeps.reproduction import claim_rows, curve_table, finals_markdown, finals_table
 
 HERE = Path(__file__).resolve().parent
-STORE = HERE / "chapter5"
 DOC = HERE.parent / "reproduction.md"
 
-#: Chapter 5's figures and Section 6.2.6's, from the package's catalogue (with their claims).
-FIGURES = {
-    name: figure
-    for name, figure in reproduction.FIGURES.items()
-    if name.startswith("fig_5_") or name == "ifdd_csarsa"
-}
+#: Every reproduced figure, from the package's catalogue (with its claims).
+FIGURES = reproduction.FIGURES
+
+
+def chapter(figure: str) -> str:
+    """The thesis chapter of a figure ("4" or "5"; Section 6.2.6's CSARSA + iFDD counts as 5)."""
+    return "4" if figure.startswith("fig_4_") else "5"
+
+
+def store_dir(figure: str) -> Path:
+    """Where a figure's stored results live: docs/reproduction/chapter<N>/."""
+    return HERE / f"chapter{chapter(figure)}"
 
 
 # ------------------------------------------------------------------------------------ store
@@ -59,11 +65,12 @@ def store(figure: str, results_dir: Path) -> None:
         sys.exit(f"Unknown figure {figure!r}; known: {', '.join(FIGURES)}.")
     folder = results_dir / "selected" if (results_dir / "selected").is_dir() else results_dir
     frame = pd.read_parquet(folder / "results.parquet")
-    STORE.mkdir(exist_ok=True)
-    finals_table(frame).to_csv(STORE / f"{figure}_finals.csv", index=False)
-    curve_table(frame).to_csv(STORE / f"{figure}_curve.csv", index=False)
+    store = store_dir(figure)
+    store.mkdir(exist_ok=True)
+    finals_table(frame).to_csv(store / f"{figure}_finals.csv", index=False)
+    curve_table(frame).to_csv(store / f"{figure}_curve.csv", index=False)
     if (results_dir / "selection.csv").is_file():
-        shutil.copyfile(results_dir / "selection.csv", STORE / f"{figure}_selection.csv")
+        shutil.copyfile(results_dir / "selection.csv", store / f"{figure}_selection.csv")
     for metric in FIGURES[figure].plots:
         plot_learning_curves(
             frame, HERE / f"{figure}_{metric}.png", metric=metric, title=FIGURES[figure].title
@@ -76,7 +83,7 @@ def store(figure: str, results_dir: Path) -> None:
 
 def selection_rows(name: str) -> str:
     """The settings the grid search chose, one line per method with a grid."""
-    path = STORE / f"{name}_selection.csv"
+    path = store_dir(name) / f"{name}_selection.csv"
     if not path.is_file():
         return "No grid search (every method has one setting)."
     selection = pd.read_csv(path, keep_default_na=False)
@@ -90,13 +97,19 @@ def selection_rows(name: str) -> str:
 def block(name: str) -> str:
     """The generated text of one figure: its command, selection, final table and claims."""
     figure = FIGURES[name]
-    finals = pd.read_csv(STORE / f"{name}_finals.csv")
+    finals = pd.read_csv(store_dir(name) / f"{name}_finals.csv")
+    scales = (
+        "; V/V* is the return over the exact optimum, optimality (V − V_worst)/(V* − V_worst) "
+        "the thesis's Fig. 5-6b scale"
+        if chapter(name) == "5"
+        else ""
+    )
     parts = [
-        f"Stored results: `docs/reproduction/chapter5/{name}_*.csv` "
-        f"(`python docs/reproduction/chapter5.py store {name} DIR` after "
-        f"`conjure sweep {figure.config} --out DIR`). Final policy check on the fresh seeds "
-        f"(mean ± 95% t half-width); V/V* is the return over the exact optimum, optimality "
-        f"(V − V_worst)/(V* − V_worst) the thesis's Fig. 5-6b scale.",
+        f"Stored results: `docs/reproduction/chapter{chapter(name)}/{name}_*.csv` "
+        f"(`python docs/reproduction/figures.py store {name} DIR` after "
+        f"`conjure sweep {figure.config} --out DIR`, or `conjure reproduce {name} --scale "
+        f"thesis --out DIR`). Final policy check on the fresh seeds (mean ± 95% t "
+        f"half-width){scales}.",
         "",
         selection_rows(name),
         "",
@@ -108,9 +121,10 @@ def block(name: str) -> str:
 
 
 def rendered(text: str) -> str:
-    """``text`` with every chapter-5 block regenerated from the stored CSVs."""
+    """``text`` with every figure's block regenerated from the stored CSVs."""
     for name in FIGURES:
-        start, end = f"<!-- chapter5:{name} -->", f"<!-- /chapter5:{name} -->"
+        marker = f"chapter{chapter(name)}:{name}"
+        start, end = f"<!-- {marker} -->", f"<!-- /{marker} -->"
         if start not in text:
             continue
         head, rest = text.split(start, 1)
@@ -126,8 +140,8 @@ def render(check: bool) -> int:
     if check:
         if new != text:
             print(
-                "docs/reproduction.md differs from the stored chapter-5 results; run "
-                "`python docs/reproduction/chapter5.py render`."
+                "docs/reproduction.md differs from the stored results; run "
+                "`python docs/reproduction/figures.py render`."
             )
             return 1
         return 0
