@@ -67,7 +67,8 @@ def store(figure: str, results_dir: Path) -> None:
     frame = pd.read_parquet(folder / "results.parquet")
     store = store_dir(figure)
     store.mkdir(exist_ok=True)
-    finals_table(frame).to_csv(store / f"{figure}_finals.csv", index=False)
+    metric = FIGURES[figure].plots[0]  # the figure's learning-curve metric (its AUC too)
+    finals_table(frame, metric).to_csv(store / f"{figure}_finals.csv", index=False)
     curve_table(frame).to_csv(store / f"{figure}_curve.csv", index=False)
     if (results_dir / "selection.csv").is_file():
         shutil.copyfile(results_dir / "selection.csv", store / f"{figure}_selection.csv")
