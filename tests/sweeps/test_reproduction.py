@@ -17,6 +17,7 @@ from conjure.sweeps.reproduction import (
     comparison_markdown,
     figure_cost,
     figure_names,
+    finals_markdown,
     finals_table,
     load_figure_sweep,
     summary_table,
@@ -116,3 +117,17 @@ def test_finals_and_summary_of_a_results_frame():
     assert finals["auc_return"].tolist() == [0.5, 1.5]
     summary = summary_table(finals)
     assert summary.loc[0, "seeds"] == 2 and summary.loc[0, "return_mean"] == 2.0
+
+
+def test_a_methods_settings_are_listed_in_numeric_order():
+    finals = pd.DataFrame(
+        {
+            "label": ["b", "b", "a", "a"],
+            "setting": ["x=10", "x=2", "x=1", "x=1"],
+            "seed": [0, 0, 0, 1],
+            "learning_steps": [10] * 4,
+            "return": [1.0, 2.0, 3.0, 4.0],
+        }
+    )
+    rows = [line.split(" | ")[0] for line in finals_markdown(finals).splitlines()[2:]]
+    assert rows == ["| b x=2", "| b x=10", "| a x=1"]  # methods as they come, numbers by value

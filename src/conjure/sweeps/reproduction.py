@@ -34,6 +34,7 @@ Notes
 from __future__ import annotations
 
 import math
+import re
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -139,6 +140,17 @@ def curve_table(frame: pd.DataFrame) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
+def _parts(name: Any) -> tuple:
+    """A groupby key as a tuple."""
+    return name if isinstance(name, tuple) else (name,)
+
+
+def _natural(parts: tuple) -> list:
+    """A sort key that orders the numbers inside ``parts`` by value ("x=2" before "x=10")."""
+    text = " ".join(str(part) for part in parts)
+    return [(0, int(t), "") if t.isdigit() else (1, 0, t) for t in re.split(r"(\d+)", text)]
+
+
 def finals_markdown(finals: pd.DataFrame) -> str:
     """The markdown table of the final policy check (`finals_table`), one row per method.
 
@@ -160,8 +172,13 @@ def finals_markdown(finals: pd.DataFrame) -> str:
     ]
     keys = [c for c in ("label", "domain_label", "setting") if c in finals.columns]
     lines = ["| " + " | ".join(heading) + " |", "|" + "---|" * len(heading)]
-    for name, group in finals.groupby(keys, sort=False):
-        parts = name if isinstance(name, tuple) else (name,)
+    labels = list(dict.fromkeys(finals["label"]))
+    groups = sorted(  # methods in order, a method's settings in natural order (2 before 10)
+        finals.groupby(keys, sort=False),
+        key=lambda item: (labels.index(_parts(item[0])[0]), _natural(_parts(item[0])[1:])),
+    )
+    for name, group in groups:
+        parts = _parts(name)
         cells = [" ".join(str(part) for part in parts), str(group["seed"].nunique())]
         for metric in [*metrics, *areas]:
             mean, half = t_confidence(group[metric])
