@@ -75,3 +75,13 @@ def test_load_compiled_form_hands_the_state_back(name):
     mine, theirs = domain.compiled_form(), twin.compiled_form()
     np.testing.assert_array_equal(mine.state, theirs.state)
     np.testing.assert_array_equal(mine.fstate, theirs.fstate)
+
+
+def test_a_form_shares_the_grids_tables_and_copies_its_state():
+    # Built once in setup: a form per `advance` costs no copy of a large map's tables.
+    domain = GridWorld.gridworld_1()
+    domain.reset(seed=0)
+    first, second = domain.compiled_form(), domain.compiled_form()
+    assert first.table is second.table and first.cells is second.cells
+    first.state[0] = 5  # the loop's copy: the domain keeps its cell until it is loaded back
+    assert domain.compiled_form().state[0] != 5

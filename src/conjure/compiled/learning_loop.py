@@ -42,6 +42,7 @@ from numba import njit
 
 from conjure.agents.compiled_agent import (
     ACTOR_CRITIC,
+    NO_TRACES,
     AgentKernel,
     LearnerArrays,
     bootstrap,
@@ -150,7 +151,7 @@ def learning_loop(
     θ (and ω, the trace slots) must have a row for every feature iFDD's tables can hold.
     """
     num_actions = arrays.weights.shape[1]
-    has_traces = arrays.trace_values.shape[0] > 0
+    has_traces = agent.traces != NO_TRACES
     is_actor_critic = agent.kind == ACTOR_CRITIC
     # The actor's preferences choose actions for Actor-Critic (shared features), θ otherwise.
     chooser = arrays.actor_weights

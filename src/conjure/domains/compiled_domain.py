@@ -99,19 +99,36 @@ def domain_kernel(
     num_units: int = 0,
     num_uniforms: int = 0,
 ) -> DomainKernel:
-    """A `DomainKernel` with C-contiguous copies of the given arrays, empty ones for the rest."""
+    """A `DomainKernel` of the given arrays, empty ones for the rest.
 
-    def array(value: np.ndarray | None, dtype: type, ndim: int) -> np.ndarray:
-        empty = np.zeros((0,) * ndim, dtype=dtype)
-        return empty if value is None else np.array(value, dtype=dtype, order="C", ndmin=ndim)
+    The state is copied (the loop updates the copy, `load_compiled_form` takes it back); a
+    constant table is used as it is when it already has the loop's type (C-contiguous,
+    writeable, of its dtype), so that a domain that keeps its tables that way pays nothing per
+    call, and copied otherwise.
+    """
+
+    def constant(value: np.ndarray | None, dtype: type, ndim: int) -> np.ndarray:
+        if value is None:
+            return np.zeros((0,) * ndim, dtype=dtype)
+        is_ready = (
+            isinstance(value, np.ndarray)
+            and value.dtype == dtype
+            and value.ndim == ndim
+            and value.flags.c_contiguous
+            and value.flags.writeable
+        )
+        return value if is_ready else np.array(value, dtype=dtype, order="C", ndmin=ndim)
+
+    def copy(value: np.ndarray | None, dtype: type) -> np.ndarray:
+        return np.zeros(0, dtype=dtype) if value is None else np.array(value, dtype=dtype)
 
     return DomainKernel(
         kind,
-        array(params, np.float64, 1),
-        array(table, np.int64, 2),
-        array(cells, np.float64, 2),
-        array(state, np.int64, 1),
-        array(fstate, np.float64, 1),
+        constant(params, np.float64, 1),
+        constant(table, np.int64, 2),
+        constant(cells, np.float64, 2),
+        copy(state, np.int64),
+        copy(fstate, np.float64),
         np.zeros(num_actions, dtype=np.int8),
         np.empty(num_uniforms),
         num_units,

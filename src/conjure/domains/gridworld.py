@@ -324,13 +324,18 @@ class GridWorld(NoisyDomain):
         self._is_noisy = (
             np.ones(codes.size, dtype=bool) if self.noise_cells == "all" else codes == WINDY
         ).tolist()
-        self._moves = self._move_table(flat_feasible, codes).tolist()
+        self._move_array = self._move_table(flat_feasible, codes)  # the compiled loop's
+        self._moves = self._move_array.tolist()  # the Python step's (faster lookups)
         self._coords = list(
             zip(
                 (np.arange(rows * cols) // cols).astype(np.float64).tolist(),
                 (np.arange(rows * cols) % cols).astype(np.float64).tolist(),
                 strict=True,
             )
+        )
+        rows_of, cols_of = zip(*self._coords, strict=True)
+        self._cell_table = np.column_stack(  # the compiled loop's `cells` (built once)
+            [self._reward, self._terminal, self._is_pit, self._is_noisy, rows_of, cols_of]
         )
         self._start_cell = self.start_[0] * cols + self.start_[1]
         self._cell = self._start_cell
@@ -389,14 +394,14 @@ class GridWorld(NoisyDomain):
         params (η, start cell); table `gridworld_move`'s; cells[c] reward, terminal, pit,
         noisy, row, column; state the cell.
         """
-        table = np.array(self._moves, dtype=np.int64)
-        rows, cols = zip(*self._coords, strict=True)
-        cells = np.column_stack(
-            [self._reward, self._terminal, self._is_pit, self._is_noisy, rows, cols]
-        )
         params = np.array([self._noise, float(self._start_cell)])
         return domain_kernel(
-            GRIDWORLD, len(MOVES), params=params, table=table, cells=cells, state=[self._cell]
+            GRIDWORLD,
+            len(MOVES),
+            params=params,
+            table=self._move_array,
+            cells=self._cell_table,
+            state=[self._cell],
         )
 
     def load_compiled_form(self, form: DomainKernel) -> None:
