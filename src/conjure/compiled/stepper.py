@@ -40,7 +40,7 @@ Notes
 from __future__ import annotations
 
 import time
-from typing import Any, NamedTuple
+from typing import NamedTuple
 
 import numpy as np
 from numba.core import types
@@ -49,6 +49,7 @@ from conjure.compiled import learning_loop as lp
 from conjure.compiled.combination import Selection, agent_form, representation_form, select
 from conjure.core.errors import DivergenceError, InvalidParameterError
 from conjure.core.interfaces import Agent, Domain
+from conjure.domains.compiled_domain import DomainKernel
 
 __all__ = [
     "AdvanceStats",
@@ -193,7 +194,7 @@ class CompiledStepper:
             done, failures, ep_float[:, 0], ep_float[:, 1], ep_int[:, 0], ep_int[:, 1]
         )
 
-    def _call(self, num_steps: int, domain_form: Any) -> tuple:
+    def _call(self, num_steps: int, domain_form: DomainKernel) -> tuple:
         """One call of the loop with the learner's current arrays (iFDD may have grown them)."""
         agent, representation = self.agent, self.agent.representation_
         rep = representation_form(agent)

@@ -375,9 +375,9 @@ def check_compiled_form_covers_params(component: Configurable) -> None:
     offers no other value here (a component, a function) are not varied: a component has its
     own form, checked on its own.
     """
-    if compiled_form(_set_up_copy(component)) is None:
-        return
     reference = compiled_form(_set_up_copy(component))
+    if reference is None:
+        return
     irrelevant = getattr(component, "compiled_irrelevant_params", frozenset())
     params = component.get_params()
     ignored = []
