@@ -5,12 +5,14 @@ Usage: ``python benchmarks/learning_speed.py [--steps N] [--repeats R]``
 Workloads (issue 2): SARSA + tile coding on InvertedPendulum and on GridWorld-1, and SARSA
 and SARSA(λ) + tile coding on Gymnasium's MountainCar-v0 through ``from_gymnasium``. Each is
 measured after a warm-up (numba compilation excluded) as the median of ``repeats`` timed
-``LearningLoop.advance`` calls, i.e. domain step + feature activation + action selection + TD
-update, exactly as ``conjure run`` executes them. A user's environment is usually the slow
-part, so the MountainCar rows are also given as a ratio to Gymnasium's own ``MountainCar-v0``
-(``gymnasium.make``, its wrappers included) stepping with a fixed action and no learner,
-timed in alternation with them so that both see the same machine (issue 21: conjure's share
-should be small; the λ = 0.9 row says what SARSA(λ)'s traces cost on top).
+``advance`` calls of the stepper ``conjure run`` learns with (`learning_stepper`: the compiled
+loop when every part has a kernel, a Gymnasium environment's own ``step`` called back from it;
+the path is shown), i.e. domain step + feature activation + action selection + TD update. A
+user's environment is usually the slow part, so the MountainCar rows are also given as a
+ratio to Gymnasium's own ``MountainCar-v0`` (``gymnasium.make``, its wrappers included)
+stepping with a fixed action and no learner, timed in alternation with them so that both see
+the same machine (issue 21: conjure's share should be small, at most 1.5x at λ = 0; the
+λ = 0.9 row says what SARSA(λ)'s traces cost on top).
 """
 
 from __future__ import annotations
@@ -25,7 +27,7 @@ from rich.table import Table
 
 from conjure.agents import SARSA
 from conjure.domains import GridWorld, InvertedPendulum, from_gymnasium
-from conjure.experiments.loop import LearningLoop
+from conjure.experiments.loop import learning_stepper
 from conjure.policies import EpsilonGreedy
 from conjure.representations import TileCoding
 
@@ -59,11 +61,12 @@ def workloads():
         )
 
 
-def measure(domain, agent, num_steps: int, repeats: int) -> tuple[float, float | None]:
-    """Median steps/s, and for a Gymnasium domain the median ratio of its per-step cost to
-    Gymnasium's own ``env.step`` timed in alternation with it (``None`` otherwise)."""
+def measure(domain, agent, num_steps: int, repeats: int) -> tuple[float, float | None, str]:
+    """Median steps/s, for a Gymnasium domain the median ratio of its per-step cost to
+    Gymnasium's own ``env.step`` timed in alternation with it (``None`` otherwise), and the
+    path taken."""
     agent.setup(domain.domain_spec, seed=0)
-    loop = LearningLoop(domain, agent, seed=0)
+    loop = learning_stepper(domain, agent, seed=0, budget_steps=num_steps * repeats)
     loop.advance(2_000)  # warm-up: numba compilation or cache loading
     is_gymnasium = hasattr(domain, "env_")
     rates, ratios = [], []
@@ -73,7 +76,7 @@ def measure(domain, agent, num_steps: int, repeats: int) -> tuple[float, float |
         rates.append(num_steps / (time.perf_counter() - start))
         if is_gymnasium:
             ratios.append(environment_alone(num_steps) / rates[-1])
-    return statistics.median(rates), statistics.median(ratios) if ratios else None
+    return statistics.median(rates), statistics.median(ratios) if ratios else None, loop.path
 
 
 def environment_alone(num_steps: int) -> float:
@@ -95,16 +98,17 @@ def main() -> None:
     args = parser.parse_args()
     table = Table(title=f"Learning speed (median of {args.repeats} x {args.steps:,} steps)")
     table.add_column("workload")
+    table.add_column("path")
     table.add_column("steps/s", justify="right")
     table.add_column("us/step", justify="right")
     table.add_column("x env.step alone", justify="right")
     for name, domain, agent in workloads():
-        rate, ratio = measure(domain, agent, args.steps, args.repeats)
+        rate, ratio, path = measure(domain, agent, args.steps, args.repeats)
         shown = "" if ratio is None else f"{ratio:.2f}"
-        table.add_row(name, f"{rate:,.0f}", f"{1e6 / rate:.2f}", shown)
+        table.add_row(name, path, f"{rate:,.0f}", f"{1e6 / rate:.2f}", shown)
     rate = statistics.median(environment_alone(args.steps) for _ in range(args.repeats))
     table.add_row(
-        "reference: MountainCar-v0 env.step alone", f"{rate:,.0f}", f"{1e6 / rate:.2f}", "1.00"
+        "reference: MountainCar-v0 env.step alone", "", f"{rate:,.0f}", f"{1e6 / rate:.2f}", "1.00"
     )
     Console().print(table)
 

@@ -14,7 +14,7 @@ from conjure.compiled import learning_loop as loop_module
 from conjure.compiled import stepper as stepper_module
 from conjure.core.errors import DivergenceError, InvalidParameterError
 from conjure.core.schedules import EpisodicDecay, FeatureNormalizedDecay
-from conjure.domains import ChainMDP, GridWorld, InvertedPendulum
+from conjure.domains import ChainMDP, GridWorld, InvertedPendulum, from_gymnasium
 from conjure.domains.gridworld import open_grid
 from conjure.experiments.loop import LearningLoop
 from conjure.policies import EpsilonGreedy, Gibbs
@@ -125,6 +125,15 @@ COMBINATIONS = {
         lambda: ActorCritic(
             representation=RBF(), step_size=0.1, actor_step_size=DECAY, policy=Gibbs()
         ),
+    ),
+    # A Gymnasium environment: the loop calls the domain's own reset and step back.
+    "mountaincar-gymnasium-tiles-sarsa": (
+        lambda: from_gymnasium("MountainCar-v0", discount=1.0),
+        lambda: SARSA(representation=TileCoding(num_tilings=4, tiles_per_dim=8), step_size=0.05),
+    ),
+    "cartpole-gymnasium-tiles-sarsa-lambda": (
+        lambda: from_gymnasium("CartPole-v1"),
+        lambda: SARSA(representation=_tiles(), step_size=DECAY, trace_decay=0.9),
     ),
 }
 
@@ -254,6 +263,36 @@ def test_divergence_raises_at_the_same_step_on_both_paths():
         stepper.advance(100)
     assert str(compiled_error.value) == str(python_error.value)
     assert stepper.total_steps == loop.total_steps
+
+
+class _Raising:
+    """A domain's ``step`` that raises ``error`` on its ``after``-th call (counted per run)."""
+
+    def __init__(self, step, error: BaseException, after: int):
+        self.step, self.error, self.calls, self.after = step, error, 0, after
+
+    def __call__(self, action):
+        self.calls += 1
+        if self.calls == self.after:
+            raise self.error
+        return self.step(action)
+
+
+@pytest.mark.parametrize("error", [RuntimeError("the simulator crashed"), KeyboardInterrupt()])
+def test_a_callback_domains_exception_leaves_both_paths_at_the_same_step(error):
+    # The compiled loop calls a Gymnasium domain's own step back; what it raises comes out of
+    # `advance` unchanged (Ctrl-C included), after the steps before it were counted.
+    counts = []
+    for make_stepper in (LearningLoop, for_combination):
+        domain, agent = _build("cartpole-gymnasium-tiles-sarsa-lambda", 2)
+        domain.step = _Raising(domain.step, error, after=700)
+        stepper = make_stepper(domain, agent, seed=2)
+        with pytest.raises(type(error)) as raised:
+            stepper.advance(1000)
+        assert raised.value is error
+        counts.append((stepper.total_steps, stepper.num_episodes, agent.num_learning_steps_))
+        assert not stepper.is_mid_episode  # the cut episode is not continued
+    assert counts[0] == counts[1] and counts[0][0] == 699
 
 
 @pytest.mark.parametrize("bad", [-1, 2.5, True])

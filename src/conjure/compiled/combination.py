@@ -6,7 +6,8 @@ none, or a subclass that overrides a method its kernel stands in for, sends the 
 Python path; `why_not_compiled` names the first such part.
 
 Covered today (Geramifard 2012): the domains `InvertedPendulum`, `GridWorld`, `ChainMDP`,
-`BlocksWorld`, `PersistentSurveillance`, `RescueMission`, `UAVMission`; the representations
+`BlocksWorld`, `PersistentSurveillance`, `RescueMission`, `UAVMission`, and any Gymnasium
+environment through `GymnasiumDomain` (its own ``step`` called back); the representations
 `TileCoding` (hashed or not), `Tabular`, `IndependentDiscretization`, `BinaryIndicators`, `RBF`
 (real-valued φ, Section 3.1.2) and online iFDD (`OnlineIFDD` and `RandomExpansion`, Algorithms
 19-21) over a binary base; the learners `SARSA` (with or without traces), `QLearning` and

@@ -59,7 +59,7 @@ from conjure.representations.weights import parent_sum_row
 __all__ = ["LoopState", "learning_loop"]
 
 #: Status codes of `learning_loop`.
-DONE, GROW_TRACES, DIVERGED, GROW_REPRESENTATION = 0, 1, 2, 3
+DONE, GROW_TRACES, DIVERGED, GROW_REPRESENTATION, DOMAIN_RAISED = 0, 1, 2, 3, 4
 #: Phases of `LoopState`.
 NEEDS_RESET, NEEDS_BEGIN, IN_EPISODE = 0, 1, 2
 
@@ -147,7 +147,9 @@ def learning_loop(
 
     `GROW_REPRESENTATION` and `GROW_TRACES` stop before a step whose discovery or traces
     might not fit (the caller grows them with the component's own method and calls again);
-    `DIVERGED` stops after an update whose δ is not finite (that step is not counted).
+    `DIVERGED` stops after an update whose δ is not finite (that step is not counted);
+    `DOMAIN_RAISED` stops when a callback domain's ``reset`` or ``step`` raised (that step is
+    not counted; the episode cannot be continued).
     θ (and ω, the trace slots) must have a row for every feature iFDD's tables can hold.
     """
     num_actions = arrays.weights.shape[1]
@@ -187,7 +189,9 @@ def learning_loop(
             phi = sparsify(rep, phi)
     while done < num_steps:
         if phase == NEEDS_RESET:
-            reset_into(domain, obs, domain_rng)
+            if not reset_into(domain, obs, domain_rng):
+                status = DOMAIN_RAISED
+                break
             phase = NEEDS_BEGIN
         if phase == NEEDS_BEGIN:  # the learner's begin_episode, then a = π(s)
             episode += 1
@@ -210,6 +214,10 @@ def learning_loop(
             status = GROW_TRACES
             break
         reward, terminated, cost = step_into(domain, action, next_obs, domain_rng)
+        if math.isnan(reward):  # only a callback domain's step that raised
+            status = DOMAIN_RAISED
+            phase = NEEDS_RESET
+            break
         episode_steps += 1
         next_phi, next_values = phi, values
         next_action = 0

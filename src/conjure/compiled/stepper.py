@@ -49,7 +49,7 @@ from conjure.compiled import learning_loop as lp
 from conjure.compiled.combination import Selection, agent_form, representation_form, select
 from conjure.core.errors import DivergenceError, InvalidParameterError
 from conjure.core.interfaces import Agent, Domain
-from conjure.domains.compiled_domain import DomainKernel
+from conjure.domains.compiled_domain import DomainKernel, callback_error
 
 __all__ = [
     "AdvanceStats",
@@ -147,6 +147,10 @@ class CompiledStepper:
         DivergenceError
             When δ stops being finite (as the Python learners); the failing step is not
             counted and the episode cannot be continued.
+        Exception
+            Whatever a callback domain's ``reset`` or ``step`` raised (KeyboardInterrupt
+            included), after the steps before it were counted; the episode cannot be
+            continued.
         """
         if isinstance(num_steps, bool) or not isinstance(num_steps, (int, np.integer)):
             raise InvalidParameterError(f"`num_steps` must be an int; got {num_steps!r}.")
@@ -163,6 +167,7 @@ class CompiledStepper:
         chunks: list[tuple[np.ndarray, np.ndarray]] = []
         done = failures = 0
         diverged: float | None = None
+        raised: BaseException | None = None
         try:
             while done < num_steps:
                 before = int(state.episode[0])
@@ -180,6 +185,9 @@ class CompiledStepper:
                 elif status == lp.DIVERGED:
                     diverged = delta
                     break
+                elif status == lp.DOMAIN_RAISED:
+                    raised = callback_error(domain_form)
+                    break
         finally:
             domain.load_compiled_form(domain_form)
             agent.episode_ = int(state.episode[0])
@@ -188,6 +196,8 @@ class CompiledStepper:
             self.num_failures += failures
         if diverged is not None:
             raise _divergence(agent, diverged)
+        if raised is not None:  # the domain's own exception, as on the Python path
+            raise raised
         ep_float = np.concatenate([c[0] for c in chunks]) if chunks else np.zeros((0, 2))
         ep_int = np.concatenate([c[1] for c in chunks]) if chunks else np.zeros((0, 2), np.int64)
         return AdvanceStats(

@@ -5,7 +5,10 @@ its internal state; ``load_compiled_form`` writes the state back after the loop 
 kernels here, `reset_into`, `step_into` and `legal_into`, choose the domain's own kernel by
 kind: the shared-source transitions of `conjure.domains._kernels` (chain, grid world,
 pendulum) and the mission kernels (`blocks_step`, `pst_step`, `rescue_step`, `mission_step`)
-that the Python ``step`` methods call too, with the same draws in the same order.
+that the Python ``step`` methods call too, with the same draws in the same order. A domain
+with no kernel of its own (`conjure.domains.gymnasium_adapter.GymnasiumDomain`: the user's
+environment) can still run in the loop as a `CALLBACK` domain: the loop calls its own Python
+``reset`` and ``step`` back (numba's object mode) and keeps everything else compiled.
 
 Choice: one named tuple type serves every domain (unused fields are empty arrays), so the loop
 compiles once for all of them; the per-domain layout of ``params``, ``table`` and ``cells`` is
@@ -14,10 +17,13 @@ written beside each domain's ``compiled_form``.
 
 from __future__ import annotations
 
-from typing import NamedTuple
+import itertools
+import math
+import weakref
+from typing import Any, NamedTuple
 
 import numpy as np
-from numba import njit
+from numba import njit, objmode
 
 from conjure.domains._blocks_kernels import blocks_reset, blocks_step, legal_moves_into
 from conjure.domains._kernels import chain_move, gridworld_move, pendulum_start, pendulum_transition
@@ -30,10 +36,20 @@ from conjure.domains._uav_kernels import (
     rescue_step,
 )
 
-__all__ = ["DomainKernel", "domain_kernel", "legal_into", "reset_into", "step_into"]
+__all__ = [
+    "DomainKernel",
+    "callback_error",
+    "callback_kernel",
+    "domain_kernel",
+    "legal_into",
+    "reset_into",
+    "step_into",
+]
 
 #: Domain kinds of `DomainKernel`.
 PENDULUM, GRIDWORLD, CHAIN, BLOCKS, PERSISTENT_SURVEILLANCE, RESCUE, UAV_MISSION = range(7)
+#: A domain whose own Python ``reset`` and ``step`` the loop calls back (`callback_kernel`).
+CALLBACK = 7
 #: Grid world: ``cells`` columns; ``table`` is `gridworld_move`'s.
 C_REWARD, C_TERMINAL, C_PIT, C_NOISY, C_ROW, C_COL = range(6)
 #: Rescue Mission: where s₀ starts in ``params`` (after horizon, fuel and failure penalties);
@@ -132,14 +148,87 @@ def domain_kernel(
         np.zeros(num_actions, dtype=np.int8),
         np.empty(num_uniforms),
         num_units,
-        kind >= BLOCKS,
+        BLOCKS <= kind <= UAV_MISSION,
     )
 
 
+# ---------------------------------------------------------------------- callback domains
+#: The live callback domains by key (a key is what the loop holds: numba takes no objects).
+_CALLBACK_DOMAINS: weakref.WeakValueDictionary[int, Any] = weakref.WeakValueDictionary()
+_CALLBACK_KEYS: weakref.WeakKeyDictionary[Any, int] = weakref.WeakKeyDictionary()
+#: What a callback domain's ``reset`` or ``step`` raised, by key, until `callback_error`.
+_CALLBACK_ERRORS: dict[int, BaseException] = {}
+_NEXT_KEY = itertools.count()
+
+
+def callback_kernel(domain: Any) -> DomainKernel:
+    """The `CALLBACK` form of ``domain``: the loop calls its Python ``reset`` and ``step``.
+
+    For a domain without action constraints whose ``step`` never truncates (the loop ends
+    episodes at ``domain_spec.max_episode_steps``). Its failures are ``info["cost"] > 0``, as
+    in the Python loop. Costs one object-mode call per step (about a microsecond) on top of
+    the domain's own ``step``.
+    """
+    key = _CALLBACK_KEYS.get(domain)
+    if key is None:
+        key = next(_NEXT_KEY)
+        _CALLBACK_KEYS[domain] = key
+        _CALLBACK_DOMAINS[key] = domain
+    return domain_kernel(CALLBACK, domain.domain_spec.num_actions, state=np.array([key]))
+
+
+def callback_error(form: DomainKernel) -> BaseException | None:
+    """What the callback domain of ``form`` raised in the loop, if anything (cleared)."""
+    return _CALLBACK_ERRORS.pop(int(form.state[0]), None) if form.kind == CALLBACK else None
+
+
+def _python_reset(key: int, obs: np.ndarray) -> bool:
+    """``domain.reset()`` into ``obs``; False (the exception kept) if it raised."""
+    try:
+        obs[:] = _CALLBACK_DOMAINS[key].reset()[0]
+    except BaseException as error:  # re-raised by the stepper
+        _CALLBACK_ERRORS[key] = error
+        return False
+    return True
+
+
+def _python_step(key: int, action: int, obs: np.ndarray) -> tuple[float, bool, float]:
+    """``domain.step(action)`` into ``obs``: (r, terminated, cost); r = NaN if it raised."""
+    try:
+        domain = _CALLBACK_DOMAINS[key]
+        next_obs, reward, terminated, _, info = domain.step(action)
+        if math.isnan(reward):
+            raise ValueError(f"{type(domain).__name__}.step returned a NaN reward.")
+        obs[:] = next_obs
+        return float(reward), bool(terminated), float(info.get("cost", 0.0))
+    except BaseException as error:  # re-raised by the stepper
+        _CALLBACK_ERRORS[key] = error
+        return math.nan, True, 0.0
+
+
 @njit(cache=True)
-def reset_into(domain: DomainKernel, obs: np.ndarray, rng: np.random.Generator) -> None:
-    """The domain's ``reset(seed=None)`` with its draws; writes s into ``obs``."""
+def _callback_reset(key: int, obs: np.ndarray) -> bool:
+    with objmode(ok="boolean"):
+        ok = _python_reset(key, obs)
+    return ok
+
+
+@njit(cache=True)
+def _callback_step(key: int, action: int, obs: np.ndarray) -> tuple[float, bool, float]:
+    with objmode(reward="float64", terminated="boolean", cost="float64"):
+        reward, terminated, cost = _python_step(key, action, obs)
+    return reward, terminated, cost
+
+
+@njit(cache=True)
+def reset_into(domain: DomainKernel, obs: np.ndarray, rng: np.random.Generator) -> bool:
+    """The domain's ``reset(seed=None)`` with its draws; writes s into ``obs``.
+
+    False only when a `CALLBACK` domain's ``reset`` raised (`callback_error` has it).
+    """
     kind, params, state, fstate = domain.kind, domain.params, domain.state, domain.fstate
+    if kind == CALLBACK:
+        return _callback_reset(state[0], obs)
     if kind == PENDULUM:
         fstate[0], fstate[1] = _pendulum_start(params[1], rng)
         obs[0], obs[1] = fstate[0], fstate[1]
@@ -164,6 +253,7 @@ def reset_into(domain: DomainKernel, obs: np.ndarray, rng: np.random.Generator) 
                 state[i] = int(params[start + i])
         for i in range(state.shape[0]):
             obs[i] = state[i]
+    return True
 
 
 @njit(cache=True, inline="always")
@@ -173,7 +263,8 @@ def step_into(
     """One domain step with the Python domain's draws; writes s' into ``obs``.
 
     Returns (reward, terminated, cost); the cost is the step's failure (``info["cost"]``).
-    Each branch reads only its domain's fields (a field read outside the branch that uses it
+    A `CALLBACK` domain whose ``step`` raised returns a NaN reward (`callback_error`). Each
+    branch reads only its domain's fields (a field read outside the branch that uses it
     costs the loop a reference count per step).
     """
     kind = domain.kind
@@ -190,6 +281,8 @@ def step_into(
         return _rescue(domain, action, obs, rng)
     if kind == UAV_MISSION:
         return _uav_mission(domain, action, obs, rng)
+    if kind == CALLBACK:
+        return _callback_step(domain.state[0], action, obs)
     return _persistent_surveillance(domain, action, obs, rng)
 
 
@@ -289,7 +382,7 @@ def legal_into(domain: DomainKernel, is_filled: bool, out: np.ndarray) -> np.nda
     ``is_filled`` (their step writes it), else it is filled here.
     """
     kind, table, state, mask = domain.kind, domain.table, domain.state, domain.mask
-    if kind < BLOCKS:
+    if not domain.has_action_constraints:
         return out
     if kind == BLOCKS:
         n = domain.num_units

@@ -13,6 +13,7 @@ from gymnasium import spaces
 from conjure.core.errors import IncompatibleComponentsError, InvalidParameterError
 from conjure.core.interfaces import Domain, DomainSpec
 from conjure.core.params import Constraint, InstanceOf, Interval, Predicate, did_you_mean
+from conjure.domains.compiled_domain import DomainKernel, callback_kernel
 
 __all__ = ["DEFAULT_BOUNDS", "GymnasiumDomain", "from_gymnasium"]
 
@@ -214,6 +215,18 @@ class GymnasiumDomain(Domain):
         a = self.check_action(action) + self._action_start
         obs, reward, terminated, _, info = self.env_.step(a)
         return self._observe(obs), float(reward), bool(terminated), False, dict(info)
+
+    def compiled_form(self) -> DomainKernel:
+        """A `CALLBACK` form: the compiled loop calls this domain's own ``reset`` and ``step``.
+
+        The learner's features, action choice and TD update then run compiled around the
+        environment (`conjure.domains.compiled_domain.callback_kernel`), one object-mode call
+        per step instead of four compiled dispatches and the Python loop.
+        """
+        return callback_kernel(self)
+
+    def load_compiled_form(self, form: DomainKernel) -> None:
+        """Nothing to load: the environment's state never left Python."""
 
     def _observe(self, obs: Any) -> np.ndarray:
         flat = np.asarray(obs, dtype=np.float64).reshape(-1)
