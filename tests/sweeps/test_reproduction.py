@@ -14,6 +14,7 @@ from conjure.sweeps.reproduction import (
     FIGURES,
     METRICS,
     QUICK_SEEDS,
+    best_at_every_x,
     comparison_markdown,
     figure_cost,
     figure_names,
@@ -21,10 +22,15 @@ from conjure.sweeps.reproduction import (
     finals_table,
     load_figure_sweep,
     summary_table,
+    worst_above_worst,
 )
 from conjure.sweeps.sweep import expand_sweep
 
 ROOT = Path(__file__).resolve().parents[2]
+
+
+#: Figures whose grid is the plot's x-axis: their finals keep a ``setting`` per row.
+X_AXIS_FIGURES = ("fig_4_11",)
 
 
 def fake_finals(name, seeds=3):
@@ -38,6 +44,8 @@ def fake_finals(name, seeds=3):
             row = {"label": label, "seed": seed, "learning_steps": 100}
             row.update({m: rng.uniform(0.0, 1.0) for m in dict.fromkeys([*METRICS, metric])})
             row[f"auc_{metric}"] = rng.uniform(0.0, 1.0)
+            if name in X_AXIS_FIGURES:
+                row["setting"] = f"num_buckets={seed + 1}"
             rows.append(row)
     return pd.DataFrame(rows)
 
@@ -57,6 +65,26 @@ def test_a_claim_on_a_missing_method_says_so_in_its_row():
     text = comparison_markdown("fig_5_8", finals[finals["label"] != "csarsa"], scale="thesis")
     assert text.count("not measured") == 3  # the three claims about csarsa
     assert "No results for 'csarsa'" in text
+
+
+def test_claims_over_the_x_axis_compare_methods_at_each_cut_count():
+    # Fig. 4-11's x-axis is each method's own grid parameter; the number ending the setting.
+    rows = [
+        ("arifdd", "initial_tiles_per_dim=1", 2000.0),
+        ("arifdd", "initial_tiles_per_dim=2", 2400.0),
+        ("arifdd", "initial_tiles_per_dim=2", 2600.0),  # mean 2,500 at 2 cuts
+        ("ifdd", "base.num_buckets=1", 15.0),
+        ("ifdd", "base.num_buckets=2", 3000.0),
+    ]
+    finals = pd.DataFrame(rows, columns=["label", "setting", "episode_length"])
+    text, holds = best_at_every_x("arifdd", ("ifdd",), "episode_length")(finals)
+    assert not holds and text == "arifdd best at 1 of 2; behind at 2 (ifdd 3,000 vs 2,500)"
+    text, holds = worst_above_worst("arifdd", ("ifdd",), "episode_length")(finals)
+    assert holds and text == "worst over x: arifdd 2,000, ifdd 15"
+    text, holds = best_at_every_x("arifdd", ("ifdd",), "episode_length")(finals[:4])
+    assert holds and text == "arifdd best at 2 of 2"  # no rival at 2 cuts: nothing to lose to
+    with pytest.raises(InvalidParameterError, match="no grid settings"):
+        best_at_every_x("arifdd", ("ifdd",), "episode_length")(finals.drop(columns="setting"))
 
 
 def test_names_take_short_forms_and_unknown_ones_suggest():
