@@ -1,0 +1,106 @@
+"""Per-step cost of the cooperative learners (Chapter 5) as a ratio to compiled SARSA (issue 23).
+
+Usage: ``python benchmarks/cooperative_speed.py [--steps N] [--repeats R]``
+
+Each workload is a shipped reproduction config's agent at the config's base settings (the
+selected ones), run through the stepper ``conjure run`` learns with (`learning_stepper`; the
+path is shown), warm (numba compilation and CBBA's first plans excluded by a warm-up of
+``--steps`` / 5 steps), one process. Its cost per step is the median of ``repeats`` timed
+``advance(N)`` calls, and its ratio is that cost over the cost of compiled SARSA + tabular on
+GridWorld-1 (`fig_5_8.yaml`'s ``sarsa``) timed in alternation with it, so both see the same
+machine (absolute speeds vary between machines; issue 23's targets are ratios):
+
+=====================================================================  ===========  ======
+workload (config, agent label)                                          before       target
+=====================================================================  ===========  ======
+cooperative actor-critic, GridWorld-1 (``fig_5_5.yaml``, ``icca``)      35x          ≤ 4x
+CSARSA + fuel risk + CBBA, UAV 7-2 5% (``fig_5_9_13.yaml``, ``csarsa``)  73x          ≤ 12x
+AM-iCCA + Monte-Carlo risk, UAV 7-2 5% (``fig_5_9_13.yaml``, ``am_icca``) 146x        ≤ 35x
+CSARSA + iFDD⁺, UAV 10-2 5% (``ifdd_csarsa.yaml``, ``csarsa_ifdd``)     148x         ≤ 35x
+=====================================================================  ===========  ======
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import time
+from pathlib import Path
+
+from rich.console import Console
+from rich.table import Table
+
+from conjure.experiments.config import build_components, load_yaml, parse_config
+from conjure.experiments.loop import learning_stepper
+
+ROOT = Path(__file__).resolve().parents[1] / "examples" / "reproduction"
+#: The reference: compiled SARSA + tabular on GridWorld-1.
+REFERENCE = ("fig_5_8.yaml", "sarsa")
+WORKLOADS = (
+    ("cooperative actor-critic, GridWorld-1", "fig_5_5.yaml", "icca", 4.0),
+    ("CSARSA + fuel risk + CBBA, UAV 7-2 5%", "fig_5_9_13.yaml", "csarsa", 12.0),
+    ("AM-iCCA + Monte-Carlo risk, UAV 7-2 5%", "fig_5_9_13.yaml", "am_icca", 35.0),
+    ("CSARSA + iFDD⁺, UAV 10-2 5%", "ifdd_csarsa.yaml", "csarsa_ifdd", 35.0),
+)
+#: The sweep-only keys of a reproduction config; the rest is an experiment at base settings.
+SWEEP_KEYS = ("grid", "selection")
+
+
+def stepper_for(config_name: str, label: str, steps: int):
+    """The run's stepper for ``label`` of a shipped config at its base settings, warmed up."""
+    data = load_yaml((ROOT / config_name).read_text(), source=config_name)
+    for key in SWEEP_KEYS:
+        data.pop(key, None)
+    domain, agents = build_components(parse_config(data, source=config_name))
+    agent = agents[label].setup(domain.domain_spec, seed=0)
+    stepper = learning_stepper(domain, agent, seed=0, budget_steps=10**9)
+    stepper.advance(max(steps // 5, 1))
+    return stepper
+
+
+def seconds_per_step(stepper, steps: int) -> float:
+    started = time.perf_counter()
+    stepper.advance(steps)
+    return (time.perf_counter() - started) / steps
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--steps", type=int, default=20_000)
+    parser.add_argument("--repeats", type=int, default=3)
+    args = parser.parse_args()
+    reference = stepper_for(*REFERENCE, 100 * args.steps)
+    table = Table(title=f"Cooperative learners, median of {args.repeats} x {args.steps:,} steps")
+    for column in ("workload", "config, agent", "path", "steps/s", "us/step", "ratio", "target"):
+        table.add_column(column, justify="left" if column in ("workload", "path") else "right")
+    for name, config_name, label, target in WORKLOADS:
+        stepper = stepper_for(config_name, label, args.steps)
+        costs, ratios = [], []
+        for _ in range(args.repeats):
+            costs.append(seconds_per_step(stepper, args.steps))
+            ratios.append(costs[-1] / seconds_per_step(reference, 100 * args.steps))
+        cost = statistics.median(costs)
+        table.add_row(
+            name,
+            f"{config_name}, {label}",
+            stepper.path.split(":")[0],
+            f"{1 / cost:,.0f}",
+            f"{1e6 * cost:.2f}",
+            f"{statistics.median(ratios):.0f}x",
+            f"≤ {target:g}x",
+        )
+    cost = statistics.median(seconds_per_step(reference, 100 * args.steps) for _ in range(3))
+    table.add_row(
+        "reference: compiled SARSA + tabular, GridWorld-1",
+        f"{REFERENCE[0]}, {REFERENCE[1]}",
+        reference.path,
+        f"{1 / cost:,.0f}",
+        f"{1e6 * cost:.2f}",
+        "1x",
+        "",
+    )
+    Console(width=160).print(table)
+
+
+if __name__ == "__main__":
+    main()
