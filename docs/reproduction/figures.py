@@ -18,9 +18,10 @@ and the learning-curve plots (``docs/reproduction/FIGURE_<metric>.png``).
 
 ``render`` rewrites every block between ``<!-- chapterN:FIGURE -->`` and
 ``<!-- /chapterN:FIGURE -->`` in docs/reproduction.md from the stored CSVs: the final table
-and the figure's claims, each with the thesis's value, the measured value and whether it holds.
-``--check`` changes nothing and exits with status 1 if the doc differs from what the CSVs give
-(tests/test_reproduction_docs.py runs it).
+and the figure's claims, each with the thesis's value, the measured value and whether it holds;
+and every ``<!-- claims:FIGURE -->`` block (README.md's Reproduction section) with the claims
+alone. ``--check`` changes nothing and exits with status 1 if a document differs from what the
+CSVs give (tests/test_reproduction_docs.py runs it).
 
 The figures, their claims and the tables come from the package's catalogue,
 `conjure.sweeps.reproduction`, which ``conjure reproduce`` uses too: a claim is defined once.
@@ -41,6 +42,8 @@ from conjure.sweeps.reproduction import claim_rows, curve_table, finals_markdown
 
 HERE = Path(__file__).resolve().parent
 DOC = HERE.parent / "reproduction.md"
+#: The documents `render` rewrites.
+DOCUMENTS = (DOC, HERE.parents[1] / "README.md")
 
 #: Every reproduced figure, from the package's catalogue (with its claims).
 FIGURES = reproduction.FIGURES
@@ -121,33 +124,45 @@ def block(name: str) -> str:
     return "\n".join(parts)
 
 
+def claims_block(name: str) -> str:
+    """A figure's claims alone, from its stored finals (README's comparison table)."""
+    finals = pd.read_csv(store_dir(name) / f"{name}_finals.csv")
+    return claim_rows(FIGURES[name].claims, finals)
+
+
 def rendered(text: str) -> str:
-    """``text`` with every figure's block regenerated from the stored CSVs."""
+    """``text`` with every figure's blocks regenerated from the stored CSVs."""
     for name in FIGURES:
-        marker = f"chapter{chapter(name)}:{name}"
-        start, end = f"<!-- {marker} -->", f"<!-- /{marker} -->"
-        if start not in text:
-            continue
-        head, rest = text.split(start, 1)
-        _, tail = rest.split(end, 1)
-        text = f"{head}{start}\n{block(name)}\n{end}{tail}"
+        for marker, make in (
+            (f"chapter{chapter(name)}:{name}", block),
+            (f"claims:{name}", claims_block),
+        ):
+            start, end = f"<!-- {marker} -->", f"<!-- /{marker} -->"
+            if start not in text:
+                continue
+            head, rest = text.split(start, 1)
+            _, tail = rest.split(end, 1)
+            text = f"{head}{start}\n{make(name)}\n{end}{tail}"
     return text
 
 
 def render(check: bool) -> int:
-    """Rewrite docs/reproduction.md (or, with ``check``, report whether it is up to date)."""
-    text = DOC.read_text()
-    new = rendered(text)
-    if check:
-        if new != text:
+    """Rewrite `DOCUMENTS` (or, with ``check``, report whether they are up to date)."""
+    status = 0
+    for document in DOCUMENTS:
+        text = document.read_text()
+        new = rendered(text)
+        if new == text:
+            continue
+        if check:
             print(
-                "docs/reproduction.md differs from the stored results; run "
+                f"{document.name} differs from the stored results; run "
                 "`python docs/reproduction/figures.py render`."
             )
-            return 1
-        return 0
-    DOC.write_text(new)
-    return 0
+            status = 1
+        else:
+            document.write_text(new)
+    return status
 
 
 def main() -> None:
