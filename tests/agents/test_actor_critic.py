@@ -120,6 +120,35 @@ def test_the_log_policy_actor_steps_along_the_gibbs_log_gradient():
     np.testing.assert_allclose(agent.preferences(s), expected)
 
 
+def test_the_log_policy_step_uses_the_policy_that_chose_the_action_when_a_state_repeats():
+    # The run loop's order with s0 = s1 = s2 = s (a move into a wall, twice) and s2's step
+    # terminal: act(s0), act(s1), learn(s0), act(s2), learn(s1), learn(s2). learn(s2) must
+    # use π(s, ·) as act(s2) drew it (after learn(s0) moved ω), not act(s1)'s older one.
+    domain = ChainMDP(num_states=4, num_actions=2)
+    agent = ActorCritic(
+        representation=Tabular(),
+        step_size=0.5,
+        critic="v",
+        actor_update="log_policy",
+    ).setup(domain.domain_spec, seed=0)
+    agent.begin_episode()
+    s = np.array([1.0])
+    a0 = agent.act(s)
+    a1 = agent.act(s)
+    agent.learn(Transition(s, a0, 1.0, s, a1, False))
+    preferences = agent.preferences(s)
+    drawn = np.exp(preferences - preferences.max())
+    drawn /= drawn.sum()  # π(s, ·) of act(s2), τ = 1
+    a2 = agent.act(s)
+    agent.learn(Transition(s, a1, 0.0, s, a2, False))
+    before = agent.preferences(s)
+    value = float(agent.weights_[1, 0])
+    delta = agent.learn(Transition(s, a2, 1.0, np.array([3.0]), 0, True))
+    assert delta == pytest.approx(1.0 - value)
+    expected = before + 0.5 * delta * (np.eye(2)[a2] - drawn)  # ω_b += αδ(𝟙[b = a2] − π(s, b))
+    np.testing.assert_allclose(agent.preferences(s), expected)
+
+
 def test_the_log_policy_step_leaves_the_sum_of_the_preferences_unchanged():
     # Σ_b (𝟙[b = a] − π(b)) = 0: the taken action's gain is paid by the others, which is why
     # a constant error in δ cancels in expectation (the "features" actor's sum grows by αδ).

@@ -91,9 +91,10 @@ class ActorCritic(LinearTDAgent):
       1,000) the action taken most gains a preference as large as the critic's own growth and
       the Gibbs actor stops exploring. The log-policy step's expected change under π is zero
       for any constant error in δ (Σ_a π(a)(𝟙[b = a] − π(b)) = 0), so only advantages move it.
-    - Choice: ``"log_policy"`` uses π(s, ·) as ``act`` drew it (over the legal actions it was
-      given), cached with ψ(s); if ``learn`` meets a state ``act`` did not see last, π(s, ·)
-      is recomputed over all actions.
+    - Choice: ``"log_policy"`` uses π(s, ·) as the ``act`` that chose a drew it (over the
+      legal actions it was given), cached with ψ(s): the act before last, or the last one
+      after a terminal step (the run loop's order); if ``learn`` meets a state ``act`` did not
+      see, π(s, ·) is recomputed over all actions.
     - With ``trace_decay`` > 0 the critic's δ no longer judges an action by the value of the
       next state alone: a state first reached by a new action has V = 0 (far below a mission
       worth 1,000), which with λ = 0 makes every new action look bad, while with λ = 1 the
@@ -291,7 +292,7 @@ class ActorCritic(LinearTDAgent):
         """ω += amount · (ψ(s, a), or ∇_ω log π(s, a) for ``actor_update="log_policy"``)."""
         action = transition.action
         if self._is_log_policy:
-            policy = self._policy_of(transition.state)
+            policy = self._policy_of(transition)
             _kernels.add_log_policy_gradient(
                 self.actor_weights_,
                 psi[0],
@@ -316,17 +317,26 @@ class ActorCritic(LinearTDAgent):
         self.critic_traces_.step(self._trace_factor, phi, self._critic_units[column])
         actor = self._actor_units[transition.action]
         if self._is_log_policy:
-            actor = (actor - self._policy_of(transition.state)) / self.policy_.temperature
+            actor = (actor - self._policy_of(transition)) / self.policy_.temperature
         self.actor_traces_.step(self._trace_factor, psi, actor)
         return delta
 
-    def _policy_of(self, state: np.ndarray) -> np.ndarray:
-        """π(s, ·) as ``act`` drew it (cached with ψ(s)), else over all actions now."""
-        key = state_key(state)
-        for cached_key, _, policy, _ in (self._before_last, self._last):
+    def _policy_of(self, transition: Transition) -> np.ndarray:
+        """π(s, ·) as the ``act`` that chose a drew it (cached with ψ(s)), else over all now.
+
+        The run loop calls ``act(s')`` before ``learn`` unless s' is terminal, so that act is
+        the one before last, or the last one after a terminal step (s and s' may be equal).
+        """
+        key = state_key(transition.state)
+        entries = (
+            (self._last, self._before_last)
+            if transition.terminated
+            else (self._before_last, self._last)
+        )
+        for cached_key, _, policy, _ in entries:
             if key == cached_key and policy is not None:
                 return policy
-        return self.policy_.probabilities(self.preferences(state), self._all_actions)
+        return self.policy_.probabilities(self.preferences(transition.state), self._all_actions)
 
     def _bootstrap(self, transition: Transition) -> float:
         next_phi = (
