@@ -2,8 +2,10 @@
 
 Usage: ``python benchmarks/learning_speed.py [--steps N] [--repeats R]``
 
-Workloads (issue 2): SARSA + tile coding on InvertedPendulum and on GridWorld-1, and SARSA
-and SARSA(λ) + tile coding on Gymnasium's MountainCar-v0 through ``from_gymnasium``. Each is
+Workloads (issue 2): SARSA + tile coding on InvertedPendulum and on GridWorld-1, iCCA's
+learner alone on GridWorld-1 (Fig. 5-5's ``actor_critic_advantage``: tabular Actor-Critic with
+a V critic and the log-policy actor), and SARSA and SARSA(λ) + tile coding on Gymnasium's
+MountainCar-v0 through ``from_gymnasium``. Each is
 measured after a warm-up (numba compilation excluded) as the median of ``repeats`` timed
 ``advance`` calls of the stepper ``conjure run`` learns with (`learning_stepper`: the compiled
 loop when every part has a kernel, a Gymnasium environment's own ``step`` called back from it;
@@ -25,11 +27,12 @@ import gymnasium as gym
 from rich.console import Console
 from rich.table import Table
 
-from conjure.agents import SARSA
+from conjure.agents import SARSA, ActorCritic
+from conjure.core.schedules import EpisodicDecay
 from conjure.domains import GridWorld, InvertedPendulum, from_gymnasium
 from conjure.experiments.loop import learning_stepper
 from conjure.policies import EpsilonGreedy
-from conjure.representations import TileCoding
+from conjure.representations import Tabular, TileCoding
 
 
 def workloads():
@@ -46,6 +49,17 @@ def workloads():
         "SARSA + TileCoding(8 tilings of 10x7), GridWorld-1",
         GridWorld.gridworld_1(),
         SARSA(representation=TileCoding(num_tilings=8, tiles_per_dim=[10, 7]), step_size=0.05),
+    )
+    yield (
+        "Actor-Critic (V critic, log-policy actor) + Tabular, GridWorld-1 (Fig. 5-5's learner)",
+        GridWorld(map_name="gridworld1", step_reward=-0.001, noise=0.3),
+        ActorCritic(
+            representation=Tabular(),
+            step_size=EpisodicDecay(alpha_0=1.0, n_0=100),
+            actor_step_size=EpisodicDecay(alpha_0=1.0, n_0=1000),
+            critic="v",
+            actor_update="log_policy",
+        ),
     )
     for trace_decay in (0.0, 0.9):
         yield (

@@ -8,6 +8,7 @@ from conjure.agents.compiled_agent import bootstrap, clear_learner_traces, step_
 from conjure.core.interfaces import Transition
 from conjure.core.schedules import ConstantStepSize, EpisodicDecay, FeatureNormalizedDecay
 from conjure.domains import ChainMDP
+from conjure.policies import Gibbs
 from conjure.representations import Tabular
 
 
@@ -26,6 +27,9 @@ AGENTS = {
     "sarsa-lambda": lambda: SARSA(representation=Tabular(), step_size=0.3, trace_decay=0.7),
     "qlearning": lambda: QLearning(representation=Tabular(), step_size=0.3),
     "actor-critic": lambda: ActorCritic(representation=Tabular(), step_size=0.3),
+    "advantage-actor-critic": lambda: ActorCritic(
+        representation=Tabular(), step_size=0.3, critic="v", actor_update="log_policy"
+    ),
 }
 
 
@@ -53,7 +57,11 @@ def test_td_learn_updates_as_learn(name):
             q = chooser[next_phi[0]].copy()
             critic_q = arrays.weights[next_phi[0]].copy()
             target = bootstrap(form, reward, q, a_next, np.arange(2), critic_q)
-        assert td_learn(form, arrays, phi, None, a, target, 1) == delta
+        # π(s, ·) of the log-policy actor: learn met s without act, so over all actions now.
+        drawn = Gibbs().probabilities(arrays.actor_weights[phi[0]], np.arange(2))
+        assert td_learn(form, arrays, phi, None, a, target, 1, drawn) == delta
         if terminated:  # the loop's part of SARSA(λ)'s episode end
             clear_learner_traces(form, arrays)
     np.testing.assert_array_equal(arrays.weights, python.weights_)
+    actor = getattr(python, "actor_weights_", python.weights_)
+    np.testing.assert_array_equal(arrays.actor_weights, actor)

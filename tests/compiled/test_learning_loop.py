@@ -13,7 +13,7 @@ def _loop_arguments():
     domain = ChainMDP(num_states=4, step_reward=1.0)  # one action: 0 → 1 → 2 → 3 (terminal)
     agent = SARSA(representation=Tabular(), step_size=0.5).setup(domain.domain_spec, 0)
     obs = domain.reset(seed=0)[0].copy()
-    state = lp.new_loop_state()
+    state = lp.new_loop_state(domain.domain_spec.num_actions)
     state.phase[0] = lp.NEEDS_BEGIN
     arrays = agent.compiled_arrays()
     args = (domain.compiled_form(), domain.np_random, representation_form(agent),

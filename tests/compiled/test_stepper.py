@@ -93,6 +93,30 @@ COMBINATIONS = {
             policy=Gibbs(temperature=0.5),
         ),
     ),
+    # The advantage actor-critic of iCCA's learner (Fig. 5-5): V critic, log-policy actor.
+    "gridworld-tabular-advantage-actor-critic": (
+        GridWorld.gridworld_1,
+        lambda: ActorCritic(
+            representation=Tabular(),
+            step_size=EpisodicDecay(alpha_0=1.0, n_0=100),
+            actor_step_size=EpisodicDecay(alpha_0=1.0, n_0=1000),
+            critic="v",
+            actor_update="log_policy",
+        ),
+    ),
+    "chain-tabular-state-value-actor-critic": (
+        lambda: ChainMDP(num_states=6, num_actions=2, slip=0.2),
+        lambda: ActorCritic(representation=Tabular(), step_size=0.2, critic="v"),
+    ),
+    "pendulum-tiles-log-policy-actor-critic": (
+        InvertedPendulum,
+        lambda: ActorCritic(
+            representation=_tiles(),
+            step_size=0.05,
+            actor_update="log_policy",
+            policy=Gibbs(temperature=0.5),
+        ),
+    ),
     # Real-valued φ (Gaussian RBF): the same kernels with the values; the exact same sums in the
     # same order, so weights agree to the bit. k_t = |φ(s)|₁ under the decaying schedule;
     # replacing traces fall back to accumulating for values other than 1, on both paths.

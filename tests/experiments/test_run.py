@@ -361,10 +361,10 @@ def test_a_run_says_which_path_its_learning_steps_took(monkeypatch):
         domain=ChainMDP(), agent=SARSA(representation=Tabular()), budget_steps=200, seed=0
     )
     assert compiled.path == "compiled" and "(compiled path)" in compiled.summary()
-    advantage = ActorCritic(representation=Tabular(), critic="v")
-    python = run(domain=ChainMDP(), agent=advantage, budget_steps=200, seed=0)
+    traced = ActorCritic(representation=Tabular(), critic="v", trace_decay=0.5)
+    python = run(domain=ChainMDP(), agent=traced, budget_steps=200, seed=0)
     assert python.path.startswith("python: ActorCritic with these parameters has no compiled")
-    assert "critic='q'" in python.path
+    assert "no traces" in python.path
     fake = run(domain=FakeWalk(), agent=FakeAgent(), budget_steps=50, seed=0)
     assert fake.path == "python: the domain FakeWalk has no compiled kernel"
     monkeypatch.setattr(loop, "COMPILE_WORTH_STEPS", 10**9)
@@ -378,7 +378,7 @@ def test_a_run_says_which_path_its_learning_steps_took(monkeypatch):
         "domain": {"kind": "ChainMDP"},
         "agent": {
             "kind": "ActorCritic",
-            "params": {"representation": {"kind": "Tabular"}, "critic": "v"},
+            "params": {"representation": {"kind": "Tabular"}, "trace_decay": 0.5},
         },
         "budget_steps": 100,
         "num_policy_checks": 1,

@@ -194,17 +194,27 @@ class ActorCritic(LinearTDAgent):
         return self
 
     compiled_variant = (
-        "Algorithm 12 as printed only: critic='q', actor_update='features', the actor sharing "
-        "the critic's features, no traces"
+        "the actor sharing the critic's features, no traces, and the log-policy actor only "
+        "over fixed features"
     )
 
     def compiled_form(self) -> forms.AgentKernel | None:
-        """Algorithm 12 as printed for the compiled loop (see `compiled_variant`), else None."""
+        """Algorithm 12 (either critic, either actor step) for the compiled loop, else None.
+
+        See `compiled_variant`. Choice: the log-policy actor over an adaptive representation
+        stays in Python, where a discovery drops the cached π(s, ·) and ``learn`` recomputes it.
+        """
         check_is_set_up(self, "compiled_form")
-        printed = self.critic == "q" and self.actor_update == "features"
-        if not (printed and self._is_shared and not self._has_traces):
+        if not self._is_shared or self._has_traces:
             return None
-        return self._kernel(forms.ACTOR_CRITIC, actor_schedule=self.actor_schedule_)
+        if self._is_log_policy and self.representation_.is_adaptive:
+            return None
+        return self._kernel(
+            forms.ACTOR_CRITIC,
+            actor_schedule=self.actor_schedule_,
+            is_state_value=self._is_state_value,
+            is_log_policy=self._is_log_policy,
+        )
 
     def compiled_arrays(self, rows: int = 0) -> forms.LearnerArrays:
         """θ and the actor's ω, each with room for ``rows`` features."""

@@ -17,6 +17,7 @@ from numba import njit
 
 from conjure.agents._kernels import (
     add,
+    add_log_policy_gradient,
     clear_traces,
     l1_norm,
     q_values_into,
@@ -72,6 +73,10 @@ class AgentKernel(NamedTuple):
         The critic's α_t and the actor's (the critic's again for the other learners).
     policy : PolicyKernel
         The behaviour policy.
+    is_state_value : bool
+        Actor-Critic's critic is V(s) (θ has one column), not Q(s, a).
+    is_log_policy : bool
+        Actor-Critic's actor steps along ∇_ω log π(s, a) (a Gibbs policy), not ψ(s, a).
     """
 
     kind: int
@@ -82,6 +87,8 @@ class AgentKernel(NamedTuple):
     schedule: ScheduleKernel
     actor_schedule: ScheduleKernel
     policy: PolicyKernel
+    is_state_value: bool = False
+    is_log_policy: bool = False
 
 
 class LearnerArrays(NamedTuple):
@@ -134,12 +141,12 @@ def bootstrap(
     ``q``: the chooser's values at s' (θ's, or the actor's for Actor-Critic); ``critic_q``:
     θ's values at s' (read only by Actor-Critic, which the caller has filled).
     SARSA: r + γ Q(s', a'); Q-Learning: r + γ max over the legal a' of Q(s', a');
-    Actor-Critic: r + γ Q_θ(s', a').
+    Actor-Critic: r + γ Q_θ(s', a'), or r + γ V_θ(s') with the state-value critic.
     """
     if agent.kind == SARSA:
         return reward + agent.discount * q[next_action]
     if agent.kind == ACTOR_CRITIC:
-        return reward + agent.discount * critic_q[next_action]
+        return reward + agent.discount * critic_q[0 if agent.is_state_value else next_action]
     best = q[next_legal[0]]
     for i in range(1, next_legal.shape[0]):
         best = max(best, q[next_legal[i]])
@@ -163,19 +170,23 @@ def td_learn(
     action: int,
     target: float,
     episode: int,
+    drawn: np.ndarray,
 ) -> float:
     """α_t, δ and θ's update (Algorithms 10-12, lines 6-7), then ω's (Algorithm 12, line 9).
 
     The learners' ``learn`` in one kernel: k_t = |φ(s)|₁ (the number of features for binary
-    φ), α_t from the schedule at episode max(episode, 1), δ and θ's update by `td_step` or,
-    with traces, `td_step_traces`; Actor-Critic then adds α^actor_t δ φ(s) to ω's row of
-    ``action``. Returns δ; ω is left alone when δ is not finite.
+    φ), α_t from the schedule at episode max(episode, 1), δ and θ's update by `td_step` (on
+    V's one column for the state-value critic) or, with traces, `td_step_traces`;
+    Actor-Critic then adds α^actor_t δ φ(s) to ω's row of ``action``, or with the log-policy
+    actor α^actor_t δ ∇_ω log π(s, a) / τ from ``drawn``, π(s, ·) as it was when a was chosen
+    (`add_log_policy_gradient`). Returns δ; ω is left alone when δ is not finite.
     """
     k_t = _num_active(phi, values)
     counted = max(episode, 1)
     alpha = step_size(agent.schedule, counted, k_t)
     if agent.traces == NO_TRACES:
-        delta = td_step(arrays.weights, phi, values, action, target, alpha)
+        column = 0 if agent.is_state_value else action
+        delta = td_step(arrays.weights, phi, values, column, target, alpha)
     else:
         delta = td_step_traces(
             arrays.weights, phi, values, action, target, alpha, agent.trace_decay,
@@ -184,7 +195,11 @@ def td_learn(
         )  # fmt: skip
     if agent.kind == ACTOR_CRITIC and math.isfinite(delta):
         actor_alpha = step_size(agent.actor_schedule, counted, k_t)
-        add(arrays.actor_weights, phi, values, action, actor_alpha * delta)
+        if agent.is_log_policy:
+            amount = actor_alpha * delta / agent.policy.parameter
+            add_log_policy_gradient(arrays.actor_weights, phi, values, action, drawn, amount)
+        else:
+            add(arrays.actor_weights, phi, values, action, actor_alpha * delta)
     return delta
 
 

@@ -138,6 +138,8 @@ class LinearTDAgent(Agent):
         trace_decay: float = 0.0,
         min_trace: float = 0.0,
         actor_schedule: StepSizeSchedule | None = None,
+        is_state_value: bool = False,
+        is_log_policy: bool = False,
     ) -> forms.AgentKernel | None:
         """The `AgentKernel` of a set-up learner, or None if its policy or a schedule has none."""
         check_is_set_up(self, "compiled_form")
@@ -146,8 +148,9 @@ class LinearTDAgent(Agent):
         if policy is None or schedule is None or actor is None:
             return None
         return forms.AgentKernel(
-            kind, traces, trace_decay, min_trace, self.discount_, schedule, actor, policy
-        )
+            kind, traces, trace_decay, min_trace, self.discount_, schedule, actor, policy,
+            is_state_value, is_log_policy,
+        )  # fmt: skip
 
     def compiled_arrays(self, rows: int = 0) -> forms.LearnerArrays:
         """θ, ω and the traces for the compiled loop, with room for ``rows`` features.

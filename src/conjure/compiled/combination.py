@@ -11,8 +11,9 @@ environment through `GymnasiumDomain` (its own ``step`` called back); the repres
 `TileCoding` (hashed or not), `Tabular`, `IndependentDiscretization`, `BinaryIndicators`, `RBF`
 (real-valued φ, Section 3.1.2) and online iFDD (`OnlineIFDD` and `RandomExpansion`, Algorithms
 19-21) over a binary base; the learners `SARSA` (with or without traces), `QLearning` and
-`ActorCritic` as printed (Algorithm 12); the policies `EpsilonGreedy`, `Gibbs`; the schedules
-`ConstantStepSize`, `FeatureNormalizedDecay`, `EpisodicDecay`.
+`ActorCritic` (Algorithm 12 as printed, or with a V critic and the log-policy actor, with the
+actor sharing the critic's features and no traces); the policies `EpsilonGreedy`, `Gibbs`; the
+schedules `ConstantStepSize`, `FeatureNormalizedDecay`, `EpisodicDecay`.
 """
 
 from __future__ import annotations

@@ -11,7 +11,8 @@ arithmetic: every step calls the components' own kernels through their compiled 
   `sparsify` (Algorithm 19), `room_for`, `discover_from` and `parent_sum_row` for new
   features' weights (Section 4.1.1);
 - the learner (`conjure.agents.compiled_agent`): `q_values_into`, `bootstrap`, `td_learn`,
-  `clear_learner_traces`, and the policy's `select_action`.
+  `clear_learner_traces`, and the policy's `select_action` (and `gibbs_policy` for the
+  log-policy actor).
 
 Per step: a = π(s) was chosen; s', r = step(a); unless terminal, φ(s') and a' = π(s') over the
 legal actions of s'; Q⁺(s, a); δ and the updates; with iFDD, discovery on φ(s) with δ and the
@@ -51,7 +52,7 @@ from conjure.agents.compiled_agent import (
     td_learn,
 )
 from conjure.domains.compiled_domain import DomainKernel, legal_into, reset_into, step_into
-from conjure.policies.compiled_policy import select_action
+from conjure.policies.compiled_policy import gibbs_policy, select_action
 from conjure.representations.compiled_ifdd import IFDDKernel, discover_from, room_for, sparsify
 from conjure.representations.compiled_representation import TILES, encode_into, values_of
 from conjure.representations.weights import parent_sum_row
@@ -69,7 +70,8 @@ class LoopState(NamedTuple):
 
     ``phase`` (`NEEDS_RESET`, `NEEDS_BEGIN`, `IN_EPISODE`), the chosen ``action``, the
     episode's ``episode_steps``, ``episode_failures``, return ``total``, ``discounted`` return
-    and γ^t ``weight``; the learner's ``episode`` count and ``learning_steps``.
+    and γ^t ``weight``; the learner's ``episode`` count and ``learning_steps``; ``drawn``,
+    π(s, ·) when the action was chosen (read by the log-policy actor only).
     """
 
     phase: np.ndarray
@@ -81,12 +83,13 @@ class LoopState(NamedTuple):
     total: np.ndarray
     discounted: np.ndarray
     weight: np.ndarray
+    drawn: np.ndarray
 
 
-def new_loop_state() -> LoopState:
+def new_loop_state(num_actions: int) -> LoopState:
     """A `LoopState` before the first reset."""
     ints = [np.zeros(1, dtype=np.int64) for _ in range(6)]
-    return LoopState(*ints, np.zeros(1), np.zeros(1), np.ones(1))
+    return LoopState(*ints, np.zeros(1), np.zeros(1), np.ones(1), np.zeros(num_actions))
 
 
 @njit(cache=True, inline="always")
@@ -152,9 +155,10 @@ def learning_loop(
     not counted; the episode cannot be continued).
     θ (and ω, the trace slots) must have a row for every feature iFDD's tables can hold.
     """
-    num_actions = arrays.weights.shape[1]
+    num_actions = arrays.actor_weights.shape[1]  # θ has one column for a V critic
     has_traces = agent.traces != NO_TRACES
     is_actor_critic = agent.kind == ACTOR_CRITIC
+    is_log_policy = agent.is_log_policy  # keeps π(s, ·) as the action was drawn (`drawn`)
     # The actor's preferences choose actions for Actor-Critic (shared features), θ otherwise.
     chooser = arrays.actor_weights
     # Scratch: φ(s) and φ(s') buffers of tile coding, legal-action lists, Q(s', ·).
@@ -169,7 +173,8 @@ def learning_loop(
     is_masked = domain.has_action_constraints
     next_obs = np.empty_like(obs)
     q = np.empty(num_actions)
-    critic_q = np.empty(num_actions)
+    critic_q = np.empty(arrays.weights.shape[1])
+    drawn, next_drawn = state.drawn, state.drawn
     ep_float = np.empty((16, 2))
     ep_int = np.empty((16, 2), dtype=np.int64)
     is_buffered = base.kind == TILES and not is_ifdd  # φ(s) lives in phi_buffer
@@ -203,6 +208,8 @@ def learning_loop(
             q_values_into(chooser, phi, values, q)
             legal = legal_into(domain, False, legal_buffer) if is_masked else all_actions
             action = select_action(agent.policy, q, legal, agent_rng)
+            if is_log_policy:
+                _copy(drawn, gibbs_policy(agent.policy, q, legal))
             episode_steps = episode_failures = 0
             total, discounted, weight = 0.0, 0.0, 1.0
             phase = IN_EPISODE
@@ -230,10 +237,12 @@ def learning_loop(
             q_values_into(chooser, next_phi, next_values, q)
             next_legal = legal_into(domain, True, next_legal_buffer) if is_masked else all_actions
             next_action = select_action(agent.policy, q, next_legal, agent_rng)
+            if is_log_policy:
+                next_drawn = gibbs_policy(agent.policy, q, next_legal)
             if is_actor_critic:
                 q_values_into(arrays.weights, next_phi, next_values, critic_q)
             target = bootstrap(agent, reward, q, next_action, next_legal, critic_q)
-        delta = td_learn(agent, arrays, phi, values, action, target, episode)
+        delta = td_learn(agent, arrays, phi, values, action, target, episode, drawn)
         learning_steps += 1
         if not math.isfinite(delta):
             status = DIVERGED
@@ -275,6 +284,8 @@ def learning_loop(
                 phi = next_phi
             values = next_values
             action = next_action
+            if is_log_policy:
+                _copy(drawn, next_drawn)
     state.phase[0], state.action[0], state.episode_steps[0] = phase, action, episode_steps
     state.episode[0], state.learning_steps[0] = episode, learning_steps
     state.episode_failures[0], state.total[0] = episode_failures, total

@@ -127,7 +127,7 @@ class CompiledStepper:
         self._seed = seed
         self._started = False
         self._obs = np.zeros(domain.domain_spec.num_dims)
-        self._state = lp.new_loop_state()
+        self._state = lp.new_loop_state(domain.domain_spec.num_actions)
 
     @property
     def is_mid_episode(self) -> bool:

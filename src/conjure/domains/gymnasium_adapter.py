@@ -229,8 +229,8 @@ class GymnasiumDomain(Domain):
         """Nothing to load: the environment's state never left Python."""
 
     def _observe(self, obs: Any) -> np.ndarray:
-        flat = np.asarray(obs, dtype=np.float64).reshape(-1)
-        return np.minimum(np.maximum(flat, self._low), self._high)
+        flat = np.asarray(obs).astype(np.float64).ravel()  # a copy: clipped in place
+        return flat.clip(self._low, self._high, out=flat)
 
     def close(self) -> None:
         """Close the wrapped environment."""

@@ -2,7 +2,7 @@
 
 `PolicyKernel` is a policy's kind and parameter; `select_action` draws one uniform and calls
 the policy's own kernel (`epsilon_greedy_action`, `gibbs_action`, `greedy_action`), as
-`EpsilonGreedy.select` and `Gibbs.select` do.
+`EpsilonGreedy.select` and `Gibbs.select` do; `gibbs_policy` is `Gibbs.probabilities`.
 """
 
 from __future__ import annotations
@@ -12,9 +12,14 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from conjure.policies._kernels import epsilon_greedy_action, gibbs_action, greedy_action
+from conjure.policies._kernels import (
+    epsilon_greedy_action,
+    gibbs_action,
+    gibbs_probabilities,
+    greedy_action,
+)
 
-__all__ = ["EPSILON_GREEDY", "GIBBS", "PolicyKernel", "select_action"]
+__all__ = ["EPSILON_GREEDY", "GIBBS", "PolicyKernel", "gibbs_policy", "select_action"]
 
 
 #: Policy kinds of `PolicyKernel`.
@@ -39,3 +44,9 @@ def select_action(
     if policy.parameter == 0.0:
         return greedy_action(values, legal)
     return gibbs_action(values, legal, policy.parameter, u)
+
+
+@njit(cache=True, inline="always")
+def gibbs_policy(policy: PolicyKernel, values: np.ndarray, legal: np.ndarray) -> np.ndarray:
+    """π(s, ·) of a `GIBBS` policy with τ > 0 over the legal actions (`Gibbs.probabilities`)."""
+    return gibbs_probabilities(values, legal, policy.parameter)
