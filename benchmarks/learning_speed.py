@@ -1,6 +1,6 @@
 """Learning steps per second of the online learners, through the library's own run loop.
 
-Usage: ``python benchmarks/learning_speed.py [--steps N] [--repeats R]``
+Usage: ``python benchmarks/learning_speed.py [--steps N] [--repeats R] [--python]``
 
 Workloads (issue 2): SARSA + tile coding on InvertedPendulum and on GridWorld-1, iCCA's
 learner alone on GridWorld-1 (Fig. 5-5's ``actor_critic_advantage``: tabular Actor-Critic with
@@ -9,7 +9,8 @@ MountainCar-v0 through ``from_gymnasium``. Each is
 measured after a warm-up (numba compilation excluded) as the median of ``repeats`` timed
 ``advance`` calls of the stepper ``conjure run`` learns with (`learning_stepper`: the compiled
 loop when every part has a kernel, a Gymnasium environment's own ``step`` called back from it;
-the path is shown), i.e. domain step + feature activation + action selection + TD update. A
+the path is shown; ``--python`` forces the Python `Stepper` for comparison), i.e. domain step +
+feature activation + action selection + TD update. A
 user's environment is usually the slow part, so the MountainCar rows are also given as a
 ratio to Gymnasium's own ``MountainCar-v0`` (``gymnasium.make``, its wrappers included)
 stepping with a fixed action and no learner, timed in alternation with them so that both see
@@ -30,7 +31,7 @@ from rich.table import Table
 from conjure.agents import SARSA, ActorCritic
 from conjure.core.schedules import EpisodicDecay
 from conjure.domains import GridWorld, InvertedPendulum, from_gymnasium
-from conjure.experiments.loop import learning_stepper
+from conjure.experiments.loop import Stepper, learning_stepper
 from conjure.policies import EpsilonGreedy
 from conjure.representations import Tabular, TileCoding
 
@@ -75,12 +76,17 @@ def workloads():
         )
 
 
-def measure(domain, agent, num_steps: int, repeats: int) -> tuple[float, float | None, str]:
+def measure(
+    domain, agent, num_steps: int, repeats: int, python: bool = False
+) -> tuple[float, float | None, str]:
     """Median steps/s, for a Gymnasium domain the median ratio of its per-step cost to
     Gymnasium's own ``env.step`` timed in alternation with it (``None`` otherwise), and the
     path taken."""
     agent.setup(domain.domain_spec, seed=0)
-    loop = learning_stepper(domain, agent, seed=0, budget_steps=num_steps * repeats)
+    if python:
+        loop = Stepper(domain, agent, seed=0)
+    else:
+        loop = learning_stepper(domain, agent, seed=0, budget_steps=num_steps * repeats)
     loop.advance(2_000)  # warm-up: numba compilation or cache loading
     is_gymnasium = hasattr(domain, "env_")
     rates, ratios = [], []
@@ -109,6 +115,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--steps", type=int, default=100_000)
     parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--python", action="store_true", help="force the Python path")
     args = parser.parse_args()
     table = Table(title=f"Learning speed (median of {args.repeats} x {args.steps:,} steps)")
     table.add_column("workload")
@@ -117,7 +124,7 @@ def main() -> None:
     table.add_column("us/step", justify="right")
     table.add_column("x env.step alone", justify="right")
     for name, domain, agent in workloads():
-        rate, ratio, path = measure(domain, agent, args.steps, args.repeats)
+        rate, ratio, path = measure(domain, agent, args.steps, args.repeats, args.python)
         shown = "" if ratio is None else f"{ratio:.2f}"
         table.add_row(name, path, f"{rate:,.0f}", f"{1e6 / rate:.2f}", shown)
     rate = statistics.median(environment_alone(args.steps) for _ in range(args.repeats))
