@@ -4,7 +4,7 @@ import numpy as np
 
 from conjure.agents import SARSA
 from conjure.compiled import learning_loop as lp
-from conjure.compiled.combination import agent_form, representation_form
+from conjure.compiled.combination import agent_form, box_form, representation_form
 from conjure.domains import ChainMDP
 from conjure.representations import Tabular
 
@@ -16,8 +16,9 @@ def _loop_arguments():
     state = lp.new_loop_state(domain.domain_spec.num_actions)
     state.phase[0] = lp.NEEDS_BEGIN
     arrays = agent.compiled_arrays()
-    args = (domain.compiled_form(), domain.np_random, representation_form(agent),
-            agent_form(agent), arrays, agent.rng_, 100, obs, state)  # fmt: skip
+    rep = representation_form(agent)
+    args = (domain.compiled_form(), domain.np_random, rep, agent_form(agent), arrays,
+            agent.rng_, 100, obs, state, box_form(agent, rep))  # fmt: skip
     return args, arrays, state
 
 

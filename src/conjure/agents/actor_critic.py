@@ -272,9 +272,9 @@ class ActorCritic(LinearTDAgent):
         """
         check_is_set_up(self, "shift_preference")
         indices, values = self._encode_actor(state)
-        norm = _kernels.squared_norm(values)
-        if norm > 0.0:
-            _kernels.add(self.actor_weights_, indices, values, int(action), float(amount) / norm)
+        forms.shift_preference_into(
+            self.actor_weights_, indices, values, int(action), float(amount)
+        )
 
     def learn(self, transition: Transition) -> float:
         """Critic and actor updates of Algorithm 12, lines 6-9; returns δ."""

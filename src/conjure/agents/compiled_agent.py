@@ -21,6 +21,7 @@ from conjure.agents._kernels import (
     clear_traces,
     l1_norm,
     q_values_into,
+    squared_norm,
     td_step,
     td_step_traces,
 )
@@ -45,6 +46,7 @@ __all__ = [
     "bootstrap",
     "clear_learner_traces",
     "q_values_into",
+    "shift_preference_into",
     "step_size",
     "td_learn",
 ]
@@ -209,3 +211,20 @@ def clear_learner_traces(agent: AgentKernel, arrays: LearnerArrays) -> None:
     if agent.traces != NO_TRACES:
         clear_traces(arrays.trace_slots, arrays.trace_features, arrays.trace_actions,
                      arrays.trace_count)  # fmt: skip
+
+
+@njit(cache=True)
+def shift_preference_into(
+    actor_weights: np.ndarray,
+    phi: np.ndarray,
+    values: np.ndarray | None,
+    action: int,
+    amount: float,
+) -> None:
+    """ρ(s, a) += ``amount`` by ω_a += amount · ψ(s) / ‖ψ(s)‖² (`ActorCritic.shift_preference`).
+
+    ``values`` None: binary ψ, ‖ψ(s)‖² the number of active features.
+    """
+    norm = float(phi.shape[0]) if values is None else squared_norm(values)
+    if norm > 0.0:
+        add(actor_weights, phi, values, action, amount / norm)

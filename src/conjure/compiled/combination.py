@@ -13,19 +13,30 @@ environment through `GymnasiumDomain` (its own ``step`` called back); the repres
 19-21) over a binary base; the learners `SARSA` (with or without traces), `QLearning` and
 `ActorCritic` (Algorithm 12 as printed, or with a V critic and the log-policy actor, with the
 actor sharing the critic's features and no traces); the policies `EpsilonGreedy`, `Gibbs`; the
-schedules `ConstantStepSize`, `FeatureNormalizedDecay`, `EpisodicDecay`.
+schedules `ConstantStepSize`, `FeatureNormalizedDecay`, `EpisodicDecay`; and iCCA's box around
+such a learner (`CooperativeActorCritic`, Algorithm 23) when its planner and risk analyser can
+be tabulated (`conjure.safety.compiled_cooperative`).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 from conjure.agents.compiled_agent import AgentKernel
 from conjure.core.compiled_form import compiled_form
 from conjure.core.interfaces import Agent, Domain, check_is_set_up
 from conjure.representations.compiled_ifdd import IFDDKernel, fixed
+from conjure.safety.compiled_cooperative import BoxKernel, no_box
 
-__all__ = ["Selection", "representation_form", "select", "why_not_compiled"]
+__all__ = [
+    "Selection",
+    "box_form",
+    "learner_of",
+    "representation_form",
+    "select",
+    "why_not_compiled",
+]
 
 
 @dataclass(frozen=True)
@@ -54,19 +65,44 @@ def select(domain: Domain, agent: Agent) -> Selection | str:
     if not hasattr(agent, "compiled_form"):
         return f"the agent {type(agent).__name__} has no compiled kernel"
     check_is_set_up(agent, "select")
-    for part, component in (("policy", agent.policy_), ("step-size schedule", agent.schedule_)):
+    learner = learner_of(agent)
+    if learner is not agent and compiled_form(agent) is None:
+        return _no_variant(agent)
+    parts = (("policy", learner.policy_), ("step-size schedule", learner.schedule_))
+    for part, component in parts:
         if compiled_form(component) is None:
             return f"the {part} {type(component).__name__} has no compiled kernel"
-    if compiled_form(agent) is None:
-        variant = getattr(agent, "compiled_variant", "")
-        return f"{type(agent).__name__} with these parameters has no compiled kernel" + (
-            f" ({variant})" if variant else ""
-        )
-    rep = representation_form(agent)
+    if compiled_form(learner) is None:
+        return _no_variant(learner)
+    rep = representation_form(learner)
     if rep is None:
-        name = type(agent.representation_).__name__
+        name = type(learner.representation_).__name__
         return f"the representation {name} has no compiled kernel here"
     return Selection(domain.domain_spec.max_episode_steps, rep.base.rbf is not None)
+
+
+def _no_variant(component: Any) -> str:
+    variant = getattr(component, "compiled_variant", "")
+    return f"{type(component).__name__} with these parameters has no compiled kernel" + (
+        f" ({variant})" if variant else ""
+    )
+
+
+def learner_of(agent: Agent) -> Agent:
+    """The learner whose kernels run: the agent, or the one inside a cooperative box.
+
+    A box (`conjure.safety.CooperativeActorCritic`) names it ``compiled_learner``.
+    """
+    return getattr(agent, "compiled_learner", agent)
+
+
+def box_form(agent: Agent, rep: IFDDKernel) -> BoxKernel:
+    """The agent's box (`conjure.safety.compiled_cooperative`), `NO_BOX` for a learner alone."""
+    if learner_of(agent) is agent:
+        return no_box(rep.base)
+    form = compiled_form(agent)
+    assert form is not None  # `select` checked it
+    return form
 
 
 def why_not_compiled(domain: Domain, agent: Agent) -> str | None:

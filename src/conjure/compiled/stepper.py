@@ -46,7 +46,14 @@ import numpy as np
 from numba.core import types
 
 from conjure.compiled import learning_loop as lp
-from conjure.compiled.combination import Selection, agent_form, representation_form, select
+from conjure.compiled.combination import (
+    Selection,
+    agent_form,
+    box_form,
+    learner_of,
+    representation_form,
+    select,
+)
 from conjure.core.errors import DivergenceError, InvalidParameterError
 from conjure.core.interfaces import Agent, Domain
 from conjure.domains.compiled_domain import DomainKernel, callback_error
@@ -156,7 +163,7 @@ class CompiledStepper:
             raise InvalidParameterError(f"`num_steps` must be an int; got {num_steps!r}.")
         if num_steps < 0:
             raise InvalidParameterError(f"`num_steps` must be >= 0; got {num_steps!r}.")
-        domain, agent, state = self.domain, self.agent, self._state
+        domain, agent, state = self.domain, learner_of(self.agent), self._state
         if not self._started and num_steps > 0:
             self._obs[:] = domain.reset(seed=self._seed)[0]
             self._started = True
@@ -206,13 +213,15 @@ class CompiledStepper:
 
     def _call(self, num_steps: int, domain_form: DomainKernel) -> tuple:
         """One call of the loop with the learner's current arrays (iFDD may have grown them)."""
-        agent, representation = self.agent, self.agent.representation_
+        agent = learner_of(self.agent)
+        representation = agent.representation_
         rep = representation_form(agent)
         assert rep is not None  # `select` checked it
         rows = representation.feature_capacity_ if rep.is_ifdd else 0
         arrays = agent.compiled_arrays(rows)
         args = (domain_form, self.domain.np_random, rep, agent_form(agent), arrays, agent.rng_,
-                self.selection.max_episode_steps, self._obs, self._state)  # fmt: skip
+                self.selection.max_episode_steps, self._obs, self._state,
+                box_form(self.agent, rep))  # fmt: skip
         name = _kernel_name(self.selection)
         if name not in _COMPILE_SECONDS:  # a zero-step call: compile (or load the cache) alone
             started = time.perf_counter()

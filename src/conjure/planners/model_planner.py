@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -15,7 +15,25 @@ from conjure.models.tabular_model import TabularModel
 from conjure.planners.base import Plan, Planner
 from conjure.planners.value_iteration import ValueIteration
 
-__all__ = ["ModelPlanner"]
+__all__ = ["ModelPlanner", "PlannedPolicy"]
+
+
+class PlannedPolicy(NamedTuple):
+    """A planner's π^p as a table: ``actions[i]`` = π^p(``states[i]``) for every planned state.
+
+    Geramifard (2012), Section 5.3.1: the cooperative planner's policy, here as the compiled
+    iCCA box reads it (`conjure.safety.compiled_cooperative`).
+
+    Parameters
+    ----------
+    states : ndarray of shape (|S|, dims)
+        The planned model's states.
+    actions : ndarray of int64, shape (|S|,)
+        π^p of each.
+    """
+
+    states: np.ndarray
+    actions: np.ndarray
 
 
 class ModelPlanner(CooperativePlanner):
@@ -100,6 +118,13 @@ class ModelPlanner(CooperativePlanner):
         self._model = tabular
         self.policy_ = np.asarray(policy, dtype=np.int64)
         self.planned_noise_ = float(model.noise_)
+
+    compiled_methods = ("action",)
+
+    def compiled_form(self) -> PlannedPolicy:
+        """π^p of the current plan over the tabular model's states (a copy of the table)."""
+        check_is_set_up(self, "compiled_form")
+        return PlannedPolicy(self._model.states.copy(), self.policy_.copy())
 
     def action(self, state: np.ndarray) -> int:
         """π^p(s) of the current plan."""

@@ -10,6 +10,7 @@ from conjure.core.interfaces import Representation, check_is_set_up
 from conjure.core.params import InstanceOf, Interval
 from conjure.models.approximate_model import ApproximateModel
 from conjure.policies import greedy_action
+from conjure.safety.compiled_cooperative import BoxKernel, icca_kernel
 from conjure.safety.cooperative_agent import CooperativeAgent
 
 __all__ = ["CooperativeActorCritic"]
@@ -155,6 +156,27 @@ class CooperativeActorCritic(CooperativeAgent):
         if self.bias_half_life is None:
             return self.bias
         return self.bias * self.bias_half_life / (self.bias_half_life + visits)
+
+    compiled_methods = ("act", "learn", "begin_episode", "planner_bias")
+    compiled_variant = (
+        "a planner with a table (ModelPlanner), a deterministic risk analyser "
+        "(NominalRiskAnalyzer) and a tabular index, around a compiled learner"
+    )
+
+    def compiled_form(self) -> BoxKernel | None:
+        """The box with π^p and safe(s, a) tabulated for the compiled loop, or None.
+
+        See `conjure.safety.compiled_cooperative` (and `compiled_variant`); the learner's
+        own compiled form runs the updates.
+        """
+        check_is_set_up(self, "compiled_form")
+        return icca_kernel(self)
+
+    @property
+    def compiled_learner(self) -> ActorCritic:
+        """The learner whose kernels the compiled loop runs inside the box."""
+        check_is_set_up(self, "compiled_learner")
+        return self.learner_
 
     def act(
         self, state: np.ndarray, greedy: bool = False, legal_actions: np.ndarray | None = None

@@ -6,6 +6,7 @@ import numpy as np
 
 from conjure.core.cooperative import RISK_TOLERANCE, RiskAnalyzer
 from conjure.core.interfaces import check_is_set_up
+from conjure.safety.compiled_cooperative import FixedRisk
 
 __all__ = ["NominalRiskAnalyzer"]
 
@@ -57,6 +58,12 @@ class NominalRiskAnalyzer(RiskAnalyzer):
 
     def __init__(self, *, risk_tolerance: float = 1.0):
         self.risk_tolerance = risk_tolerance
+
+    compiled_methods = ("risk", "is_safe")
+
+    def compiled_form(self) -> FixedRisk:
+        """Deterministic: the compiled iCCA box tabulates ``is_safe`` (`FixedRisk`)."""
+        return FixedRisk(float(self.risk_tolerance))
 
     def risk(self, state: np.ndarray, action: int, rng: np.random.Generator | None = None) -> float:
         """1.0 if the noise-free successor is constrained, else 0.0."""

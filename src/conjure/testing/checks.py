@@ -335,7 +335,13 @@ def _validate(component: Configurable) -> None:
 
 
 def _set_up_copy(component: Configurable) -> Configurable:
-    """A set-up clone: representations on the check spec, agents on their check domain."""
+    """A set-up clone on what the component needs (spec, check domain or check setting).
+
+    Representations on the check spec, agents on their check domain, cooperative planners and
+    risk analysers on the first check setting they accept.
+    """
+    if isinstance(component, (RiskAnalyzer, CooperativePlanner)):
+        return _set_up_on_setting(component, seed=0)[0]
     clone = component.clone()
     _validate(clone)
     return clone

@@ -1,0 +1,90 @@
+"""Same seed, same curve: iCCA's box (Algorithm 23) in the compiled loop and in Python."""
+
+import numpy as np
+import pytest
+
+from conjure.agents import ActorCritic
+from conjure.compiled import CompiledStepper, for_combination, why_not_compiled
+from conjure.core.schedules import EpisodicDecay
+from conjure.domains import GridWorld
+from conjure.experiments.loop import LearningLoop
+from conjure.models.approximate_model import ApproximateModel
+from conjure.planners import ModelPlanner
+from conjure.representations import Tabular
+from conjure.safety import CooperativeActorCritic, MonteCarloRiskAnalyzer, NominalRiskAnalyzer
+
+CHUNKS = (0, 1, 337, 1500, 2162)
+
+
+def _learner(variant: str) -> ActorCritic:
+    if variant == "printed":  # Algorithm 23 as printed: Q critic, Algorithm 12's actor step
+        return ActorCritic(representation=Tabular(), step_size=EpisodicDecay(alpha_0=0.1))
+    return ActorCritic(  # Fig. 5-5's iCCA: V critic, log-policy actor
+        representation=Tabular(),
+        step_size=EpisodicDecay(alpha_0=1.0, n_0=100),
+        actor_step_size=EpisodicDecay(alpha_0=1.0, n_0=1000),
+        critic="v",
+        actor_update="log_policy",
+    )
+
+
+def _box(domain: GridWorld, variant: str, risk=None) -> CooperativeActorCritic:
+    model_domain = domain.clone().set_params(noise=0.0)
+    fading = variant != "printed"
+    return CooperativeActorCritic(
+        learner=_learner(variant),
+        planner=ModelPlanner(),
+        risk=risk or NominalRiskAnalyzer(),
+        model=ApproximateModel(domain=model_domain),
+        bias=30.0 if fading else 100.0,
+        bias_half_life=2.0 if fading else None,
+    )
+
+
+def _run(domain_factory, variant: str, seed: int, compiled: bool):
+    domain = domain_factory()
+    agent = _box(domain, variant).setup(domain.domain_spec, seed)
+    if compiled:
+        stepper = for_combination(domain, agent, seed=seed)
+        assert isinstance(stepper, CompiledStepper)
+    else:
+        stepper = LearningLoop(domain, agent, seed=seed)
+    for n in CHUNKS:
+        stepper.advance(n)
+    return stepper, agent
+
+
+@pytest.mark.parametrize("variant", ["fading", "printed"])
+@pytest.mark.parametrize(
+    "world", [GridWorld.gridworld_1, lambda: GridWorld(map_name="gridworld2", noise=0.2)]
+)
+@pytest.mark.parametrize("seed", [0, 5])
+def test_the_box_takes_the_same_steps_on_both_paths(variant, world, seed):
+    python, python_agent = _run(world, variant, seed, compiled=False)
+    compiled, agent = _run(world, variant, seed, compiled=True)
+    learner, python_learner = agent.learner_, python_agent.learner_
+    np.testing.assert_array_equal(agent.visits_, python_agent.visits_)
+    np.testing.assert_array_equal(learner.weights_, python_learner.weights_)
+    np.testing.assert_array_equal(learner.actor_weights_, python_learner.actor_weights_)
+    assert learner.rng_.bit_generator.state == python_learner.rng_.bit_generator.state
+    assert (compiled.total_steps, compiled.num_episodes, compiled.num_failures) == (
+        python.total_steps,
+        python.num_episodes,
+        python.num_failures,
+    )
+    assert learner.num_learning_steps_ == python_learner.num_learning_steps_ == sum(CHUNKS)
+    assert learner.episode_ == python_learner.episode_ > 2
+    assert agent.visits_.sum() > sum(CHUNKS)  # one visit per action choice
+    # The Python box acts greedily on the compiled learner's weights like on its own.
+    state = np.array([0.0, 0.0])
+    assert agent.act(state, greedy=True) == python_agent.act(state, greedy=True)
+
+
+def test_a_box_it_cannot_tabulate_stays_in_python_and_says_why():
+    domain = GridWorld.gridworld_1()
+    risk = MonteCarloRiskAnalyzer(num_rollouts=5)  # draws random rollouts: not a fixed table
+    agent = _box(domain, "fading", risk).setup(domain.domain_spec, 0)
+    assert for_combination(domain, agent) is None
+    assert why_not_compiled(domain, agent).startswith(
+        "CooperativeActorCritic with these parameters has no compiled kernel (a planner with"
+    )
