@@ -10,7 +10,7 @@ from conjure.domains import GridWorld
 from conjure.experiments.loop import LearningLoop
 from conjure.models.approximate_model import ApproximateModel
 from conjure.planners import ModelPlanner
-from conjure.representations import Tabular
+from conjure.representations import IndependentDiscretization, OnlineIFDD, Tabular
 from conjure.safety import CooperativeActorCritic, MonteCarloRiskAnalyzer, NominalRiskAnalyzer
 
 CHUNKS = (0, 1, 337, 1500, 2162)
@@ -88,3 +88,13 @@ def test_a_box_it_cannot_tabulate_stays_in_python_and_says_why():
     assert why_not_compiled(domain, agent).startswith(
         "CooperativeActorCritic with these parameters has no compiled kernel (a planner with"
     )
+
+
+def test_a_box_around_growing_features_stays_in_python():
+    domain = GridWorld.gridworld_1()
+    agent = _box(domain, "fading")
+    ifdd = OnlineIFDD(base=IndependentDiscretization(), discovery_threshold=0.1)
+    agent.learner.set_params(representation=ifdd)
+    agent.setup(domain.domain_spec, 0)
+    assert for_combination(domain, agent) is None
+    assert "on fixed features" in why_not_compiled(domain, agent)

@@ -100,8 +100,11 @@ def icca_kernel(agent: Any) -> BoxKernel | None:
     """The `ICCA` form of a set-up `CooperativeActorCritic`, or None when it cannot be tabulated.
 
     None unless the planner gives a table (`ModelPlanner`'s `PlannedPolicy`), the analyser
-    is a `FixedRisk` and the index is tabular (one row per state).
+    is a `FixedRisk`, the index is tabular (one row per state) and the learner's features are
+    fixed (Choice: a growing representation inside the box stays on the Python path).
     """
+    if agent.learner_.representation_.is_adaptive:
+        return None
     planned = compiled_form(agent.planner_)
     index = compiled_form(agent.index_)
     if planned is None or not isinstance(compiled_form(agent.risk_), FixedRisk):

@@ -160,7 +160,7 @@ class CooperativeActorCritic(CooperativeAgent):
     compiled_methods = ("act", "learn", "begin_episode", "planner_bias")
     compiled_variant = (
         "a planner with a table (ModelPlanner), a deterministic risk analyser "
-        "(NominalRiskAnalyzer) and a tabular index, around a compiled learner"
+        "(NominalRiskAnalyzer) and a tabular index, around a compiled learner on fixed features"
     )
 
     def compiled_form(self) -> BoxKernel | None:
