@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from conjure.agents import ActorCritic
+from conjure.agents import SARSA, ActorCritic, QLearning
 from conjure.compiled import CompiledStepper, for_combination, why_not_compiled
 from conjure.core.schedules import EpisodicDecay
 from conjure.domains import GridWorld
@@ -11,7 +11,13 @@ from conjure.experiments.loop import LearningLoop
 from conjure.models.approximate_model import ApproximateModel
 from conjure.planners import ModelPlanner
 from conjure.representations import IndependentDiscretization, OnlineIFDD, Tabular
-from conjure.safety import CooperativeActorCritic, MonteCarloRiskAnalyzer, NominalRiskAnalyzer
+from conjure.safety import (
+    AdaptiveCooperativeLearner,
+    CooperativeActorCritic,
+    CooperativeLearner,
+    MonteCarloRiskAnalyzer,
+    NominalRiskAnalyzer,
+)
 
 CHUNKS = (0, 1, 337, 1500, 2162)
 
@@ -41,9 +47,10 @@ def _box(domain: GridWorld, variant: str, risk=None) -> CooperativeActorCritic:
     )
 
 
-def _run(domain_factory, variant: str, seed: int, compiled: bool):
+def _run(make_box, domain_factory, variant: str, seed: int, compiled: bool):
+    """(stepper, agent) after `CHUNKS` of steps of ``make_box(domain, variant)``."""
     domain = domain_factory()
-    agent = _box(domain, variant).setup(domain.domain_spec, seed)
+    agent = make_box(domain, variant).setup(domain.domain_spec, seed)
     if compiled:
         stepper = for_combination(domain, agent, seed=seed)
         assert isinstance(stepper, CompiledStepper)
@@ -54,18 +61,10 @@ def _run(domain_factory, variant: str, seed: int, compiled: bool):
     return stepper, agent
 
 
-@pytest.mark.parametrize("variant", ["fading", "printed"])
-@pytest.mark.parametrize(
-    "world", [GridWorld.gridworld_1, lambda: GridWorld(map_name="gridworld2", noise=0.2)]
-)
-@pytest.mark.parametrize("seed", [0, 5])
-def test_the_box_takes_the_same_steps_on_both_paths(variant, world, seed):
-    python, python_agent = _run(world, variant, seed, compiled=False)
-    compiled, agent = _run(world, variant, seed, compiled=True)
-    learner, python_learner = agent.learner_, python_agent.learner_
-    np.testing.assert_array_equal(agent.visits_, python_agent.visits_)
+def _assert_same_steps(python, compiled) -> None:
+    """Both paths took the same steps: counters and the learner's generator and updates."""
+    learner, python_learner = compiled.agent.learner_, python.agent.learner_
     np.testing.assert_array_equal(learner.weights_, python_learner.weights_)
-    np.testing.assert_array_equal(learner.actor_weights_, python_learner.actor_weights_)
     assert learner.rng_.bit_generator.state == python_learner.rng_.bit_generator.state
     assert (compiled.total_steps, compiled.num_episodes, compiled.num_failures) == (
         python.total_steps,
@@ -73,6 +72,20 @@ def test_the_box_takes_the_same_steps_on_both_paths(variant, world, seed):
         python.num_failures,
     )
     assert learner.num_learning_steps_ == python_learner.num_learning_steps_ == sum(CHUNKS)
+
+
+@pytest.mark.parametrize("variant", ["fading", "printed"])
+@pytest.mark.parametrize(
+    "world", [GridWorld.gridworld_1, lambda: GridWorld(map_name="gridworld2", noise=0.2)]
+)
+@pytest.mark.parametrize("seed", [0, 5])
+def test_the_box_takes_the_same_steps_on_both_paths(variant, world, seed):
+    python, python_agent = _run(_box, world, variant, seed, compiled=False)
+    compiled, agent = _run(_box, world, variant, seed, compiled=True)
+    learner, python_learner = agent.learner_, python_agent.learner_
+    np.testing.assert_array_equal(agent.visits_, python_agent.visits_)
+    np.testing.assert_array_equal(learner.actor_weights_, python_learner.actor_weights_)
+    _assert_same_steps(python, compiled)
     assert learner.episode_ == python_learner.episode_ > 2
     assert agent.visits_.sum() > sum(CHUNKS)  # one visit per action choice
     # The Python box acts greedily on the compiled learner's weights like on its own.
@@ -98,3 +111,48 @@ def test_a_box_around_growing_features_stays_in_python():
     agent.setup(domain.domain_spec, 0)
     assert for_combination(domain, agent) is None
     assert "on fixed features" in why_not_compiled(domain, agent)
+
+
+def _csarsa(domain: GridWorld, variant: str) -> CooperativeLearner:
+    model = ApproximateModel(domain=domain.clone().set_params(noise=0.0))
+    step_size = EpisodicDecay(alpha_0=1.0, n_0=100)
+    learner = (
+        QLearning(representation=Tabular(), step_size=step_size)
+        if variant == "qlearning"
+        else SARSA(representation=Tabular(), step_size=step_size, trace_decay=0.5)
+    )
+    return CooperativeLearner(
+        learner=learner,
+        planner=ModelPlanner(),
+        risk=NominalRiskAnalyzer(),
+        model=model,
+        num_known_visits=3 if variant != "printed" else 10,
+        veto_reward=None if variant == "printed" else -1.0,
+        trusted_knownness=0.9 if variant == "trusting" else None,
+    )
+
+
+@pytest.mark.parametrize("variant", ["veto", "printed", "trusting", "qlearning"])
+@pytest.mark.parametrize(
+    "world", [GridWorld.gridworld_1, lambda: GridWorld(map_name="gridworld2", noise=0.2)]
+)
+def test_algorithm_24_takes_the_same_steps_on_both_paths(variant, world):
+    python, python_agent = _run(_csarsa, world, variant, 3, compiled=False)
+    compiled, agent = _run(_csarsa, world, variant, 3, compiled=True)
+    learner = agent.learner_
+    np.testing.assert_array_equal(agent.counts_, python_agent.counts_)
+    assert agent.rng_.bit_generator.state == python_agent.rng_.bit_generator.state
+    _assert_same_steps(python, compiled)
+    assert agent.counts_.sum() > 0 and learner.episode_ > 2
+
+
+def test_am_icca_stays_in_python():
+    domain = GridWorld.gridworld_1()
+    model = ApproximateModel(domain=domain.clone().set_params(noise=0.0), is_adaptive=True)
+    agent = AdaptiveCooperativeLearner(
+        learner=SARSA(representation=Tabular()),
+        planner=ModelPlanner(),
+        risk=NominalRiskAnalyzer(),
+        model=model,
+    ).setup(domain.domain_spec, 0)
+    assert for_combination(domain, agent) is None

@@ -45,6 +45,7 @@ __all__ = [
     "LearnerArrays",
     "bootstrap",
     "clear_learner_traces",
+    "imagined_learn",
     "q_values_into",
     "shift_preference_into",
     "step_size",
@@ -185,7 +186,7 @@ def td_learn(
     """
     k_t = _num_active(phi, values)
     counted = max(episode, 1)
-    alpha = step_size(agent.schedule, counted, k_t)
+    alpha = step_size(agent.schedule, counted, k_t)  # as `imagined_learn`
     if agent.traces == NO_TRACES:
         column = 0 if agent.is_state_value else action
         delta = td_step(arrays.weights, phi, values, column, target, alpha)
@@ -228,3 +229,22 @@ def shift_preference_into(
     norm = float(phi.shape[0]) if values is None else squared_norm(values)
     if norm > 0.0:
         add(actor_weights, phi, values, action, amount / norm)
+
+
+@njit(cache=True, inline="always")
+def imagined_learn(
+    agent: AgentKernel,
+    arrays: LearnerArrays,
+    phi: np.ndarray,
+    values: np.ndarray | None,
+    action: int,
+    target: float,
+    episode: int,
+) -> float:
+    """An imagined terminal step's update (`Transition.is_imagined`): δ and θ, no traces.
+
+    The Python learners' ``learn`` of a vetoed proposal (`conjure.safety.CooperativeLearner`)
+    for SARSA and Q-Learning: α_t from the schedule, `td_step` toward ``target``. Returns δ.
+    """
+    alpha = step_size(agent.schedule, max(episode, 1), _num_active(phi, values))
+    return td_step(arrays.weights, phi, values, action, target, alpha)

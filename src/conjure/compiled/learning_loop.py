@@ -56,7 +56,7 @@ from conjure.policies.compiled_policy import gibbs_policy, select_action
 from conjure.representations.compiled_ifdd import IFDDKernel, discover_from, room_for, sparsify
 from conjure.representations.compiled_representation import TILES, encode_into, values_of
 from conjure.representations.weights import parent_sum_row
-from conjure.safety.compiled_cooperative import ICCA, BoxKernel, cooperative_action
+from conjure.safety.compiled_cooperative import NO_BOX, BoxKernel, box_action
 
 __all__ = ["LoopState", "learning_loop"]
 
@@ -147,8 +147,8 @@ def learning_loop(
     """Take up to ``num_steps`` learning steps; stop early on a status other than `DONE`.
 
     ``cap``: the episode cap; ``obs``: s, updated in place; ``box``: iCCA's box around the
-    learner (`conjure.safety.compiled_cooperative`: its `cooperative_action` chooses the
-    actions) or `NO_BOX`. Returns (status, steps taken,
+    learner (`conjure.safety.compiled_cooperative`: its `box_action` chooses the actions) or
+    `NO_BOX`. Returns (status, steps taken,
     failures, last δ, episodes (m, 2) float64 [return, discounted return], episodes (m, 2)
     int64 [length, failures]) for the m episodes that ended during the call.
 
@@ -163,7 +163,7 @@ def learning_loop(
     has_traces = agent.traces != NO_TRACES
     is_actor_critic = agent.kind == ACTOR_CRITIC
     is_log_policy = agent.is_log_policy  # keeps π(s, ·) as the action was drawn (`drawn`)
-    is_box = box.kind == ICCA
+    is_box = box.kind != NO_BOX
     row_buffer = np.empty(1, dtype=np.int64)
     # The actor's preferences choose actions for Actor-Critic (shared features), θ otherwise.
     chooser = arrays.actor_weights
@@ -214,10 +214,13 @@ def learning_loop(
             q_values_into(chooser, phi, values, q)
             legal = legal_into(domain, False, legal_buffer) if is_masked else all_actions
             if is_box:
-                action = cooperative_action(
-                    box, chooser, phi, values, q, legal, agent.policy, agent_rng, obs, quanta,
-                    row_buffer,
+                action, vetoed = box_action(
+                    box, agent, arrays, phi, values, q, legal, agent_rng, obs, quanta,
+                    row_buffer, episode,
                 )  # fmt: skip
+                if not math.isfinite(vetoed):  # a vetoed proposal's update diverged
+                    status, delta, phase = DIVERGED, vetoed, NEEDS_RESET
+                    break
             else:
                 action = select_action(agent.policy, q, legal, agent_rng)
             if is_log_policy:
@@ -249,10 +252,13 @@ def learning_loop(
             q_values_into(chooser, next_phi, next_values, q)
             next_legal = legal_into(domain, True, next_legal_buffer) if is_masked else all_actions
             if is_box:
-                next_action = cooperative_action(
-                    box, chooser, next_phi, next_values, q, next_legal, agent.policy,
-                    agent_rng, next_obs, quanta, row_buffer,
+                next_action, vetoed = box_action(
+                    box, agent, arrays, next_phi, next_values, q, next_legal, agent_rng,
+                    next_obs, quanta, row_buffer, episode,
                 )  # fmt: skip
+                if not math.isfinite(vetoed):  # a vetoed proposal's update diverged
+                    status, delta, phase = DIVERGED, vetoed, NEEDS_RESET
+                    break
             else:
                 next_action = select_action(agent.policy, q, next_legal, agent_rng)
             if is_log_policy:

@@ -1,11 +1,13 @@
 """The iCCA control box as the compiled learning loop reads it (`conjure.core.compiled_form`).
 
-Geramifard (2012), Algorithm 23 (Section 5.3). `BoxKernel` holds what the box needs per step
-when its planner and risk analyser are fixed functions of the state: π^p(s) and the verdicts
-safe(s, a) tabulated per row of the box's index (one feature per state), the visit counts
-n(s) (the agent's own table, updated in place) and the planner bias. `cooperative_action` is
-`CooperativeActorCritic.act` (lines 1-6) for the loop; the learner's update stays the
-learner's own kernel.
+Geramifard (2012), Algorithms 23 and 24 (Sections 5.3-5.4). `BoxKernel` holds what the box
+needs per step when its planner and risk analyser are fixed functions of the state: π^p(s)
+and the verdicts safe(s, a) tabulated per row of the box's index (one feature per state), and
+the agent's own tables, updated in place (Algorithm 23's visit counts n(s) and planner bias;
+Algorithm 24's counts of unconsulted planner actions, knownness and veto rule). `box_action`
+is the box's ``act`` while learning (`cooperative_action`: `CooperativeActorCritic`,
+`cooperative_learner_action`: `CooperativeLearner`); the learner's updates stay the learner's
+own kernels.
 
 The tables are made by calling the parts' own methods (`planner.action` through its compiled
 form, the analyser's ``is_safe``) on every state the planner planned, so no rule is coded
@@ -20,7 +22,14 @@ from typing import Any, NamedTuple
 import numpy as np
 from numba import njit
 
-from conjure.agents.compiled_agent import q_values_into, shift_preference_into
+from conjure.agents.compiled_agent import (
+    ACTOR_CRITIC,
+    AgentKernel,
+    LearnerArrays,
+    imagined_learn,
+    q_values_into,
+    shift_preference_into,
+)
 from conjure.core.compiled_form import compiled_form
 from conjure.policies.compiled_policy import PolicyKernel, select_action
 from conjure.representations.compiled_representation import (
@@ -30,17 +39,23 @@ from conjure.representations.compiled_representation import (
 )
 
 __all__ = [
+    "COOPERATIVE_LEARNER",
     "ICCA",
     "NO_BOX",
     "BoxKernel",
     "FixedRisk",
+    "box_action",
     "cooperative_action",
+    "cooperative_learner_action",
+    "cooperative_learner_kernel",
     "icca_kernel",
     "no_box",
 ]
 
-#: Box kinds of `BoxKernel`: none (a plain learner), Algorithm 23.
-NO_BOX, ICCA = 0, 1
+#: Box kinds of `BoxKernel`: none (a plain learner), Algorithm 23, Algorithm 24.
+NO_BOX, ICCA, COOPERATIVE_LEARNER = 0, 1, 2
+#: The generator a box without draws holds (the field's type is fixed).
+_NO_DRAWS = np.random.default_rng(0)
 
 
 class FixedRisk(NamedTuple):
@@ -77,6 +92,18 @@ class BoxKernel(NamedTuple):
         λ and N_b of the fading bias b(n) = λ·N_b/(N_b + n).
     is_fading : bool
         Whether the bias fades (``bias_half_life`` is not None).
+    counts : ndarray of int32, shape (rows, |A|)
+        Algorithm 24's count(s, a) of unconsulted planner actions, the agent's ``counts_``.
+    num_known : float
+        𝒦, the count after which a pair is known.
+    veto_reward : float
+        The reward a vetoed proposal is learned with, if ``has_veto``.
+    has_veto : bool
+        Whether vetoed proposals are learned (``veto_reward`` is not None).
+    trusted : float
+        The knownness from which the safety check is skipped (2.0: never).
+    rng : numpy.random.Generator
+        The agent's own generator (Algorithm 24's knownness draws).
     """
 
     kind: int
@@ -87,23 +114,28 @@ class BoxKernel(NamedTuple):
     bias: float
     half_life: float
     is_fading: bool
+    counts: np.ndarray
+    num_known: float
+    veto_reward: float
+    has_veto: bool
+    trusted: float
+    rng: np.random.Generator
 
 
 def no_box(index: RepresentationKernel) -> BoxKernel:
     """The `NO_BOX` form (empty tables) with a stand-in ``index`` of the loop's type."""
     empty = np.zeros(0, dtype=np.int64)
     no_table = np.zeros((0, 0), dtype=np.bool_)
-    return BoxKernel(NO_BOX, index, empty, no_table, empty, 0.0, 0.0, False)
+    no_counts = np.zeros((0, 0), dtype=np.int32)
+    return BoxKernel(
+        NO_BOX, index, empty, no_table, empty, 0.0, 0.0, False, no_counts, 1.0, 0.0, False, 2.0,
+        _NO_DRAWS,
+    )  # fmt: skip
 
 
-def icca_kernel(agent: Any) -> BoxKernel | None:
-    """The `ICCA` form of a set-up `CooperativeActorCritic`, or None when it cannot be tabulated.
-
-    None unless the planner gives a table (`ModelPlanner`'s `PlannedPolicy`), the analyser
-    is a `FixedRisk`, the index is tabular (one row per state) and the learner's features are
-    fixed (Choice: a growing representation inside the box stays on the Python path).
-    """
-    if agent.learner_.representation_.is_adaptive:
+def _tables(agent: Any) -> tuple[RepresentationKernel, np.ndarray, np.ndarray] | None:
+    """(index, π^p per row, safe(s, a) per row) of a set-up box, or None (see `icca_kernel`)."""
+    if agent.learner_.representation_.is_adaptive or agent.model_.is_adaptive:
         return None
     planned = compiled_form(agent.planner_)
     index = compiled_form(agent.index_)
@@ -111,7 +143,7 @@ def icca_kernel(agent: Any) -> BoxKernel | None:
         return None
     if not isinstance(index, RepresentationKernel) or index.kind != TABULAR:
         return None
-    rows, num_actions = agent.visits_.shape[0], agent.spec_.num_actions
+    rows, num_actions = agent.index_.num_features_, agent.spec_.num_actions
     planner_actions = np.full(rows, -1, dtype=np.int64)
     safe = np.zeros((rows, num_actions), dtype=np.bool_)
     for state, planner_action in zip(planned.states, planned.actions, strict=True):
@@ -121,17 +153,45 @@ def icca_kernel(agent: Any) -> BoxKernel | None:
             safe[row, action] = agent.risk_.is_safe(
                 state, action, planner_action=int(planner_action)
             )
+    return index, planner_actions, safe
+
+
+def icca_kernel(agent: Any) -> BoxKernel | None:
+    """The `ICCA` form of a set-up `CooperativeActorCritic`, or None when it cannot be tabulated.
+
+    None unless the planner gives a table (`ModelPlanner`'s `PlannedPolicy`), the analyser
+    is a `FixedRisk`, the model is not adaptive, the index is tabular (one row per state) and
+    the learner's features are fixed (Choice: a growing representation inside the box stays
+    on the Python path).
+    """
+    tables = _tables(agent)
+    if tables is None:
+        return None
     half_life = agent.bias_half_life
-    return BoxKernel(
-        ICCA,
-        index,
-        planner_actions,
-        safe,
-        agent.visits_,
-        float(agent.bias),
-        0.0 if half_life is None else float(half_life),
-        half_life is not None,
-    )
+    fading = (float(agent.bias), 0.0 if half_life is None else float(half_life))
+    return no_box(tables[0])._replace(
+        kind=ICCA, planner_actions=tables[1], safe=tables[2], visits=agent.visits_,
+        bias=fading[0], half_life=fading[1], is_fading=half_life is not None,
+    )  # fmt: skip
+
+
+def cooperative_learner_kernel(agent: Any) -> BoxKernel | None:
+    """The `COOPERATIVE_LEARNER` form of a set-up `CooperativeLearner`, or None.
+
+    As `icca_kernel`, for a SARSA or Q-Learning learner (the compiled imagined update of a
+    vetoed proposal is theirs).
+    """
+    tables = _tables(agent)
+    learner_form = compiled_form(agent.learner_)
+    if tables is None or learner_form is None or learner_form.kind == ACTOR_CRITIC:
+        return None
+    veto, trusted = agent.veto_reward, agent.trusted_knownness
+    return no_box(tables[0])._replace(
+        kind=COOPERATIVE_LEARNER, planner_actions=tables[1], safe=tables[2],
+        counts=agent.counts_, num_known=float(agent.num_known_visits),
+        veto_reward=0.0 if veto is None else float(veto), has_veto=veto is not None,
+        trusted=2.0 if trusted is None else float(trusted), rng=agent.rng_,
+    )  # fmt: skip
 
 
 @njit(cache=True, inline="always")
@@ -175,3 +235,63 @@ def cooperative_action(
         return learner_action  # line 3
     shift_preference_into(actor_weights, phi, values, learner_action, -box.bias)  # line 6
     return planner_action  # line 5
+
+
+@njit(cache=True)
+def cooperative_learner_action(
+    box: BoxKernel,
+    agent: AgentKernel,
+    arrays: LearnerArrays,
+    phi: np.ndarray,
+    values: np.ndarray | None,
+    q: np.ndarray,
+    legal: np.ndarray,
+    rng: np.random.Generator,
+    row: int,
+    episode: int,
+) -> tuple[int, float]:
+    """Algorithm 24, lines 1-8, while learning (`CooperativeLearner.act`): (action, veto δ).
+
+    ``q``: the learner's Q(s, ·) (recomputed after a vetoed proposal's update). The veto δ is
+    0 unless a vetoed proposal was learned (`imagined_learn`); a non-finite one diverged.
+    """
+    planner_action = box.planner_actions[row]  # line 1
+    knownness = min(1.0, box.counts[row, planner_action] / box.num_known)  # line 2
+    consult = knownness >= 1.0 or (knownness > 0.0 and box.rng.random() < knownness)
+    if not consult:  # line 3 failed
+        box.counts[row, planner_action] += 1  # line 8
+        return planner_action, 0.0
+    learner_action = select_action(agent.policy, q, legal, rng)  # line 4
+    if knownness >= box.trusted or box.safe[row, learner_action]:  # line 5
+        return learner_action, 0.0  # line 6
+    delta = 0.0
+    if box.has_veto:  # the veto rule: ⟨s, a′, veto_reward, terminated⟩, imagined
+        delta = imagined_learn(agent, arrays, phi, values, learner_action, box.veto_reward, episode)
+        q_values_into(arrays.weights, phi, values, q)
+    return planner_action, delta
+
+
+@njit(cache=True, inline="always")
+def box_action(
+    box: BoxKernel,
+    agent: AgentKernel,
+    arrays: LearnerArrays,
+    phi: np.ndarray,
+    values: np.ndarray | None,
+    q: np.ndarray,
+    legal: np.ndarray,
+    rng: np.random.Generator,
+    obs: np.ndarray,
+    quanta: np.ndarray,
+    row_buffer: np.ndarray,
+    episode: int,
+) -> tuple[int, float]:
+    """The box's action in ``obs`` while learning, and a vetoed proposal's δ (0 if none)."""
+    if box.kind == ICCA:
+        action = cooperative_action(
+            box, arrays.actor_weights, phi, values, q, legal, agent.policy, rng, obs, quanta,
+            row_buffer,
+        )  # fmt: skip
+        return action, 0.0
+    row = encode_into(box.index, obs, quanta, row_buffer)[0]
+    return cooperative_learner_action(box, agent, arrays, phi, values, q, legal, rng, row, episode)

@@ -164,19 +164,9 @@ class CooperativeActorCritic(CooperativeAgent):
     )
 
     def compiled_form(self) -> BoxKernel | None:
-        """The box with π^p and safe(s, a) tabulated for the compiled loop, or None.
-
-        See `conjure.safety.compiled_cooperative` (and `compiled_variant`); the learner's
-        own compiled form runs the updates.
-        """
+        """Algorithm 23's box for the compiled loop (`icca_kernel`), or None."""
         check_is_set_up(self, "compiled_form")
         return icca_kernel(self)
-
-    @property
-    def compiled_learner(self) -> ActorCritic:
-        """The learner whose kernels the compiled loop runs inside the box."""
-        check_is_set_up(self, "compiled_learner")
-        return self.learner_
 
     def act(
         self, state: np.ndarray, greedy: bool = False, legal_actions: np.ndarray | None = None

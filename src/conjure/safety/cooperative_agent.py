@@ -106,6 +106,16 @@ class CooperativeAgent(Agent):
 
     # ------------------------------------------------------------------ lifecycle
 
+    @property
+    def compiled_learner(self) -> Agent:
+        """The learner whose kernels the compiled loop runs inside a box with a compiled form.
+
+        The box's own ``compiled_form`` (`conjure.safety.compiled_cooperative`) tabulates π^p
+        and safe(s, a); the learner's compiled form runs the updates.
+        """
+        check_is_set_up(self, "compiled_learner")
+        return self.learner_
+
     def setup(self, spec: DomainSpec, seed: int | np.random.SeedSequence) -> CooperativeAgent:
         """Set up model → planner → risk analyser → learner, then the per-state tables."""
         self.validate_params()

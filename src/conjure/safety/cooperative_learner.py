@@ -12,6 +12,7 @@ from conjure.core.cooperative import CooperativePlanner, RiskAnalyzer
 from conjure.core.interfaces import Agent, Representation, Transition, check_is_set_up
 from conjure.core.params import InstanceOf, Interval, Predicate
 from conjure.models.approximate_model import ApproximateModel
+from conjure.safety.compiled_cooperative import BoxKernel, cooperative_learner_kernel
 from conjure.safety.cooperative_agent import CooperativeAgent
 
 __all__ = ["CooperativeLearner"]
@@ -194,6 +195,18 @@ class CooperativeLearner(CooperativeAgent):
     def _knownness(self, row: int, action: int) -> float:
         count = self.counts_[row, action] if row >= 0 else 0  # −1: never seen
         return min(1.0, count / self.num_known_visits)
+
+    compiled_methods = ("act", "learn", "begin_episode", "_is_trusted", "_learn_vetoed")
+    compiled_variant = (
+        "a planner with a table (ModelPlanner), a deterministic risk analyser "
+        "(NominalRiskAnalyzer), a static model and a tabular index, around a compiled SARSA "
+        "or Q-Learning on fixed features"
+    )
+
+    def compiled_form(self) -> BoxKernel | None:
+        """Algorithm 24's box for the compiled loop (`cooperative_learner_kernel`), or None."""
+        check_is_set_up(self, "compiled_form")
+        return cooperative_learner_kernel(self)
 
     def act(
         self, state: np.ndarray, greedy: bool = False, legal_actions: np.ndarray | None = None
