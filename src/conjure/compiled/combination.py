@@ -13,9 +13,10 @@ environment through `GymnasiumDomain` (its own ``step`` called back); the repres
 19-21) over a binary base; the learners `SARSA` (with or without traces), `QLearning` and
 `ActorCritic` (Algorithm 12 as printed, or with a V critic and the log-policy actor, with the
 actor sharing the critic's features and no traces); the policies `EpsilonGreedy`, `Gibbs`; the
-schedules `ConstantStepSize`, `FeatureNormalizedDecay`, `EpisodicDecay`; and iCCA's box around
-such a learner (`CooperativeActorCritic`, Algorithm 23) when its planner and risk analyser can
-be tabulated (`conjure.safety.compiled_cooperative`).
+schedules `ConstantStepSize`, `FeatureNormalizedDecay`, `EpisodicDecay`; and the iCCA boxes
+around such a learner (`CooperativeActorCritic`, Algorithm 23; `CooperativeLearner` with SARSA
+or Q-Learning, Algorithm 24) when their planner and risk analyser can be tabulated
+(`conjure.safety.compiled_cooperative`).
 """
 
 from __future__ import annotations
