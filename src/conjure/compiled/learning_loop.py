@@ -180,7 +180,7 @@ def learning_loop(
     next_obs = np.empty_like(obs)
     q = np.empty(num_actions)
     critic_q = np.empty(arrays.weights.shape[1])
-    drawn, next_drawn = state.drawn, state.drawn
+    drawn, next_drawn = state.drawn, np.empty(num_actions)
     ep_float = np.empty((16, 2))
     ep_int = np.empty((16, 2), dtype=np.int64)
     is_buffered = base.kind == TILES and not is_ifdd  # φ(s) lives in phi_buffer
@@ -211,9 +211,8 @@ def learning_loop(
             if is_ifdd:
                 phi = sparsify(rep, phi)
             values = values_of(base, obs)
-            q_values_into(chooser, phi, values, q)
             legal = legal_into(domain, False, legal_buffer) if is_masked else all_actions
-            if is_box:
+            if is_box:  # the box fills q (after moving ρ, for Algorithm 23)
                 action, vetoed = box_action(
                     box, agent, arrays, phi, values, q, legal, agent_rng, obs, quanta,
                     row_buffer, episode,
@@ -222,9 +221,10 @@ def learning_loop(
                     status, delta, phase = DIVERGED, vetoed, NEEDS_RESET
                     break
             else:
+                q_values_into(chooser, phi, values, q)
                 action = select_action(agent.policy, q, legal, agent_rng)
             if is_log_policy:
-                _copy(drawn, gibbs_policy(agent.policy, q, legal))
+                gibbs_policy(agent.policy, q, legal, drawn)
             episode_steps = episode_failures = 0
             total, discounted, weight = 0.0, 0.0, 1.0
             phase = IN_EPISODE
@@ -249,7 +249,6 @@ def learning_loop(
             if is_ifdd:
                 next_phi = sparsify(rep, next_phi)
             next_values = values_of(base, next_obs)
-            q_values_into(chooser, next_phi, next_values, q)
             next_legal = legal_into(domain, True, next_legal_buffer) if is_masked else all_actions
             if is_box:
                 next_action, vetoed = box_action(
@@ -260,9 +259,10 @@ def learning_loop(
                     status, delta, phase = DIVERGED, vetoed, NEEDS_RESET
                     break
             else:
+                q_values_into(chooser, next_phi, next_values, q)
                 next_action = select_action(agent.policy, q, next_legal, agent_rng)
             if is_log_policy:
-                next_drawn = gibbs_policy(agent.policy, q, next_legal)
+                gibbs_policy(agent.policy, q, next_legal, next_drawn)
             if is_actor_critic:
                 q_values_into(arrays.weights, next_phi, next_values, critic_q)
             target = bootstrap(agent, reward, q, next_action, next_legal, critic_q)

@@ -44,7 +44,18 @@ def epsilon_greedy_action(values: np.ndarray, legal: np.ndarray, epsilon: float,
 @njit(cache=True)
 def gibbs_probabilities(values: np.ndarray, legal: np.ndarray, temperature: float) -> np.ndarray:
     """Softmax of values / τ over the legal actions (Eq. 2.32), shifted by the max for stability."""
-    probs = np.zeros(values.shape[0])
+    probs = np.empty(values.shape[0])
+    gibbs_probabilities_into(values, legal, temperature, probs)
+    return probs
+
+
+@njit(cache=True)
+def gibbs_probabilities_into(
+    values: np.ndarray, legal: np.ndarray, temperature: float, probs: np.ndarray
+) -> None:
+    """`gibbs_probabilities` written into ``probs`` (0 for the illegal actions)."""
+    for i in range(probs.shape[0]):
+        probs[i] = 0.0
     top = values[legal[0]]
     for i in range(1, legal.shape[0]):
         top = max(top, values[legal[i]])
@@ -55,7 +66,6 @@ def gibbs_probabilities(values: np.ndarray, legal: np.ndarray, temperature: floa
         total += p
     for i in range(legal.shape[0]):
         probs[legal[i]] /= total
-    return probs
 
 
 @njit(cache=True)

@@ -15,7 +15,7 @@ from numba import njit
 from conjure.policies._kernels import (
     epsilon_greedy_action,
     gibbs_action,
-    gibbs_probabilities,
+    gibbs_probabilities_into,
     greedy_action,
 )
 
@@ -47,6 +47,11 @@ def select_action(
 
 
 @njit(cache=True, inline="always")
-def gibbs_policy(policy: PolicyKernel, values: np.ndarray, legal: np.ndarray) -> np.ndarray:
-    """π(s, ·) of a `GIBBS` policy with τ > 0 over the legal actions (`Gibbs.probabilities`)."""
-    return gibbs_probabilities(values, legal, policy.parameter)
+def gibbs_policy(
+    policy: PolicyKernel, values: np.ndarray, legal: np.ndarray, out: np.ndarray
+) -> None:
+    """π(s, ·) of a `GIBBS` policy with τ > 0 over the legal actions into ``out``.
+
+    `Gibbs.probabilities`' kernel, writing into the loop's buffer.
+    """
+    gibbs_probabilities_into(values, legal, policy.parameter, out)

@@ -4,10 +4,10 @@ Geramifard (2012), Algorithms 23 and 24 (Sections 5.3-5.4). `BoxKernel` holds wh
 needs per step when its planner and risk analyser are fixed functions of the state: π^p(s)
 and the verdicts safe(s, a) tabulated per row of the box's index (one feature per state), and
 the agent's own tables, updated in place (Algorithm 23's visit counts n(s) and planner bias;
-Algorithm 24's counts of unconsulted planner actions, knownness and veto rule). `box_action`
-is the box's ``act`` while learning (`cooperative_action`: `CooperativeActorCritic`,
-`cooperative_learner_action`: `CooperativeLearner`); the learner's updates stay the learner's
-own kernels.
+Algorithm 24's counts of unconsulted planner actions, knownness and veto rule).
+`box_action` is the box's ``act`` while learning (`cooperative_action`:
+`CooperativeActorCritic`, `cooperative_learner_action`: `CooperativeLearner`); the learner's
+updates stay the learner's own kernels.
 
 The tables are made by calling the parts' own methods (`planner.action` through its compiled
 form, the analyser's ``is_safe``) on every state the planner planned, so no rule is coded
@@ -79,7 +79,7 @@ class BoxKernel(NamedTuple):
     Parameters
     ----------
     kind : int
-        `NO_BOX` or `ICCA`.
+        `NO_BOX`, `ICCA` or `COOPERATIVE_LEARNER`.
     index : RepresentationKernel
         The box's index: the row of a state in the tables below.
     planner_actions : ndarray of int64, shape (rows,)
@@ -286,12 +286,16 @@ def box_action(
     row_buffer: np.ndarray,
     episode: int,
 ) -> tuple[int, float]:
-    """The box's action in ``obs`` while learning, and a vetoed proposal's δ (0 if none)."""
+    """The box's action in ``obs`` while learning, and a vetoed proposal's δ (0 if none).
+
+    Writes the learner's values at s into ``q`` (Algorithm 23: the preferences after ρ moved).
+    """
     if box.kind == ICCA:
         action = cooperative_action(
             box, arrays.actor_weights, phi, values, q, legal, agent.policy, rng, obs, quanta,
             row_buffer,
         )  # fmt: skip
         return action, 0.0
+    q_values_into(arrays.weights, phi, values, q)
     row = encode_into(box.index, obs, quanta, row_buffer)[0]
     return cooperative_learner_action(box, agent, arrays, phi, values, q, legal, rng, row, episode)
