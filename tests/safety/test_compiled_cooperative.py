@@ -156,3 +156,17 @@ def test_am_icca_stays_in_python():
         model=model,
     ).setup(domain.domain_spec, 0)
     assert for_combination(domain, agent) is None
+
+
+def test_the_box_tabulates_once_per_plan_and_again_after_a_restore(tmp_path):
+    domain = GridWorld.gridworld_1()
+    agent = _box(domain, "fading").setup(domain.domain_spec, 0)
+    tables = agent.compiled_tables()
+    assert agent.compiled_tables() is tables  # kept: π^p never changes while learning
+    assert tables.safe.any() and not tables.safe.all()  # GridWorld-1's pits are vetoed
+    for_combination(domain, agent, seed=0).advance(500)
+    restored = CooperativeActorCritic.restore(agent.save(tmp_path / "box"))
+    again = restored.compiled_tables()  # replanned by the restore, tabulated anew
+    assert again is not tables
+    np.testing.assert_array_equal(again.planner_actions, tables.planner_actions)
+    np.testing.assert_array_equal(again.safe, tables.safe)

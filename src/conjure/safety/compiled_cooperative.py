@@ -43,6 +43,7 @@ __all__ = [
     "ICCA",
     "NO_BOX",
     "BoxKernel",
+    "BoxTables",
     "FixedRisk",
     "box_action",
     "cooperative_action",
@@ -50,6 +51,7 @@ __all__ = [
     "cooperative_learner_kernel",
     "icca_kernel",
     "no_box",
+    "tabulate",
 ]
 
 #: Box kinds of `BoxKernel`: none (a plain learner), Algorithm 23, Algorithm 24.
@@ -133,8 +135,33 @@ def no_box(index: RepresentationKernel) -> BoxKernel:
     )  # fmt: skip
 
 
-def _tables(agent: Any) -> tuple[RepresentationKernel, np.ndarray, np.ndarray] | None:
-    """(index, π^p per row, safe(s, a) per row) of a set-up box, or None (see `icca_kernel`)."""
+class BoxTables(NamedTuple):
+    """A box's tabulated parts (`tabulate`).
+
+    Geramifard (2012), Sections 5.3.1 and 5.3.3: π^p and the risk analyser's verdicts, per
+    row of the box's index.
+
+    Parameters
+    ----------
+    index : RepresentationKernel
+        The index's compiled form (a state's row).
+    planner_actions : ndarray of int64, shape (rows,)
+        π^p(s) per row (−1: a row no planned state has).
+    safe : ndarray of bool, shape (rows, |A|)
+        safe(s, a) per row and action.
+    """
+
+    index: RepresentationKernel
+    planner_actions: np.ndarray
+    safe: np.ndarray
+
+
+def tabulate(agent: Any) -> BoxTables | None:
+    """π^p and safe(s, a) per index row of a set-up box, or None (see `icca_kernel`).
+
+    Calls the planner's and the analyser's own methods on every planned state; the agent
+    keeps the result until it replans (`CooperativeAgent.compiled_tables`).
+    """
     if agent.learner_.representation_.is_adaptive or agent.model_.is_adaptive:
         return None
     planned = compiled_form(agent.planner_)
@@ -153,7 +180,7 @@ def _tables(agent: Any) -> tuple[RepresentationKernel, np.ndarray, np.ndarray] |
             safe[row, action] = agent.risk_.is_safe(
                 state, action, planner_action=int(planner_action)
             )
-    return index, planner_actions, safe
+    return BoxTables(index, planner_actions, safe)
 
 
 def icca_kernel(agent: Any) -> BoxKernel | None:
@@ -164,13 +191,13 @@ def icca_kernel(agent: Any) -> BoxKernel | None:
     the learner's features are fixed (Choice: a growing representation inside the box stays
     on the Python path).
     """
-    tables = _tables(agent)
+    tables = agent.compiled_tables()
     if tables is None:
         return None
     half_life = agent.bias_half_life
     fading = (float(agent.bias), 0.0 if half_life is None else float(half_life))
-    return no_box(tables[0])._replace(
-        kind=ICCA, planner_actions=tables[1], safe=tables[2], visits=agent.visits_,
+    return no_box(tables.index)._replace(
+        kind=ICCA, planner_actions=tables.planner_actions, safe=tables.safe, visits=agent.visits_,
         bias=fading[0], half_life=fading[1], is_fading=half_life is not None,
     )  # fmt: skip
 
@@ -181,13 +208,13 @@ def cooperative_learner_kernel(agent: Any) -> BoxKernel | None:
     As `icca_kernel`, for a SARSA or Q-Learning learner (the compiled imagined update of a
     vetoed proposal is theirs).
     """
-    tables = _tables(agent)
+    tables = agent.compiled_tables()
     learner_form = compiled_form(agent.learner_)
     if tables is None or learner_form is None or learner_form.kind == ACTOR_CRITIC:
         return None
     veto, trusted = agent.veto_reward, agent.trusted_knownness
-    return no_box(tables[0])._replace(
-        kind=COOPERATIVE_LEARNER, planner_actions=tables[1], safe=tables[2],
+    return no_box(tables.index)._replace(
+        kind=COOPERATIVE_LEARNER, planner_actions=tables.planner_actions, safe=tables.safe,
         counts=agent.counts_, num_known=float(agent.num_known_visits),
         veto_reward=0.0 if veto is None else float(veto), has_veto=veto is not None,
         trusted=2.0 if trusted is None else float(trusted), rng=agent.rng_,

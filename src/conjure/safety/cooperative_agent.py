@@ -16,6 +16,7 @@ from conjure.core.seeding import make_rng, rng_from_state, rng_state, split_seed
 from conjure.models.approximate_model import ApproximateModel
 from conjure.representations import HashedTabular, Tabular
 from conjure.safety._control_box import set_up_control_box
+from conjure.safety.compiled_cooperative import BoxTables, tabulate
 
 __all__ = ["CooperativeAgent"]
 
@@ -23,6 +24,9 @@ __all__ = ["CooperativeAgent"]
 SEED_NAMES = ("model", "planner", "risk", "learner", "index", "behaviour", "evaluation")
 
 LEARNER_DIRECTORY = "learner"
+
+#: `CooperativeAgent.compiled_tables` not made yet (None means: cannot be tabulated).
+_NOT_TABULATED = object()
 
 #: The most rows the default `Tabular` index may have; larger state spaces get `HashedTabular`.
 MAX_TABULAR_ROWS = 1_000_000
@@ -134,8 +138,20 @@ class CooperativeAgent(Agent):
         self.planned_noise_ = float(self.model_.noise_)
         self._all_actions = np.arange(spec.num_actions, dtype=np.int64)
         self._build_tables(self.index_.num_features_, spec.num_actions)
+        self._compiled_tables: BoxTables | object | None = _NOT_TABULATED
         self.is_set_up_ = True
         return self
+
+    def compiled_tables(self) -> BoxTables | None:
+        """π^p and safe(s, a) per index row for the compiled box (`tabulate`), or None.
+
+        Made on the first call after `setup` or `load_state` (which replans) and kept: the
+        boxes that have a compiled form never replan while learning.
+        """
+        check_is_set_up(self, "compiled_tables")
+        if self._compiled_tables is _NOT_TABULATED:
+            self._compiled_tables = tabulate(self)
+        return self._compiled_tables
 
     def _build_tables(self, num_states: int, num_actions: int) -> None:
         """Allocate the per-state tables (subclasses)."""
@@ -236,6 +252,7 @@ class CooperativeAgent(Agent):
         is_policy_changed = self.planner_.update(model)
         model.load_counts(int(state["num_unintended"]), int(state["num_moves"]))
         self.risk_.update(is_policy_changed=is_policy_changed)  # T̂ (and maybe π^p) changed
+        self._compiled_tables = _NOT_TABULATED
         self.rng_ = rng_from_state(state["rng"])
         self.eval_rng_ = rng_from_state(state["evaluation_rng"])
         self.risk_.rng_ = rng_from_state(state["risk_rng"])
