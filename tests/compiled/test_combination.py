@@ -10,7 +10,6 @@ from conjure.core.compiled_form import compiled_form
 from conjure.core.errors import NotSetUpError
 from conjure.core.schedules import FEATURE_NORMALIZED, ConstantStepSize, FeatureNormalizedDecay
 from conjure.domains import (
-    BlocksWorld,
     ChainMDP,
     GridWorld,
     InvertedPendulum,
@@ -22,8 +21,8 @@ from conjure.policies import EpsilonGreedy, Gibbs
 from conjure.policies.compiled_policy import EPSILON_GREEDY, GIBBS
 from conjure.representations import (
     RBF,
-    HashedTabular,
     IndependentDiscretization,
+    SparseDistributedMemory,
     Tabular,
     TileCoding,
 )
@@ -82,7 +81,7 @@ def test_actor_critic_with_gibbs_gives_its_form():
     [
         (InvertedPendulum(), SARSA(representation=type("MyRBF", (RBF,), {"encode": RBF.encode})())),
         (InvertedPendulum(), MySARSA(representation=Tabular())),
-        (BlocksWorld(num_blocks=3), SARSA(representation=HashedTabular())),  # no kernel
+        (ChainMDP(), SARSA(representation=SparseDistributedMemory())),  # no kernel
         (ChainMDP(), LSPI(representation=Tabular())),  # a batch learner
         (
             ChainMDP(),

@@ -14,11 +14,17 @@ from conjure.compiled import learning_loop as loop_module
 from conjure.compiled import stepper as stepper_module
 from conjure.core.errors import DivergenceError, InvalidParameterError
 from conjure.core.schedules import EpisodicDecay, FeatureNormalizedDecay
-from conjure.domains import ChainMDP, GridWorld, InvertedPendulum, from_gymnasium
+from conjure.domains import ChainMDP, GridWorld, InvertedPendulum, UAVMission, from_gymnasium
 from conjure.domains.gridworld import open_grid
 from conjure.experiments.loop import LearningLoop
 from conjure.policies import EpsilonGreedy, Gibbs
-from conjure.representations import RBF, IndependentDiscretization, Tabular, TileCoding
+from conjure.representations import (
+    RBF,
+    HashedTabular,
+    IndependentDiscretization,
+    Tabular,
+    TileCoding,
+)
 
 DECAY = FeatureNormalizedDecay(alpha_0=1.0, n_0=100)
 
@@ -149,6 +155,17 @@ COMBINATIONS = {
         lambda: ActorCritic(
             representation=RBF(), step_size=0.1, actor_step_size=DECAY, policy=Gibbs()
         ),
+    ),
+    # The lazily indexed table: cells stored in first-seen order by the loop itself.
+    "uav-7-2-hashed-tabular-sarsa-lambda": (
+        lambda: UAVMission(scenario="uav-7-2", traverse_failure=0.05),
+        lambda: SARSA(
+            representation=HashedTabular(capacity=5000), step_size=DECAY, trace_decay=1.0
+        ),
+    ),
+    "gridworld-hashed-tabular-q": (
+        GridWorld.gridworld_1,
+        lambda: QLearning(representation=HashedTabular(capacity=100), step_size=0.5),
     ),
     # A Gymnasium environment: the loop calls the domain's own reset and step back.
     "mountaincar-gymnasium-tiles-sarsa": (
@@ -287,6 +304,20 @@ def test_divergence_raises_at_the_same_step_on_both_paths():
         stepper.advance(100)
     assert str(compiled_error.value) == str(python_error.value)
     assert stepper.total_steps == loop.total_steps
+
+
+def test_a_full_hashed_table_raises_its_own_error_at_the_same_step_on_both_paths():
+    errors, steps = [], []
+    for make_stepper in (LearningLoop, for_combination):
+        domain = UAVMission(scenario="uav-7-2")
+        agent = SARSA(representation=HashedTabular(capacity=40)).setup(domain.domain_spec, 1)
+        stepper = make_stepper(domain, agent, seed=1)
+        with pytest.raises(InvalidParameterError, match="HashedTabular is full") as raised:
+            stepper.advance(10_000)
+        errors.append(str(raised.value))
+        steps.append((stepper.total_steps, agent.representation_.num_stored_))
+    assert errors[0] == errors[1]
+    assert steps[0] == steps[1] and steps[0][1] == 40
 
 
 class _Raising:

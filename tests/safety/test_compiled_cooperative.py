@@ -6,15 +6,16 @@ import pytest
 from conjure.agents import SARSA, ActorCritic, QLearning
 from conjure.compiled import CompiledStepper, for_combination, why_not_compiled
 from conjure.core.schedules import EpisodicDecay
-from conjure.domains import GridWorld
+from conjure.domains import GridWorld, UAVMission
 from conjure.experiments.loop import LearningLoop
 from conjure.models.approximate_model import ApproximateModel
-from conjure.planners import ModelPlanner
-from conjure.representations import IndependentDiscretization, OnlineIFDD, Tabular
+from conjure.planners import CBBAPlanner, ModelPlanner
+from conjure.representations import HashedTabular, IndependentDiscretization, OnlineIFDD, Tabular
 from conjure.safety import (
     AdaptiveCooperativeLearner,
     CooperativeActorCritic,
     CooperativeLearner,
+    FuelRiskAnalyzer,
     MonteCarloRiskAnalyzer,
     NominalRiskAnalyzer,
 )
@@ -144,6 +145,46 @@ def test_algorithm_24_takes_the_same_steps_on_both_paths(variant, world):
     assert agent.rng_.bit_generator.state == python_agent.rng_.bit_generator.state
     _assert_same_steps(python, compiled)
     assert agent.counts_.sum() > 0 and learner.episode_ > 2
+
+
+def _uav_csarsa(domain: UAVMission, variant: str) -> CooperativeLearner:
+    """Figs. 5-9/5-13's CSARSA: CBBA planned per state, the fuel rule, a hashed index."""
+    model = ApproximateModel(domain=domain.clone().set_params(traverse_failure=0.0))
+    learner = SARSA(
+        representation=HashedTabular(capacity=20_000),
+        step_size=EpisodicDecay(alpha_0=0.1, n_0=1000),
+        trace_decay=1.0 if variant != "qlearning" else 0.0,
+    )
+    if variant == "qlearning":
+        learner = QLearning(representation=HashedTabular(capacity=20_000), step_size=0.1)
+    return CooperativeLearner(
+        learner=learner,
+        planner=CBBAPlanner(variant="conservative" if variant == "conservative" else "aggressive"),
+        risk=FuelRiskAnalyzer(),
+        model=model,
+        index=HashedTabular(capacity=20_000),
+        num_known_visits=2,
+        veto_reward=None if variant == "printed" else -1750.0,
+    )
+
+
+@pytest.mark.parametrize("variant", ["veto", "printed", "conservative", "qlearning"])
+def test_algorithm_24_with_cbba_and_the_fuel_rule_takes_the_same_steps_on_both_paths(variant):
+    def world():
+        return UAVMission(scenario="uav-7-2", traverse_failure=0.05)
+
+    python, python_agent = _run(_uav_csarsa, world, variant, 4, compiled=False)
+    compiled, agent = _run(_uav_csarsa, world, variant, 4, compiled=True)
+    np.testing.assert_array_equal(agent.counts_, python_agent.counts_)
+    assert agent.rng_.bit_generator.state == python_agent.rng_.bit_generator.state
+    _assert_same_steps(python, compiled)
+    assert compiled.num_failures > 0  # crashes happened: the rule judged real proposals
+    # The box met hundreds of states and planned each once, as the Python planner's cache.
+    planned = agent.compiled_tables().planner_actions
+    cache = python_agent.planner_.cache_
+    assert (planned >= 0).sum() == len(cache) == agent.index_.num_stored_ > 500
+    for key, action in cache.items():
+        assert planned[python_agent.index_.index_of(np.frombuffer(key))] == action
 
 
 def test_am_icca_stays_in_python():

@@ -54,14 +54,19 @@ from conjure.agents.compiled_agent import (
 from conjure.domains.compiled_domain import DomainKernel, legal_into, reset_into, step_into
 from conjure.policies.compiled_policy import gibbs_policy, select_action
 from conjure.representations.compiled_ifdd import IFDDKernel, discover_from, room_for, sparsify
-from conjure.representations.compiled_representation import TILES, encode_into, values_of
+from conjure.representations.compiled_representation import (
+    HASHED_TABULAR,
+    TILES,
+    encode_into,
+    values_of,
+)
 from conjure.representations.weights import parent_sum_row
 from conjure.safety.compiled_cooperative import NO_BOX, BoxKernel, box_action
 
 __all__ = ["LoopState", "learning_loop"]
 
 #: Status codes of `learning_loop`.
-DONE, GROW_TRACES, DIVERGED, GROW_REPRESENTATION, DOMAIN_RAISED = 0, 1, 2, 3, 4
+DONE, GROW_TRACES, DIVERGED, GROW_REPRESENTATION, DOMAIN_RAISED, FULL_INDEX = range(6)
 #: Phases of `LoopState`.
 NEEDS_RESET, NEEDS_BEGIN, IN_EPISODE = 0, 1, 2
 
@@ -156,7 +161,9 @@ def learning_loop(
     might not fit (the caller grows them with the component's own method and calls again);
     `DIVERGED` stops after an update whose δ is not finite (that step is not counted);
     `DOMAIN_RAISED` stops when a callback domain's ``reset`` or ``step`` raised (that step is
-    not counted; the episode cannot be continued).
+    not counted; the episode cannot be continued); `FULL_INDEX` when a state's new cell did
+    not fit a full `HashedTabular` (the learner's or the box's index; ``obs`` is then that
+    state, the step is not counted and the episode cannot be continued).
     θ (and ω, the trace slots) must have a row for every feature iFDD's tables can hold.
     """
     num_actions = arrays.actor_weights.shape[1]  # θ has one column for a V critic
@@ -184,6 +191,7 @@ def learning_loop(
     ep_float = np.empty((16, 2))
     ep_int = np.empty((16, 2), dtype=np.int64)
     is_buffered = base.kind == TILES and not is_ifdd  # φ(s) lives in phi_buffer
+    is_indexed = base.kind == HASHED_TABULAR  # φ(s) may be [FULL]
     num_ended = done = failures = 0
     delta = 0.0
     status = DONE
@@ -208,6 +216,9 @@ def learning_loop(
             episode += 1
             clear_learner_traces(agent, arrays)
             phi = encode_into(base, obs, quanta, phi_buffer)
+            if is_indexed and phi[0] < 0:
+                status, phase = FULL_INDEX, NEEDS_RESET
+                break
             if is_ifdd:
                 phi = sparsify(rep, phi)
             values = values_of(base, obs)
@@ -217,6 +228,9 @@ def learning_loop(
                     box, agent, arrays, phi, values, q, legal, agent_rng, obs, quanta,
                     row_buffer, episode,
                 )  # fmt: skip
+                if action < 0:  # the box's index is full
+                    status, phase = FULL_INDEX, NEEDS_RESET
+                    break
                 if not math.isfinite(vetoed):  # a vetoed proposal's update diverged
                     status, delta, phase = DIVERGED, vetoed, NEEDS_RESET
                     break
@@ -246,6 +260,10 @@ def learning_loop(
         target = reward
         if not terminated:  # φ(s'), a' = π(s') and Q⁺(s, a) (Algorithms 10-12, lines 4-5)
             next_phi = encode_into(base, next_obs, quanta, next_buffer)
+            if is_indexed and next_phi[0] < 0:
+                _copy(obs, next_obs)
+                status, phase = FULL_INDEX, NEEDS_RESET
+                break
             if is_ifdd:
                 next_phi = sparsify(rep, next_phi)
             next_values = values_of(base, next_obs)
@@ -255,6 +273,10 @@ def learning_loop(
                     box, agent, arrays, next_phi, next_values, q, next_legal, agent_rng,
                     next_obs, quanta, row_buffer, episode,
                 )  # fmt: skip
+                if next_action < 0:  # the box's index is full
+                    _copy(obs, next_obs)
+                    status, phase = FULL_INDEX, NEEDS_RESET
+                    break
                 if not math.isfinite(vetoed):  # a vetoed proposal's update diverged
                     status, delta, phase = DIVERGED, vetoed, NEEDS_RESET
                     break

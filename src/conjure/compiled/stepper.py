@@ -158,6 +158,9 @@ class CompiledStepper:
             Whatever a callback domain's ``reset`` or ``step`` raised (KeyboardInterrupt
             included), after the steps before it were counted; the episode cannot be
             continued.
+        InvalidParameterError
+            When a `HashedTabular` (the learner's, or a cooperative box's index) is full and a
+            new state came: its own error, after the steps before it were counted.
         """
         if isinstance(num_steps, bool) or not isinstance(num_steps, (int, np.integer)):
             raise InvalidParameterError(f"`num_steps` must be an int; got {num_steps!r}.")
@@ -195,6 +198,9 @@ class CompiledStepper:
                 elif status == lp.DOMAIN_RAISED:
                     raised = callback_error(domain_form)
                     break
+                elif status == lp.FULL_INDEX:
+                    raised = self._full_index_error()
+                    break
         finally:
             domain.load_compiled_form(domain_form)
             agent.episode_ = int(state.episode[0])
@@ -210,6 +216,18 @@ class CompiledStepper:
         return AdvanceStats(
             done, failures, ep_float[:, 0], ep_float[:, 1], ep_int[:, 0], ep_int[:, 1]
         )
+
+    def _full_index_error(self) -> Exception:
+        """The error of the full index that could not store ``self._obs`` (its own message)."""
+        candidates = (learner_of(self.agent).representation_, getattr(self.agent, "index_", None))
+        for index in candidates:
+            is_full = getattr(index, "num_stored_", -1) == getattr(index, "num_features_", 0)
+            if is_full and index.index_of(self._obs) < 0:
+                try:
+                    index.active_features(self._obs)
+                except InvalidParameterError as error:
+                    return error
+        return InvalidParameterError(f"A full index could not store state {self._obs.tolist()}.")
 
     def _call(self, num_steps: int, domain_form: DomainKernel) -> tuple:
         """One call of the loop with the learner's current arrays (iFDD may have grown them)."""

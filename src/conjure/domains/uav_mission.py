@@ -45,7 +45,9 @@ from conjure.domains.mission_graph import (
     uav_10_2_spec,
 )
 
-__all__ = ["MissionSolution", "PolicyEvaluation", "UAVMission"]
+#: `nominal_next_state` is the mission's noise-free step kernel, public for the compiled fuel
+#: rule (`conjure.safety.fuel_risk`).
+__all__ = ["MissionSolution", "PolicyEvaluation", "UAVMission", "nominal_next_state"]
 
 SCENARIOS = {
     "uav-7-2": uav_7_2,

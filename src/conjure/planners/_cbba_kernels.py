@@ -372,6 +372,15 @@ def run_cbba(
 
 
 @njit(cache=True)
+def encode_destinations(destinations, num_nodes):
+    """The joint action sending UAV i to ``destinations[i]``: Σ_i l_i⁺ N^i (Section 5.3.5)."""
+    action = 0
+    for i in range(destinations.shape[0] - 1, -1, -1):
+        action = action * num_nodes + destinations[i]
+    return action
+
+
+@njit(cache=True)
 def is_mission_state(state, num_uavs, num_nodes):
     """Whether ``state`` holds finite ints, nodes in [0, N), fuel >= 0 and time >= 0."""
     for k in range(state.shape[0]):

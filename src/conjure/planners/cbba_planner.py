@@ -10,19 +10,79 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
+from numba import njit
 
 from conjure.core.cooperative import CooperativePlanner
 from conjure.core.errors import IncompatibleComponentsError, InvalidParameterError
 from conjure.core.interfaces import check_is_set_up
 from conjure.core.params import Interval, Options
 from conjure.domains.mission_graph import MissionGraph
-from conjure.planners._cbba_kernels import is_mission_state, plan_mission
+from conjure.planners._cbba_kernels import encode_destinations, is_mission_state, plan_mission
 from conjure.planners.cbba import Allocation, default_max_rounds
 
-__all__ = ["CBBAPlanner", "MissionPlan"]
+__all__ = ["CBBAPlanner", "MissionPlan", "MissionPlanner", "first_move", "mission_plan"]
+
+
+class MissionPlanner(NamedTuple):
+    """CBBA's π^p as a compiled kernel reads it (`first_move`): the arguments of `plan_mission`.
+
+    Geramifard (2012), Section 5.3.1 and Algorithm 27; built by `CBBAPlanner.setup`.
+
+    Parameters
+    ----------
+    distances : ndarray of float64, shape (N, N)
+        Hop counts (CBBA's travel times).
+    next_hop : ndarray of int64, shape (N, N)
+        The next node on a shortest path.
+    node_tasks : ndarray of float64, shape (N, 4)
+        Every node as a CBBA task: [node, r_j p_j, window start, window end].
+    num_uavs, base : int
+        n and the base node.
+    horizon : float
+        H.
+    settings : ndarray of float64, shape (3,)
+        CBBA's [min first leg, λ, ρ].
+    is_conservative : bool
+        Algorithm 27 (True) or one aggressive CBBA run.
+    fuel_reserve : float
+        Algorithm 27's reserve.
+    is_refuel_to_plan : bool
+        ``refuel="empty_plan"``.
+    max_rounds : int
+        CBBA's round limit.
+    """
+
+    distances: np.ndarray
+    next_hop: np.ndarray
+    node_tasks: np.ndarray
+    num_uavs: int
+    base: int
+    horizon: float
+    settings: np.ndarray
+    is_conservative: bool
+    fuel_reserve: float
+    is_refuel_to_plan: bool
+    max_rounds: int
+
+
+@njit(cache=True)
+def mission_plan(planner: MissionPlanner, state: np.ndarray) -> tuple:
+    """`plan_mission`'s plan of a valid mission ``state`` (float64, the observation layout)."""
+    return plan_mission(
+        state, planner.distances, planner.next_hop, planner.node_tasks, planner.num_uavs,
+        planner.base, planner.horizon, planner.settings, planner.is_conservative,
+        planner.fuel_reserve, planner.is_refuel_to_plan, planner.max_rounds,
+    )  # fmt: skip
+
+
+@njit(cache=True)
+def first_move(planner: MissionPlanner, state: np.ndarray) -> int:
+    """π^p(s): the joint first move of the plan made from a valid ``state`` (not cached)."""
+    destinations = mission_plan(planner, state)[0]
+    return encode_destinations(destinations, planner.distances.shape[0])
 
 
 @dataclass(frozen=True, eq=False)
@@ -227,12 +287,23 @@ class CBBAPlanner(CooperativePlanner):
         self.node_tasks_ = np.column_stack(
             [np.arange(graph.num_nodes), values, graph.windows.astype(np.float64)]
         )
-        self.settings_ = np.array([1.0, 0.0, float(self.fuel_weight)])  # min first leg, λ, ρ
-        self.is_conservative_ = self.variant == "conservative"
-        self.max_rounds_ = default_max_rounds(graph.num_uavs, graph.num_nodes, graph.num_nodes, 1)
+        self._form = MissionPlanner(
+            self.distances_, self.next_hop_, self.node_tasks_, graph.num_uavs, graph.base,
+            float(graph.horizon), np.array([1.0, 0.0, float(self.fuel_weight)]),
+            self.variant == "conservative", float(self.fuel_reserve), self.refuel == "empty_plan",
+            default_max_rounds(graph.num_uavs, graph.num_nodes, graph.num_nodes, 1),
+        )  # fmt: skip
         self.cache_: dict[bytes, int] = {}
         self.is_set_up_ = True
         return self
+
+    compiled_methods = ("action",)
+    compiled_irrelevant_params = frozenset({"cache_size"})  # the compiled box caches per row
+
+    def compiled_form(self) -> MissionPlanner:
+        """π^p for the compiled iCCA box (`first_move`; the box keeps its own plan cache)."""
+        check_is_set_up(self, "compiled_form")
+        return self._form
 
     def action(self, state: np.ndarray) -> int:
         """π^p(s): the joint first move of the CBBA plan made from ``state`` (cached)."""
@@ -241,7 +312,8 @@ class CBBAPlanner(CooperativePlanner):
         key = state.tobytes()
         action = self.cache_.get(key)
         if action is None:
-            action = self._plan(state)[0]
+            self._check_state(state)
+            action = int(first_move(self._form, state))
             if self.cache_size > 0:
                 if len(self.cache_) >= self.cache_size:
                     del self.cache_[next(iter(self.cache_))]
@@ -252,7 +324,9 @@ class CBBAPlanner(CooperativePlanner):
         """The full CBBA plan made from ``state`` (not cached), for inspection."""
         check_is_set_up(self, "plan")
         state = np.asarray(state, dtype=np.float64)
-        action, (destinations, task_nodes, fuel, runs, result) = self._plan(state)
+        self._check_state(state)
+        destinations, task_nodes, fuel, runs, result = mission_plan(self._form, state)
+        action = int(encode_destinations(destinations, self.graph_.num_nodes))
         return MissionPlan(
             time=int(state[-1]),
             task_nodes=task_nodes,
@@ -267,20 +341,6 @@ class CBBAPlanner(CooperativePlanner):
         """Return False: the noise estimate never enters CBBA's deterministic plan."""
         check_is_set_up(self, "update")
         return False
-
-    def _plan(self, state: np.ndarray) -> tuple[int, tuple]:
-        self._check_state(state)
-        graph = self.graph_
-        out = plan_mission(
-            state, self.distances_, self.next_hop_, self.node_tasks_, graph.num_uavs,
-            graph.base, float(graph.horizon), self.settings_, self.is_conservative_,
-            float(self.fuel_reserve), self.refuel == "empty_plan", self.max_rounds_,
-        )  # fmt: skip
-        destinations = out[0]
-        action = 0
-        for i in range(destinations.shape[0] - 1, -1, -1):
-            action = action * graph.num_nodes + int(destinations[i])
-        return action, out
 
     def _check_state(self, state: np.ndarray) -> None:
         graph = self.graph_

@@ -2,8 +2,8 @@
 
 `RepresentationKernel` holds an encoder's kind and tables; `encode_into` and `values_of` give
 φ(s) by the representations' own kernels (`tile_indices_into`, `hashed_tile_features`,
-`tabular_feature`, `independent_features`, `rbf_values`), as their ``active_features`` and
-``encode`` do.
+`tabular_feature`, `find_cell`, `independent_features`, `rbf_values`), as their
+``active_features`` and ``encode`` do.
 """
 
 from __future__ import annotations
@@ -13,6 +13,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
+from conjure.representations._hashed_tabular_kernels import FULL, find_cell
 from conjure.representations._kernels import (
     hashed_tile_features,
     independent_features,
@@ -22,6 +23,8 @@ from conjure.representations._kernels import (
 )
 
 __all__ = [
+    "FULL",
+    "HASHED_TABULAR",
     "HASHED_TILES",
     "INDEPENDENT",
     "INDICATORS",
@@ -36,7 +39,7 @@ __all__ = [
 
 
 #: Representation kinds of `RepresentationKernel`.
-TILES, HASHED_TILES, TABULAR, INDEPENDENT, INDICATORS, RBF = range(6)
+TILES, HASHED_TILES, TABULAR, INDEPENDENT, INDICATORS, RBF, HASHED_TABULAR = range(7)
 _NO_INTS = np.zeros(0, dtype=np.int64)
 _NO_INT_TABLE = np.zeros((0, 0), dtype=np.int64)
 _NO_FLOAT_TABLE = np.zeros((0, 0))
@@ -55,11 +58,13 @@ class RepresentationKernel(NamedTuple):
         The most features φ(s) lists.
     dims, layout, groups : ndarray
         The tables of `tile_indices_into` / `hashed_tile_features` (``dims`` also the
-        buckets of `tabular_feature` and `independent_features`).
+        buckets of `tabular_feature`, `find_cell` and `independent_features`).
     vector : ndarray of int64
-        `tabular_feature`'s strides, `independent_features`' offsets, or RBF's 0 .. n − 1.
+        `tabular_feature`'s strides, `independent_features`' offsets, `find_cell`'s hash
+        slots, or RBF's 0 .. n − 1.
     hash_table, hash_counts : ndarray of int64
-        Hashed tile coding's table, the representation's own (updated in place).
+        Hashed tile coding's table, or `HashedTabular`'s stored cells and their count: the
+        representation's own, updated in place.
     rbf : tuple of ndarray or None
         None for binary φ, else `RBF`'s (affine, scaled centers) (Section 3.1.2): φ(s) lists
         every feature with its Gaussian value. numba compiles binary and real-valued φ apart,
@@ -117,6 +122,8 @@ def encode_into(
         )  # fmt: skip
     if rep.kind == TABULAR:
         return tabular_feature(state, rep.dims, rep.vector)
+    if rep.kind == HASHED_TABULAR:  # [`FULL`] when a new cell does not fit
+        return find_cell(state, rep.dims, rep.vector, rep.hash_table, rep.hash_counts)
     if rep.kind == INDEPENDENT:
         return independent_features(state, rep.dims, rep.vector)
     if rep.kind == RBF:

@@ -17,6 +17,11 @@ from conjure.representations._kernels import (
     per_dimension,
     positive_ints,
 )
+from conjure.representations.compiled_representation import (
+    HASHED_TABULAR,
+    RepresentationKernel,
+    representation_kernel,
+)
 
 __all__ = ["HashedTabular"]
 
@@ -127,6 +132,23 @@ class HashedTabular(BucketTable, Representation):
         self.num_features_ = capacity
         self.is_set_up_ = True
         return self
+
+    compiled_methods = ("active_features", "encode")
+    #: The capacity reaches the loop only as the cell array's length, which is the number of
+    #: grid cells when that is smaller (then no capacity changes the form).
+    compiled_irrelevant_params = frozenset({"capacity"})
+
+    def compiled_form(self) -> RepresentationKernel:
+        """The bucket table and the index itself for the compiled loop (`find_cell`).
+
+        The loop stores new cells in this representation's own arrays; a full table stops it,
+        and `active_features` raises the error.
+        """
+        check_is_set_up(self, "compiled_form")
+        return representation_kernel(
+            HASHED_TABULAR, 1, dims=self._dims, vector=self._slots, hash_table=self._cells,
+            hash_counts=self._counts,
+        )  # fmt: skip
 
     def active_features(self, state: np.ndarray) -> np.ndarray:
         """Return φ(s) = [index of s's cell], indexing the cell first if it is new."""

@@ -198,9 +198,9 @@ class CooperativeLearner(CooperativeAgent):
 
     compiled_methods = ("act", "learn", "begin_episode", "_is_trusted", "_learn_vetoed")
     compiled_variant = (
-        "a planner with a table (ModelPlanner), a deterministic risk analyser "
-        "(NominalRiskAnalyzer), a static model and a tabular index, around a compiled SARSA "
-        "or Q-Learning on fixed features"
+        "a planner with a table (ModelPlanner) or CBBA (CBBAPlanner), a deterministic risk "
+        "analyser (NominalRiskAnalyzer with ModelPlanner, or FuelRiskAnalyzer), a static model "
+        "and a one-row-per-state index, around a compiled SARSA or Q-Learning on fixed features"
     )
 
     def compiled_form(self) -> BoxKernel | None:

@@ -2,14 +2,57 @@
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
+from numba import njit
 
 from conjure.core.cooperative import RISK_TOLERANCE, RiskAnalyzer
 from conjure.core.errors import IncompatibleComponentsError
 from conjure.core.interfaces import check_is_set_up
 from conjure.domains.mission_graph import MissionGraph
+from conjure.domains.uav_mission import nominal_next_state
 
-__all__ = ["FuelRiskAnalyzer"]
+__all__ = ["FuelRisk", "FuelRiskAnalyzer", "fuel_risk", "is_stranded"]
+
+
+class FuelRisk(NamedTuple):
+    """The fuel rule as a compiled kernel reads it (`fuel_risk`; Section 5.3.5).
+
+    Parameters
+    ----------
+    layout : ndarray of int64, shape (4,)
+        The mission's [n, N, base, H] (`conjure.domains._mission_kernels`).
+    home : ndarray of int64, shape (N,)
+        Each node's shortest-path hops to the base (Floyd-Warshall).
+    risk_tolerance : float
+        ε: an action other than π^p(s) is safe iff its risk (0 or 1) is below it.
+    """
+
+    layout: np.ndarray
+    home: np.ndarray
+    risk_tolerance: float
+
+
+@njit(cache=True)
+def is_stranded(state: np.ndarray, layout: np.ndarray, home: np.ndarray) -> bool:
+    """Whether some UAV has less fuel, or less time to the horizon, than its way home."""
+    time_left = layout[3] - state[state.shape[0] - 1]
+    for i in range(layout[0]):
+        way_home = home[int(state[2 * i])]
+        if state[2 * i + 1] < way_home or time_left < way_home:
+            return True
+    return False
+
+
+@njit(cache=True)
+def fuel_risk(risk: FuelRisk, state: np.ndarray, action: int) -> float:
+    """1.0 if a legal ``action`` strands a UAV after its noise-free outcome, else 0.0."""
+    ints = np.empty(state.shape[0], dtype=np.int64)
+    for k in range(state.shape[0]):
+        ints[k] = np.int64(state[k])
+    outcome = nominal_next_state(ints, action, risk.layout)
+    return 1.0 if is_stranded(outcome, risk.layout, risk.home) else 0.0
 
 
 class FuelRiskAnalyzer(RiskAnalyzer):
@@ -73,16 +116,28 @@ class FuelRiskAnalyzer(RiskAnalyzer):
                 f"NominalRiskAnalyzer or MonteCarloRiskAnalyzer."
             )
         self.graph_ = graph
+        self._form = FuelRisk(*_fuel_tables(graph), 1.0)
+
+    compiled_methods = ("risk", "is_safe")
+
+    def compiled_form(self) -> FuelRisk:
+        """The fuel rule for the compiled iCCA box (`fuel_risk`)."""
+        check_is_set_up(self, "compiled_form")
+        return self._form._replace(risk_tolerance=float(self.risk_tolerance))
 
     def risk(self, state: np.ndarray, action: int, rng: np.random.Generator | None = None) -> float:
         """1.0 if after the noise-free outcome some UAV cannot reach the base in time, else 0.0."""
         check_is_set_up(self, "risk")
         outcome = self.model_.nominal_next_state(state, action)
-        return float(self.is_unsafe_outcome(self.graph_, outcome))
+        return float(is_stranded(outcome, self._form.layout, self._form.home))
 
     @staticmethod
     def is_unsafe_outcome(graph: MissionGraph, state: np.ndarray) -> bool:
         """Whether some UAV has less fuel, or less time to the horizon, than its way home."""
-        home = graph.distances[graph.locations(state), graph.base]
-        time_left = graph.horizon - graph.time(state)
-        return bool(np.any(graph.fuels(state) < home) or np.any(time_left < home))
+        return bool(is_stranded(np.asarray(state, dtype=np.float64), *_fuel_tables(graph)))
+
+
+def _fuel_tables(graph: MissionGraph) -> tuple[np.ndarray, np.ndarray]:
+    """`FuelRisk`'s layout and hops home of ``graph``."""
+    layout = np.array([graph.num_uavs, graph.num_nodes, graph.base, graph.horizon], np.int64)
+    return layout, np.ascontiguousarray(graph.distances[:, graph.base], dtype=np.int64)
