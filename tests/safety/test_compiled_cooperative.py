@@ -187,6 +187,41 @@ def test_algorithm_24_with_cbba_and_the_fuel_rule_takes_the_same_steps_on_both_p
         assert planned[python_agent.index_.index_of(np.frombuffer(key))] == action
 
 
+def _uav_csarsa_ifdd(domain: UAVMission, variant: str) -> CooperativeLearner:
+    """Section 6.2.6's CSARSA + iFDD⁺ (a small ξ, so that features are discovered early)."""
+    box = _uav_csarsa(domain, "printed" if variant == "printed" else "veto")
+    ifdd = OnlineIFDD(
+        base=IndependentDiscretization(), relevance="ifdd_plus", discovery_threshold=5.0
+    )
+    trace_decay = 0.9 if variant == "traces" else 0.0
+    learner = SARSA(
+        representation=ifdd, step_size=EpisodicDecay(alpha_0=0.1), trace_decay=trace_decay
+    )
+    return box.set_params(learner=learner, veto_reward=-20.0 if variant != "printed" else None)
+
+
+@pytest.mark.parametrize("variant", ["veto", "printed", "traces"])
+def test_algorithm_24_around_online_ifdd_takes_the_same_steps_on_both_paths(variant):
+    def world():
+        return UAVMission(scenario="uav-7-2", traverse_failure=0.05)
+
+    python, python_agent = _run(_uav_csarsa_ifdd, world, variant, 6, compiled=False)
+    compiled, agent = _run(_uav_csarsa_ifdd, world, variant, 6, compiled=True)
+    np.testing.assert_array_equal(agent.counts_, python_agent.counts_)
+    _assert_same_steps(python, compiled)
+    ifdd, python_ifdd = agent.learner_.representation_, python_agent.learner_.representation_
+    assert ifdd.num_features_ == python_ifdd.num_features_ > ifdd.num_initial_features_
+    assert agent.rng_.bit_generator.state == python_agent.rng_.bit_generator.state
+
+
+def test_algorithm_24_around_unsparsified_ifdd_stays_in_python():
+    domain = UAVMission(scenario="uav-7-2")
+    agent = _uav_csarsa_ifdd(domain, "veto")
+    agent.learner.representation.set_params(sparsify=False)
+    agent.setup(domain.domain_spec, 0)
+    assert for_combination(domain, agent) is None
+
+
 def test_am_icca_stays_in_python():
     domain = GridWorld.gridworld_1()
     model = ApproximateModel(domain=domain.clone().set_params(noise=0.0), is_adaptive=True)

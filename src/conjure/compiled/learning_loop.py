@@ -17,9 +17,14 @@ arithmetic: every step calls the components' own kernels through their compiled 
 Per step: a = π(s) was chosen; s', r = step(a); unless terminal, φ(s') and a' = π(s') over the
 legal actions of s'; Q⁺(s, a); δ and the updates; with iFDD, discovery on φ(s) with δ and the
 new features' rows; then s ← s', a ← a' (φ(s) recomputed after a discovery, as the Python
-learner re-encodes). Random numbers come from the same `numpy.random.Generator` objects in the
-same order as the Python path (numba shares their state): the domain's draws per step and one
-uniform per action choice.
+learner re-encodes). Inside an iCCA box (`conjure.safety.compiled_cooperative`) the box
+chooses a and a'; a vetoed proposal it learns (Algorithm 24's veto rule) is followed by its
+own discovery on that state's φ, before the step's update, as in the Python learner's
+``learn``. Choice: the tables are then grown before a step unless two discoveries from any
+sparsified φ fit (`has_room_for`), since the box cannot pause once the domain has stepped.
+Random numbers come from the same `numpy.random.Generator` objects in the same order as the
+Python path (numba shares their state): the domain's draws per step and one uniform per action
+choice.
 
 The loop's own state (phase, action, counters, return so far) is `LoopState`, resumable
 between calls; an episode may span calls.
@@ -53,7 +58,13 @@ from conjure.agents.compiled_agent import (
 )
 from conjure.domains.compiled_domain import DomainKernel, legal_into, reset_into, step_into
 from conjure.policies.compiled_policy import gibbs_policy, select_action
-from conjure.representations.compiled_ifdd import IFDDKernel, discover_from, room_for, sparsify
+from conjure.representations.compiled_ifdd import (
+    IFDDKernel,
+    discover_from,
+    has_room_for,
+    room_for,
+    sparsify,
+)
 from conjure.representations.compiled_representation import (
     HASHED_TABULAR,
     TILES,
@@ -135,6 +146,31 @@ def _copy(target: np.ndarray, source: np.ndarray) -> None:
         target[i] = source[i]
 
 
+@njit(cache=True, inline="always")
+def _discover(
+    rep: IFDDKernel,
+    arrays: LearnerArrays,
+    phi: np.ndarray,
+    delta: float,
+    room: int,
+    is_actor_critic: bool,
+    has_traces: bool,
+) -> bool:
+    """Algorithm 20/21 on φ(s) with δ; new features start at θ_g + θ_h (Section 4.1.1).
+
+    Returns whether features were added (φ of every state must then be encoded again).
+    """
+    first, added, parents = discover_from(rep, phi, delta, room)
+    for f in range(first, first + added):
+        parent_sum_row(arrays.weights, parents[f, 0], parents[f, 1], f)
+        if is_actor_critic:
+            parent_sum_row(arrays.actor_weights, parents[f, 0], parents[f, 1], f)
+        if has_traces:  # a new feature has no trace yet (SARSA's own growth)
+            for a in range(arrays.trace_slots.shape[1]):
+                arrays.trace_slots[f, a] = -1
+    return added > 0
+
+
 @njit(cache=True)
 def learning_loop(
     num_steps: int,
@@ -157,7 +193,7 @@ def learning_loop(
     failures, last δ, episodes (m, 2) float64 [return, discounted return], episodes (m, 2)
     int64 [length, failures]) for the m episodes that ended during the call.
 
-    `GROW_REPRESENTATION` and `GROW_TRACES` stop before a step whose discovery or traces
+    `GROW_REPRESENTATION` and `GROW_TRACES` stop before a step whose discoveries or traces
     might not fit (the caller grows them with the component's own method and calls again);
     `DIVERGED` stops after an update whose δ is not finite (that step is not counted);
     `DOMAIN_RAISED` stops when a callback domain's ``reset`` or ``step`` raised (that step is
@@ -176,6 +212,7 @@ def learning_loop(
     chooser = arrays.actor_weights
     # Scratch: φ(s) and φ(s') buffers of tile coding, legal-action lists, Q(s', ·).
     base, is_ifdd = rep.base, rep.is_ifdd
+    is_growing_box = is_box and is_ifdd  # Algorithm 24's veto rule may discover features
     max_active = max(base.max_active, 1)
     quanta = np.empty(obs.shape[0], dtype=np.int64)
     phi_buffer = np.empty(max_active, dtype=np.int64)
@@ -213,6 +250,9 @@ def learning_loop(
                 break
             phase = NEEDS_BEGIN
         if phase == NEEDS_BEGIN:  # the learner's begin_episode, then a = π(s)
+            if is_growing_box and not has_room_for(rep, 1):  # a vetoed proposal's discovery
+                status = GROW_REPRESENTATION
+                break
             episode += 1
             clear_learner_traces(agent, arrays)
             phi = encode_into(base, obs, quanta, phi_buffer)
@@ -224,7 +264,7 @@ def learning_loop(
             values = values_of(base, obs)
             legal = legal_into(domain, False, legal_buffer) if is_masked else all_actions
             if is_box:  # the box fills q (after moving ρ, for Algorithm 23)
-                action, vetoed = box_action(
+                action, vetoed, imagined = box_action(
                     box, agent, arrays, phi, values, q, legal, agent_rng, obs, quanta,
                     row_buffer, episode,
                 )  # fmt: skip
@@ -234,6 +274,10 @@ def learning_loop(
                 if not math.isfinite(vetoed):  # a vetoed proposal's update diverged
                     status, delta, phase = DIVERGED, vetoed, NEEDS_RESET
                     break
+                if is_growing_box and imagined:  # the vetoed update's discovery on φ(s)
+                    room = room_for(rep, phi)
+                    if _discover(rep, arrays, phi, vetoed, room, is_actor_critic, has_traces):
+                        phi = sparsify(rep, encode_into(base, obs, quanta, phi_buffer))
             else:
                 q_values_into(chooser, phi, values, q)
                 action = select_action(agent.policy, q, legal, agent_rng)
@@ -243,7 +287,7 @@ def learning_loop(
             total, discounted, weight = 0.0, 0.0, 1.0
             phase = IN_EPISODE
         room = room_for(rep, phi) if is_ifdd else 0
-        if room < 0:
+        if room < 0 or (is_growing_box and not has_room_for(rep, 2)):  # discoveries at s', s
             status = GROW_REPRESENTATION
             break
         if has_traces and arrays.trace_count[0] + phi.shape[0] > arrays.trace_values.shape[0]:
@@ -269,7 +313,7 @@ def learning_loop(
             next_values = values_of(base, next_obs)
             next_legal = legal_into(domain, True, next_legal_buffer) if is_masked else all_actions
             if is_box:
-                next_action, vetoed = box_action(
+                next_action, vetoed, imagined = box_action(
                     box, agent, arrays, next_phi, next_values, q, next_legal, agent_rng,
                     next_obs, quanta, row_buffer, episode,
                 )  # fmt: skip
@@ -280,6 +324,16 @@ def learning_loop(
                 if not math.isfinite(vetoed):  # a vetoed proposal's update diverged
                     status, delta, phase = DIVERGED, vetoed, NEEDS_RESET
                     break
+                if is_growing_box and imagined:  # the vetoed update's discovery on φ(s')
+                    next_room = room_for(rep, next_phi)
+                    if _discover(rep, arrays, next_phi, vetoed, next_room, is_actor_critic,
+                                 has_traces):  # fmt: skip
+                        # φ(s'), Q(s', ·) and φ(s) with the new features (the Python learner
+                        # encodes again after growing)
+                        next_phi = sparsify(rep, encode_into(base, next_obs, quanta, next_buffer))
+                        q_values_into(arrays.weights, next_phi, next_values, q)
+                        phi = sparsify(rep, encode_into(base, obs, quanta, phi_buffer))
+                        room = room_for(rep, phi)
             else:
                 q_values_into(chooser, next_phi, next_values, q)
                 next_action = select_action(agent.policy, q, next_legal, agent_rng)
@@ -294,17 +348,7 @@ def learning_loop(
             status = DIVERGED
             phase = NEEDS_RESET
             break
-        grew = False
-        if is_ifdd:  # Algorithm 20/21; new features start at θ_g + θ_h (Section 4.1.1)
-            first, added, parents = discover_from(rep, phi, delta, room)
-            for f in range(first, first + added):
-                parent_sum_row(arrays.weights, parents[f, 0], parents[f, 1], f)
-                if is_actor_critic:
-                    parent_sum_row(arrays.actor_weights, parents[f, 0], parents[f, 1], f)
-                if has_traces:  # a new feature has no trace yet (SARSA's own growth)
-                    for a in range(num_actions):
-                        arrays.trace_slots[f, a] = -1
-            grew = added > 0
+        grew = is_ifdd and _discover(rep, arrays, phi, delta, room, is_actor_critic, has_traces)
         if terminated:
             clear_learner_traces(agent, arrays)
         done += 1

@@ -455,6 +455,24 @@ def discover_room(active, t):
 
 
 @njit(cache=True)
+def fits_discoveries(max_active, count, t):
+    """Whether ``count`` discoveries from any sparsified φ̇(s) fit in the tables ``t``.
+
+    Under Algorithm 19 the active features cover disjoint sets of at most ``max_active``
+    active initial features, so one discovery needs at most that bound of `discover_room`
+    (k ≤ ``max_active`` features whose set sizes sum to at most ``max_active``).
+    """
+    k = max_active
+    num_pairs = count * (k * (k - 1) // 2)
+    num_nodes = t.num_nodes[0] + num_pairs
+    return (
+        t.pool_used[0] + count * (k - 1) * k <= t.pool.shape[0]
+        and num_nodes <= t.node_key.shape[0]
+        and 2 * num_nodes <= t.table.shape[0]
+    )
+
+
+@njit(cache=True)
 def discover(active, td_error, t):
     """Update the relevances of every co-active pair and discover features; Alg 20/21.
 

@@ -21,10 +21,11 @@ from conjure.representations._ifdd_kernels import (
     discover_fitting,
     discover_room,
     empty_tables,
+    fits_discoveries,
 )
 from conjure.representations.compiled_representation import RepresentationKernel
 
-__all__ = ["IFDDKernel", "discover_from", "fixed", "room_for", "sparsify"]
+__all__ = ["IFDDKernel", "discover_from", "fixed", "has_room_for", "room_for", "sparsify"]
 
 
 class IFDDKernel(NamedTuple):
@@ -64,6 +65,12 @@ def sparsify(rep: IFDDKernel, initial: np.ndarray) -> np.ndarray:
 def room_for(rep: IFDDKernel, phi: np.ndarray) -> int:
     """`discover_room` of φ(s): what a discovery from it needs, or −1 when it does not fit."""
     return discover_room(phi, rep.tables)
+
+
+@njit(cache=True, inline="always")
+def has_room_for(rep: IFDDKernel, count: int) -> bool:
+    """Whether ``count`` discoveries from any φ̇(s) fit (`fits_discoveries`; sparsified φ̇)."""
+    return fits_discoveries(max(rep.base.max_active, 1), count, rep.tables)
 
 
 @njit(cache=True, inline="always")

@@ -206,7 +206,7 @@ def tabulate(agent: Any) -> BoxTables | None:
     state (any one-row-per-state index). The agent keeps the result until it replans
     (`CooperativeAgent.compiled_tables`).
     """
-    if agent.learner_.representation_.is_adaptive or agent.model_.is_adaptive:
+    if agent.model_.is_adaptive:
         return None
     planned, risk = compiled_form(agent.planner_), compiled_form(agent.risk_)
     index = compiled_form(agent.index_)
@@ -245,7 +245,7 @@ def icca_kernel(agent: Any) -> BoxKernel | None:
     (Choice: a growing representation inside the box stays on the Python path).
     """
     tables = agent.compiled_tables()
-    if tables is None:
+    if tables is None or agent.learner_.representation_.is_adaptive:
         return None
     half_life = agent.bias_half_life
     fading = (float(agent.bias), 0.0 if half_life is None else float(half_life))
@@ -258,11 +258,15 @@ def cooperative_learner_kernel(agent: Any) -> BoxKernel | None:
     """The `COOPERATIVE_LEARNER` form of a set-up `CooperativeLearner`, or None.
 
     As `icca_kernel`, for a SARSA or Q-Learning learner (the compiled imagined update of a
-    vetoed proposal is theirs).
+    vetoed proposal is theirs), on fixed features or online iFDD with sparsified activation
+    (Algorithm 19; the loop discovers after a vetoed proposal's update, `learning_loop`).
     """
     tables = agent.compiled_tables()
     learner_form = compiled_form(agent.learner_)
     if tables is None or learner_form is None or learner_form.kind == ACTOR_CRITIC:
+        return None
+    representation = agent.learner_.representation_
+    if representation.is_adaptive and getattr(representation, "sparsify", False) is not True:
         return None
     veto, trusted = agent.veto_reward, agent.trusted_knownness
     return tables.box(COOPERATIVE_LEARNER)._replace(
@@ -349,27 +353,28 @@ def cooperative_learner_action(
     obs: np.ndarray,
     row: int,
     episode: int,
-) -> tuple[int, float]:
-    """Algorithm 24, lines 1-8, while learning (`CooperativeLearner.act`): (action, veto δ).
+) -> tuple[int, float, bool]:
+    """Algorithm 24, lines 1-8, while learning (`CooperativeLearner.act`).
 
-    ``q``: the learner's Q(s, ·) (recomputed after a vetoed proposal's update); ``row``: the
-    index row of s (``obs``). The veto δ is 0 unless a vetoed proposal was learned
-    (`imagined_learn`); a non-finite one diverged.
+    Returns (action, veto δ, whether a vetoed proposal was learned (`imagined_learn`)); the
+    δ is 0 unless one was, and a non-finite one diverged. ``q``: the learner's Q(s, ·)
+    (recomputed after that update); ``row``: the index row of s (``obs``).
     """
     planner_action = _planner_action(box, row, obs)  # line 1
     knownness = min(1.0, box.counts[row, planner_action] / box.num_known)  # line 2
     consult = knownness >= 1.0 or (knownness > 0.0 and box.rng.random() < knownness)
     if not consult:  # line 3 failed
         box.counts[row, planner_action] += 1  # line 8
-        return planner_action, 0.0
+        return planner_action, 0.0, False
     learner_action = select_action(agent.policy, q, legal, rng)  # line 4
     if knownness >= box.trusted or _is_safe(box, row, obs, learner_action, planner_action):
-        return learner_action, 0.0  # line 6
-    delta = 0.0
-    if box.has_veto:  # the veto rule: ⟨s, a′, veto_reward, terminated⟩, imagined
-        delta = imagined_learn(agent, arrays, phi, values, learner_action, box.veto_reward, episode)
-        q_values_into(arrays.weights, phi, values, q)
-    return planner_action, delta
+        return learner_action, 0.0, False  # line 6
+    if not box.has_veto:
+        return planner_action, 0.0, False
+    # The veto rule: ⟨s, a′, veto_reward, terminated⟩, imagined.
+    delta = imagined_learn(agent, arrays, phi, values, learner_action, box.veto_reward, episode)
+    q_values_into(arrays.weights, phi, values, q)
+    return planner_action, delta, True
 
 
 @njit(cache=True, inline="always")
@@ -386,22 +391,24 @@ def box_action(
     quanta: np.ndarray,
     row_buffer: np.ndarray,
     episode: int,
-) -> tuple[int, float]:
-    """The box's action in ``obs`` while learning, and a vetoed proposal's δ (0 if none).
+) -> tuple[int, float, bool]:
+    """The box's action in ``obs`` while learning, a vetoed proposal's δ, whether one was learned.
 
     Writes the learner's values at s into ``q`` (Algorithm 23: the preferences after ρ moved).
-    The action is −1 when a full index could not store s.
+    The action is −1 when a full index could not store s. A learned vetoed proposal (the
+    veto rule of Algorithm 24) is the learner's update on φ(s) with that δ; the loop follows
+    it with the representation's discovery, as the Python learner's ``learn`` does.
     """
     if box.kind == ICCA:
         action = cooperative_action(
             box, arrays.actor_weights, phi, values, q, legal, agent.policy, rng, obs, quanta,
             row_buffer,
         )  # fmt: skip
-        return action, 0.0
+        return action, 0.0, False
     q_values_into(arrays.weights, phi, values, q)
     row = encode_into(box.index, obs, quanta, row_buffer)[0]
     if row < 0:
-        return -1, 0.0
+        return -1, 0.0, False
     return cooperative_learner_action(
         box, agent, arrays, phi, values, q, legal, rng, obs, row, episode
     )

@@ -200,7 +200,8 @@ class CooperativeLearner(CooperativeAgent):
     compiled_variant = (
         "a planner with a table (ModelPlanner) or CBBA (CBBAPlanner), a deterministic risk "
         "analyser (NominalRiskAnalyzer with ModelPlanner, or FuelRiskAnalyzer), a static model "
-        "and a one-row-per-state index, around a compiled SARSA or Q-Learning on fixed features"
+        "and a one-row-per-state index, around a compiled SARSA or Q-Learning on fixed "
+        "features or online iFDD with sparsified activation"
     )
 
     def compiled_form(self) -> BoxKernel | None:
