@@ -17,8 +17,9 @@ def _loop_arguments():
     state.phase[0] = lp.NEEDS_BEGIN
     arrays = agent.compiled_arrays()
     rep = representation_form(agent)
+    box = box_form(agent, rep)
     args = (domain.compiled_form(), domain.np_random, rep, agent_form(agent), arrays,
-            agent.rng_, 100, obs, state, box_form(agent, rep))  # fmt: skip
+            agent.rng_, 100, obs, state, box.box, box.mission)  # fmt: skip
     return args, arrays, state
 
 

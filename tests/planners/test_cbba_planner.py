@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 from types import SimpleNamespace
 
 import numpy as np
@@ -330,15 +331,20 @@ def test_same_state_same_plan():
         assert [x.tolist() for x in a.paths] == [x.tolist() for x in b.paths]
 
 
-def test_cache_is_bounded_and_keyed_by_state():
+def test_cache_is_bounded_and_never_changes_an_answer():
     graph = uav_7_2()
     states = reachable_states(graph, 30, seed=1)
     bounded, uncached = planner(graph, cache_size=4), planner(graph, cache_size=0)
+    cached = []
     for s in states:
         assert bounded.action(s) == uncached.action(s)
-        assert len(bounded.cache_) <= 4
-    assert bounded.cache_[states[-1].tobytes()] == uncached.action(states[-1])
-    assert uncached.cache_ == {}
+        cached.append(bounded.num_cached_)
+    assert len({s.tobytes() for s in states}) > 4
+    assert max(cached) == 4  # filled up to its size ...
+    assert any(now < before for before, now in itertools.pairwise(cached))  # emptied, refilled
+    assert uncached.num_cached_ == 0
+    for s in states:  # a second pass answers alike, from the cache or not
+        assert bounded.action(s) == uncached.action(s)
 
 
 def test_update_never_changes_the_plan():

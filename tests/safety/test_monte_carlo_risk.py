@@ -171,7 +171,7 @@ def test_uav_rollouts_follow_cbba_and_match_the_exact_crash_probability():
     # the next flight home succeeds: risk = 1 − 0.4 · 0.6 = 0.76.
     onward = graph.encode_action([3, 0])
     assert analyser.risk(state, onward) == pytest.approx(0.76, abs=0.02)
-    assert len(planner.cache_) > 0  # π^p at every rollout step, cached by state
+    assert planner.num_cached_ > 0  # π^p at every rollout step, cached by state
 
 
 class NeverFails(GridWorld):

@@ -28,7 +28,7 @@ from conjure.agents.compiled_agent import AgentKernel
 from conjure.core.compiled_form import compiled_form
 from conjure.core.interfaces import Agent, Domain, check_is_set_up
 from conjure.representations.compiled_ifdd import IFDDKernel, fixed
-from conjure.safety.compiled_cooperative import BoxKernel, no_box
+from conjure.safety.compiled_cooperative import CompiledBox, alone
 
 __all__ = [
     "Selection",
@@ -97,10 +97,10 @@ def learner_of(agent: Agent) -> Agent:
     return getattr(agent, "compiled_learner", agent)
 
 
-def box_form(agent: Agent, rep: IFDDKernel) -> BoxKernel:
+def box_form(agent: Agent, rep: IFDDKernel) -> CompiledBox:
     """The agent's box (`conjure.safety.compiled_cooperative`), `NO_BOX` for a learner alone."""
     if learner_of(agent) is agent:
-        return no_box(rep.base)
+        return alone(rep.base)
     form = compiled_form(agent)
     assert form is not None  # `select` checked it
     return form

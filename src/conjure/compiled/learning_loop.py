@@ -72,7 +72,13 @@ from conjure.representations.compiled_representation import (
     values_of,
 )
 from conjure.representations.weights import parent_sum_row
-from conjure.safety.compiled_cooperative import NO_BOX, BoxKernel, box_action
+from conjure.safety.compiled_cooperative import (
+    NO_BOX,
+    BoxKernel,
+    MissionBox,
+    box_action,
+    box_learn,
+)
 
 __all__ = ["LoopState", "learning_loop"]
 
@@ -184,14 +190,16 @@ def learning_loop(
     obs: np.ndarray,
     state: LoopState,
     box: BoxKernel,
+    mission: MissionBox,
 ) -> tuple[int, int, int, float, np.ndarray, np.ndarray]:
     """Take up to ``num_steps`` learning steps; stop early on a status other than `DONE`.
 
-    ``cap``: the episode cap; ``obs``: s, updated in place; ``box``: iCCA's box around the
-    learner (`conjure.safety.compiled_cooperative`: its `box_action` chooses the actions) or
-    `NO_BOX`. Returns (status, steps taken,
-    failures, last δ, episodes (m, 2) float64 [return, discounted return], episodes (m, 2)
-    int64 [length, failures]) for the m episodes that ended during the call.
+    ``cap``: the episode cap; ``obs``: s, updated in place; ``box`` and ``mission``: iCCA's
+    box around the learner and its UAV mission parts (`conjure.safety.compiled_cooperative`:
+    its `box_action` chooses the actions, `box_learn` is Algorithm 26's model update), or
+    `NO_BOX` and `NO_MISSION`. Returns (status, steps taken, failures, last δ, episodes (m, 2)
+    float64 [return, discounted return], episodes (m, 2) int64 [length, failures]) for the m
+    episodes that ended during the call.
 
     `GROW_REPRESENTATION` and `GROW_TRACES` stop before a step whose discoveries or traces
     might not fit (the caller grows them with the component's own method and calls again);
@@ -207,6 +215,7 @@ def learning_loop(
     is_actor_critic = agent.kind == ACTOR_CRITIC
     is_log_policy = agent.is_log_policy  # keeps π(s, ·) as the action was drawn (`drawn`)
     is_box = box.kind != NO_BOX
+    is_adaptive_box = box.is_mission and mission.is_adaptive
     row_buffer = np.empty(1, dtype=np.int64)
     # The actor's preferences choose actions for Actor-Critic (shared features), θ otherwise.
     chooser = arrays.actor_weights
@@ -265,7 +274,7 @@ def learning_loop(
             legal = legal_into(domain, False, legal_buffer) if is_masked else all_actions
             if is_box:  # the box fills q (after moving ρ, for Algorithm 23)
                 action, vetoed, imagined = box_action(
-                    box, agent, arrays, phi, values, q, legal, agent_rng, obs, quanta,
+                    box, mission, agent, arrays, phi, values, q, legal, agent_rng, obs, quanta,
                     row_buffer, episode,
                 )  # fmt: skip
                 if action < 0:  # the box's index is full
@@ -314,7 +323,7 @@ def learning_loop(
             next_legal = legal_into(domain, True, next_legal_buffer) if is_masked else all_actions
             if is_box:
                 next_action, vetoed, imagined = box_action(
-                    box, agent, arrays, next_phi, next_values, q, next_legal, agent_rng,
+                    box, mission, agent, arrays, next_phi, next_values, q, next_legal, agent_rng,
                     next_obs, quanta, row_buffer, episode,
                 )  # fmt: skip
                 if next_action < 0:  # the box's index is full
@@ -349,6 +358,8 @@ def learning_loop(
             phase = NEEDS_RESET
             break
         grew = is_ifdd and _discover(rep, arrays, phi, delta, room, is_actor_critic, has_traces)
+        if is_adaptive_box:  # Algorithm 26: T̂ learns from the move, π^p may switch
+            box_learn(mission, box.counts, obs, action, next_obs)
         if terminated:
             clear_learner_traces(agent, arrays)
         done += 1

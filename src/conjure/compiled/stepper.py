@@ -237,9 +237,10 @@ class CompiledStepper:
         assert rep is not None  # `select` checked it
         rows = representation.feature_capacity_ if rep.is_ifdd else 0
         arrays = agent.compiled_arrays(rows)
+        box = box_form(self.agent, rep)
         args = (domain_form, self.domain.np_random, rep, agent_form(agent), arrays, agent.rng_,
-                self.selection.max_episode_steps, self._obs, self._state,
-                box_form(self.agent, rep))  # fmt: skip
+                self.selection.max_episode_steps, self._obs, self._state, box.box,
+                box.mission)  # fmt: skip
         name = _kernel_name(self.selection)
         if name not in _COMPILE_SECONDS:  # a zero-step call: compile (or load the cache) alone
             started = time.perf_counter()
@@ -250,6 +251,8 @@ class CompiledStepper:
         finally:  # θ's rows in use: n_t after the discoveries (a fixed φ keeps its n)
             rows_in_use = representation.num_features_ if rep.is_ifdd else None
             agent.load_compiled_arrays(arrays, rows_in_use)
+            if agent is not self.agent:  # a box: what its kernels changed (Algorithm 26)
+                self.agent.load_compiled_form(box)
 
 
 def _kernel_name(selection: Selection) -> str:

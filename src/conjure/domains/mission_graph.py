@@ -31,6 +31,7 @@ from typing import Any
 import numpy as np
 
 from conjure.core.errors import InvalidParameterError
+from conjure.core.interfaces import DomainSpec
 
 __all__ = ["MAX_NODES", "MissionGraph", "uav_7_2", "uav_7_2_spec", "uav_10_2", "uav_10_2_spec"]
 
@@ -158,6 +159,40 @@ class MissionGraph:
     def state_size(self) -> int:
         """Length of a state vector: 2n + N + 1."""
         return 2 * self.num_uavs + self.num_nodes + 1
+
+    @property
+    def layout(self) -> np.ndarray:
+        """The mission kernels' int64 [n, N, base, H] (`conjure.domains.uav_mission`)."""
+        return np.array([self.num_uavs, self.num_nodes, self.base, self.horizon], dtype=np.int64)
+
+    @property
+    def node_table(self) -> np.ndarray:
+        """The mission kernels' float64 (N, 4) per node: reward, probability, window."""
+        columns = [self.rewards, self.probabilities, self.windows[:, 0], self.windows[:, 1]]
+        return np.column_stack(columns).astype(np.float64)
+
+    def state_spec(self, name: str) -> DomainSpec:
+        """The mission's states and joint actions as a `DomainSpec` named ``name``.
+
+        Integer dimensions from 0 up to [N − 1, f_1, ..., N − 1, f_n, 1, ..., 1, H], γ = 1,
+        episodes of H steps, legal actions depending on the state.
+        """
+        high = np.array(
+            [v for f in self.fuel for v in (self.num_nodes - 1, f)]
+            + [1] * self.num_nodes
+            + [self.horizon],
+            dtype=np.float64,
+        )
+        return DomainSpec(
+            name=name,
+            low=np.zeros_like(high),
+            high=high,
+            is_discrete=np.ones(high.shape[0], dtype=bool),
+            num_actions=self.num_actions,
+            discount=1.0,
+            max_episode_steps=self.horizon,
+            has_action_constraints=True,
+        )
 
     @property
     def crash_penalty(self) -> float:

@@ -14,7 +14,6 @@ from gymnasium import spaces
 
 from conjure.core.cooperative import NoisyDomain
 from conjure.core.errors import InvalidParameterError
-from conjure.core.interfaces import DomainSpec
 from conjure.core.params import Constraint, InstanceOf, Interval, Options, did_you_mean
 from conjure.domains._mission_dp import (
     action_values,
@@ -32,6 +31,7 @@ from conjure.domains._mission_kernels import (
     is_crashed,
     is_legal,
     is_terminal,
+    mission_step,
     nominal_next_state,
     state_from_observation,
 )
@@ -45,9 +45,18 @@ from conjure.domains.mission_graph import (
     uav_10_2_spec,
 )
 
-#: `nominal_next_state` is the mission's noise-free step kernel, public for the compiled fuel
-#: rule (`conjure.safety.fuel_risk`).
-__all__ = ["MissionSolution", "PolicyEvaluation", "UAVMission", "nominal_next_state"]
+#: The mission's kernels that iCCA's compiled parts reuse: the noise-free step (the fuel rule,
+#: `conjure.safety.fuel_risk`), the random step and crash test (Algorithm 25's rollouts) and
+#: the move counts of the adaptive model (Algorithm 26).
+__all__ = [
+    "MissionSolution",
+    "PolicyEvaluation",
+    "UAVMission",
+    "count_unintended",
+    "is_crashed",
+    "mission_step",
+    "nominal_next_state",
+]
 
 SCENARIOS = {
     "uav-7-2": uav_7_2,
@@ -214,14 +223,10 @@ class UAVMission(ActionMasking, NoisyDomain):
         adjacency = np.eye(num_nodes, dtype=np.uint8)
         for u, v in graph.edges:
             adjacency[u, v] = adjacency[v, u] = 1
-        node_table = np.column_stack(
-            [graph.rewards, graph.probabilities, graph.windows[:, 0], graph.windows[:, 1]]
-        ).astype(np.float64)
-        layout = np.array([n, num_nodes, graph.base, graph.horizon], dtype=np.int64)
-        high = np.array(
-            [v for f in graph.fuel for v in (num_nodes - 1, f)] + [1] * num_nodes + [graph.horizon],
-            dtype=np.float64,
-        )
+        node_table, layout = graph.node_table, graph.layout
+        name = self.scenario if self.graph is None else f"{num_nodes} nodes, {n} UAVs"
+        self.domain_spec = graph.state_spec(f"UAVMission({name})")
+        high = self.domain_spec.high.copy()
         for table in (adjacency, node_table, layout, high):
             table.flags.writeable = False
         self._adjacency = adjacency
@@ -231,19 +236,7 @@ class UAVMission(ActionMasking, NoisyDomain):
         self._tables = (high, layout, adjacency, node_table)  # checked_transition's order
         self._eta = float(self.traverse_failure)
         self._num_uniforms = 2 * n
-        low = np.zeros_like(high)
-        name = self.scenario if self.graph is None else f"{num_nodes} nodes, {n} UAVs"
-        self.observation_space = spaces.Box(low=low, high=high, dtype=np.float64)
-        self.domain_spec = DomainSpec(
-            name=f"UAVMission({name})",
-            low=low,
-            high=high,
-            is_discrete=np.ones(high.shape[0], dtype=bool),
-            num_actions=graph.num_actions,
-            discount=1.0,
-            max_episode_steps=graph.horizon,
-            has_action_constraints=True,
-        )
+        self.observation_space = spaces.Box(low=np.zeros_like(high), high=high, dtype=np.float64)
         self._state = graph.initial_state()
         self._set_action_space()
 

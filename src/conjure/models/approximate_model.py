@@ -7,14 +7,60 @@ when adaptive, re-estimated from every observed transition (Algorithm 26, line 9
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
+from numba import njit
 
 from conjure.core.cooperative import NoisyDomain
 from conjure.core.errors import IncompatibleComponentsError
 from conjure.core.interfaces import DomainSpec, check_is_set_up
 from conjure.core.params import Configurable, InstanceOf, Interval
 
-__all__ = ["ApproximateModel", "check_same_spec"]
+__all__ = ["ApproximateModel", "NoiseModel", "check_same_spec", "estimate_noise", "observe_moves"]
+
+
+class NoiseModel(NamedTuple):
+    """T̂'s noise estimate as a compiled kernel reads and updates it (`observe_moves`).
+
+    Parameters
+    ----------
+    counts : ndarray of int64, shape (2,)
+        [#unintended moves, #moves], updated in place.
+    noise : ndarray of float64, shape (1,)
+        η̂, updated in place.
+    prior_noise, prior_weight : float
+        η̂₀ and w.
+    is_adaptive : bool
+        Whether moves are counted (Algorithm 26) or η̂ stays at η̂₀.
+    """
+
+    counts: np.ndarray
+    noise: np.ndarray
+    prior_noise: float
+    prior_weight: float
+    is_adaptive: bool
+
+
+@njit(cache=True)
+def estimate_noise(
+    num_unintended: int, num_moves: int, prior_noise: float, prior_weight: float
+) -> float:
+    """η̂ = (#unintended + w·η̂₀) / (#moves + w) (Section 5.5.2, see `ApproximateModel`)."""
+    return (num_unintended + prior_weight * prior_noise) / (num_moves + prior_weight)
+
+
+@njit(cache=True)
+def observe_moves(model: NoiseModel, num_unintended: int, num_moves: int) -> None:
+    """model.update (Algorithm 26, line 10) from one transition's counted moves."""
+    if not model.is_adaptive:
+        return
+    model.counts[0] += num_unintended
+    model.counts[1] += num_moves
+    if model.counts[1] + model.prior_weight > 0:
+        model.noise[0] = estimate_noise(
+            model.counts[0], model.counts[1], model.prior_noise, model.prior_weight
+        )
 
 
 class ApproximateModel(Configurable):
@@ -123,9 +169,25 @@ class ApproximateModel(Configurable):
         self.num_unintended_ = int(num_unintended)
         self.num_moves_ = int(num_moves)
         weight = float(self.prior_weight)
-        denominator = self.num_moves_ + weight
-        if self.is_adaptive and denominator > 0:
-            self.noise_ = (self.num_unintended_ + weight * self.prior_noise_) / denominator
+        if self.is_adaptive and self.num_moves_ + weight > 0:
+            self.noise_ = float(
+                estimate_noise(self.num_unintended_, self.num_moves_, self.prior_noise_, weight)
+            )
+
+    def noise_model(self) -> NoiseModel:
+        """η̂ and its counts for a compiled kernel (copies; `load_noise_model` takes them back)."""
+        check_is_set_up(self, "noise_model")
+        return NoiseModel(
+            np.array([self.num_unintended_, self.num_moves_], dtype=np.int64),
+            np.array([self.noise_]),
+            float(self.prior_noise_),
+            float(self.prior_weight),
+            bool(self.is_adaptive),
+        )
+
+    def load_noise_model(self, form: NoiseModel) -> None:
+        """Take the counts back from a compiled kernel (η̂ is re-estimated from them)."""
+        self.load_counts(int(form.counts[0]), int(form.counts[1]))
 
     def domain_at_noise(self) -> NoisyDomain:
         """A copy of the model's domain built with η = η̂ (for planners that need P and R)."""

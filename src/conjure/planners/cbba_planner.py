@@ -22,8 +22,21 @@ from conjure.core.params import Interval, Options
 from conjure.domains.mission_graph import MissionGraph
 from conjure.planners._cbba_kernels import encode_destinations, is_mission_state, plan_mission
 from conjure.planners.cbba import Allocation, default_max_rounds
+from conjure.representations.compiled_representation import (
+    RepresentationKernel,
+    clear_index,
+    index_row,
+)
+from conjure.representations.hashed_tabular import HashedTabular
 
-__all__ = ["CBBAPlanner", "MissionPlan", "MissionPlanner", "first_move", "mission_plan"]
+__all__ = [
+    "CBBAPlanner",
+    "MissionPlan",
+    "MissionPlanner",
+    "first_move",
+    "mission_plan",
+    "planned_action",
+]
 
 
 class MissionPlanner(NamedTuple):
@@ -53,6 +66,12 @@ class MissionPlanner(NamedTuple):
         ``refuel="empty_plan"``.
     max_rounds : int
         CBBA's round limit.
+    cache : RepresentationKernel
+        The plan cache's index of states (a `HashedTabular`'s form), updated in place.
+    cached : ndarray of int64
+        π^p of each cached row (−1: none yet), updated in place.
+    has_cache : bool
+        Whether states are cached (``cache_size`` > 0).
     """
 
     distances: np.ndarray
@@ -66,6 +85,9 @@ class MissionPlanner(NamedTuple):
     fuel_reserve: float
     is_refuel_to_plan: bool
     max_rounds: int
+    cache: RepresentationKernel
+    cached: np.ndarray
+    has_cache: bool
 
 
 @njit(cache=True)
@@ -83,6 +105,28 @@ def first_move(planner: MissionPlanner, state: np.ndarray) -> int:
     """π^p(s): the joint first move of the plan made from a valid ``state`` (not cached)."""
     destinations = mission_plan(planner, state)[0]
     return encode_destinations(destinations, planner.distances.shape[0])
+
+
+@njit(cache=True, inline="always")
+def planned_action(planner: MissionPlanner, state: np.ndarray) -> int:
+    """π^p(s) of a valid ``state`` through the plan cache (`CBBAPlanner.action`).
+
+    A state met before answers from the cache; a new one is planned (`first_move`) and
+    cached; a full cache is emptied first. Plans are deterministic, so the cache never
+    changes an answer.
+    """
+    if not planner.has_cache:
+        return first_move(planner, state)
+    row = index_row(planner.cache, state)
+    if row < 0:  # full
+        clear_index(planner.cache)
+        planner.cached.fill(-1)
+        row = index_row(planner.cache, state)
+    action = planner.cached[row]
+    if action < 0:
+        action = first_move(planner, state)
+        planner.cached[row] = action
+    return action
 
 
 @dataclass(frozen=True, eq=False)
@@ -174,7 +218,8 @@ class CBBAPlanner(CooperativePlanner):
         ρ >= 0 (finite): CBBA's fuel penalty per hop from a UAV to a target (the ACL code's
         constant fuel cost; 1 is the mission's fuel cost per move).
     cache_size : int, default 65536
-        >= 0, the most states whose action is remembered (0: no cache).
+        >= 0, the most states whose action is remembered (0: no cache); a full cache is
+        emptied and fills again.
 
     Attributes
     ----------
@@ -186,8 +231,8 @@ class CBBAPlanner(CooperativePlanner):
         The graph's hop counts, CBBA's travel times.
     node_tasks_ : ndarray of float64, shape (N, 4)
         Every node as a CBBA task: [node, r_j p_j, window start, window end].
-    cache_ : dict of bytes to int
-        The remembered actions, by state bytes.
+    num_cached_ : int
+        States whose action is remembered.
 
     Notes
     -----
@@ -222,9 +267,10 @@ class CBBAPlanner(CooperativePlanner):
       succeeding, so the noise estimate η̂ never enters the plan; AM-iCCA's switch from the
       conservative to the aggressive variant when η̂ drops (Section 5.5.2) belongs to the
       cooperative learner, which holds one planner of each variant.
-    - The cache maps the state's float64 bytes (``state.tobytes()``) to the joint action and
-      forgets the oldest entry when full; plans are deterministic, so it never changes an
-      answer.
+    - The cache indexes states as a `HashedTabular` does (a row per state, first seen first)
+      and keeps the joint action per row; a full cache is emptied and fills again. Plans are
+      deterministic, so it never changes an answer. The compiled loop's iCCA box uses the same
+      cache (`planned_action`).
 
     Complexity: one CBBA run costs Θ(rounds·n·m·L²) with m <= N targets and paths of L <= m;
     Algorithm 27 runs it at most 1 + n·reserve times. About 20-30 µs per uncached plan and
@@ -287,38 +333,42 @@ class CBBAPlanner(CooperativePlanner):
         self.node_tasks_ = np.column_stack(
             [np.arange(graph.num_nodes), values, graph.windows.astype(np.float64)]
         )
+        self._cache = HashedTabular(capacity=max(self.cache_size, 1)).setup(
+            graph.state_spec("CBBAPlanner's plan cache"), 0
+        )
         self._form = MissionPlanner(
             self.distances_, self.next_hop_, self.node_tasks_, graph.num_uavs, graph.base,
             float(graph.horizon), np.array([1.0, 0.0, float(self.fuel_weight)]),
             self.variant == "conservative", float(self.fuel_reserve), self.refuel == "empty_plan",
             default_max_rounds(graph.num_uavs, graph.num_nodes, graph.num_nodes, 1),
+            self._cache.compiled_form(), np.full(self._cache.num_features_, -1, dtype=np.int64),
+            self.cache_size > 0,
         )  # fmt: skip
-        self.cache_: dict[bytes, int] = {}
         self.is_set_up_ = True
         return self
 
     compiled_methods = ("action",)
-    compiled_irrelevant_params = frozenset({"cache_size"})  # the compiled box caches per row
+    #: The cache size reaches the kernel only as the cache's length, which is the number of
+    #: mission states when that is smaller (then no size changes the form).
+    compiled_irrelevant_params = frozenset({"cache_size"})
 
     def compiled_form(self) -> MissionPlanner:
-        """π^p for the compiled iCCA box (`first_move`; the box keeps its own plan cache)."""
+        """π^p for the compiled iCCA box (`planned_action`, with this planner's own cache)."""
         check_is_set_up(self, "compiled_form")
         return self._form
+
+    @property
+    def num_cached_(self) -> int:
+        """States whose action is remembered."""
+        check_is_set_up(self, "num_cached_")
+        return int(np.count_nonzero(self._form.cached >= 0)) if self.cache_size else 0
 
     def action(self, state: np.ndarray) -> int:
         """π^p(s): the joint first move of the CBBA plan made from ``state`` (cached)."""
         check_is_set_up(self, "action")
         state = np.asarray(state, dtype=np.float64)
-        key = state.tobytes()
-        action = self.cache_.get(key)
-        if action is None:
-            self._check_state(state)
-            action = int(first_move(self._form, state))
-            if self.cache_size > 0:
-                if len(self.cache_) >= self.cache_size:
-                    del self.cache_[next(iter(self.cache_))]
-                self.cache_[key] = action
-        return action
+        self._check_state(state)
+        return int(planned_action(self._form, state))
 
     def plan(self, state: np.ndarray) -> MissionPlan:
         """The full CBBA plan made from ``state`` (not cached), for inspection."""

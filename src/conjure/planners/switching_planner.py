@@ -2,16 +2,62 @@
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
+from numba import njit
 
+from conjure.core.compiled_form import compiled_form
 from conjure.core.cooperative import CooperativePlanner
 from conjure.core.interfaces import check_is_set_up
 from conjure.core.params import InstanceOf, Interval
 from conjure.core.seeding import split_seed
+from conjure.planners.cbba_planner import MissionPlanner
 
-__all__ = ["SwitchingPlanner"]
+__all__ = ["PlannerPair", "SwitchingPlanner", "active_planner", "fixed_pair", "switch_by_noise"]
+
+
+class PlannerPair(NamedTuple):
+    """A switching π^p of CBBA planners as a compiled kernel reads it (Section 5.5.2).
+
+    Parameters
+    ----------
+    conservative, aggressive : MissionPlanner
+        The two planners' forms.
+    noise_threshold : float
+        The aggressive one is used while η̂ < ``noise_threshold``.
+    is_aggressive : ndarray of bool, shape (1,)
+        Which one is in use, updated in place (`switch_by_noise`).
+    is_switching : bool
+        False for a single planner (`fixed_pair`): it never switches.
+    """
+
+    conservative: MissionPlanner
+    aggressive: MissionPlanner
+    noise_threshold: float
+    is_aggressive: np.ndarray
+    is_switching: bool
+
+
+def fixed_pair(planner: MissionPlanner) -> PlannerPair:
+    """One planner as a `PlannerPair` that never switches."""
+    return PlannerPair(planner, planner, 0.0, np.zeros(1, dtype=np.bool_), False)
+
+
+@njit(cache=True, inline="always")
+def active_planner(pair: PlannerPair) -> MissionPlanner:
+    """The planner in use."""
+    return pair.aggressive if pair.is_aggressive[0] else pair.conservative
+
+
+@njit(cache=True)
+def switch_by_noise(pair: PlannerPair, noise: float) -> bool:
+    """`SwitchingPlanner.update` for CBBA planners (which never replan): whether π^p changed."""
+    if not pair.is_switching:
+        return False
+    was_aggressive = pair.is_aggressive[0]
+    pair.is_aggressive[0] = noise < pair.noise_threshold
+    return pair.is_aggressive[0] != was_aggressive
 
 
 class SwitchingPlanner(CooperativePlanner):
@@ -95,6 +141,24 @@ class SwitchingPlanner(CooperativePlanner):
         self.is_aggressive_ = self._is_calm(model)
         self.is_set_up_ = True
         return self
+
+    compiled_methods = ("action", "update")
+
+    def compiled_form(self) -> PlannerPair | None:
+        """Both planners' forms when both are CBBA's (`MissionPlanner`), else None.
+
+        ``is_aggressive`` is a copy; `load_compiled_form` takes it back.
+        """
+        check_is_set_up(self, "compiled_form")
+        forms = compiled_form(self.conservative_), compiled_form(self.aggressive_)
+        if not all(isinstance(form, MissionPlanner) for form in forms):
+            return None
+        is_aggressive = np.array([self.is_aggressive_], dtype=np.bool_)
+        return PlannerPair(*forms, float(self.noise_threshold), is_aggressive, True)
+
+    def load_compiled_form(self, form: PlannerPair) -> None:
+        """Take back which planner a compiled kernel switched to."""
+        self.is_aggressive_ = bool(form.is_aggressive[0])
 
     def _is_calm(self, model: Any) -> bool:
         return float(model.noise_) < self.noise_threshold

@@ -13,7 +13,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from conjure.representations._hashed_tabular_kernels import FULL, find_cell
+from conjure.representations._hashed_tabular_kernels import EMPTY, FULL, find_cell
 from conjure.representations._kernels import (
     hashed_tile_features,
     independent_features,
@@ -32,7 +32,9 @@ __all__ = [
     "TABULAR",
     "TILES",
     "RepresentationKernel",
+    "clear_index",
     "encode_into",
+    "index_row",
     "representation_kernel",
     "values_of",
 ]
@@ -129,6 +131,19 @@ def encode_into(
     if rep.kind == RBF:
         return rep.vector
     return np.flatnonzero(state)
+
+
+@njit(cache=True, inline="always")
+def index_row(rep: RepresentationKernel, state: np.ndarray) -> int:
+    """A `HASHED_TABULAR` index's row of s, stored first if new; `FULL` if it does not fit."""
+    return find_cell(state, rep.dims, rep.vector, rep.hash_table, rep.hash_counts)[0]
+
+
+@njit(cache=True)
+def clear_index(rep: RepresentationKernel) -> None:
+    """Forget every cell of a `HASHED_TABULAR` index (its rows are numbered from 0 again)."""
+    rep.vector.fill(EMPTY)
+    rep.hash_counts[0] = 0
 
 
 @njit(cache=True, inline="always")

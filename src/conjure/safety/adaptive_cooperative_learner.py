@@ -14,6 +14,7 @@ from conjure.core.interfaces import (
 )
 from conjure.core.params import Interval
 from conjure.models.approximate_model import ApproximateModel
+from conjure.safety.compiled_cooperative import CompiledBox, cooperative_learner_kernel
 from conjure.safety.cooperative_learner import CooperativeLearner
 
 __all__ = ["AdaptiveCooperativeLearner"]
@@ -137,6 +138,23 @@ class AdaptiveCooperativeLearner(CooperativeLearner):
         super().setup(spec, seed)
         self.num_policy_changes_ = 0
         return self
+
+    adapts_model = True
+    compiled_variant = (
+        "a UAV mission: CBBA or a SwitchingPlanner of CBBA planners, the fuel rule or "
+        "Monte-Carlo rollouts, a one-row-per-state index, around a compiled SARSA or "
+        "Q-Learning on fixed features or online iFDD with sparsified activation"
+    )
+
+    def compiled_form(self) -> CompiledBox | None:
+        """Algorithm 26's box for the compiled loop on a UAV mission, or None.
+
+        Algorithm 24's box (`cooperative_learner_kernel`) whose `box_learn` counts T̂'s moves
+        and switches π^p; grid worlds' tabulated planners stay on the Python path.
+        """
+        check_is_set_up(self, "compiled_form")
+        form = cooperative_learner_kernel(self)
+        return form if form is not None and form.box.is_mission else None
 
     def _extra_state(self) -> dict[str, int]:
         return {"num_policy_changes": self.num_policy_changes_}

@@ -1,23 +1,23 @@
 """The iCCA control box as the compiled learning loop reads it (`conjure.core.compiled_form`).
 
-Geramifard (2012), Algorithms 23 and 24 (Sections 5.3-5.4). `BoxKernel` holds what the box
-needs per step when its planner and risk analyser are fixed functions of the state: π^p(s)
-per row of the box's index (one feature per state), tabulated from a planned policy or, for
-CBBA on UAV missions (Section 5.3.1), planned by its own kernel (`first_move`) the first time
-the box meets a state and kept for that row; the verdicts safe(s, a), tabulated, or the fuel
-rule's kernel (`fuel_risk`, Section 5.3.5) called per proposal; and the agent's own tables,
-updated in place (Algorithm 23's visit counts n(s) and planner bias; Algorithm 24's counts of
-unconsulted planner actions, knownness and veto rule).
+Geramifard (2012), Algorithms 23, 24 and 26 (Sections 5.3-5.5). `BoxKernel` holds what the
+box needs per step: π^p(s) and the verdicts safe(s, a), either tabulated per row of the box's
+index (one feature per state) when the planner and the risk analyser are fixed functions of
+the state (grid worlds), or, on UAV missions (`MissionBox`), the components' own kernels
+called per state: CBBA through its plan cache (`planned_action`, Section 5.3.1; conservative
+or aggressive by η̂ with a switching planner), the fuel rule (`fuel_risk`, Section 5.3.5) or
+Algorithm 25's rollouts (`mission_failures`), and the adaptive model's η̂ (`observe_moves`);
+and the agent's own tables, updated in place (Algorithm 23's visit counts n(s) and planner
+bias; Algorithm 24's counts of unconsulted planner actions, knownness and veto rule).
 `box_action` is the box's ``act`` while learning (`cooperative_action`:
 `CooperativeActorCritic`, `cooperative_learner_action`: `CooperativeLearner`); the learner's
 updates stay the learner's own kernels.
 
 The tables are made by calling the parts' own methods (`planner.action` through its compiled
 form, the analyser's ``is_safe``) on every state the planner planned, and the per-state parts
-are the components' own kernels, so no rule is coded twice. They are exact while neither
-changes: the model is not adaptive and the analyser draws no random number (`FixedRisk`,
-`FuelRisk`). CBBA is deterministic, so a row's kept plan is the one it would make again (the
-Python planner's own cache relies on the same).
+are the components' own kernels, so no rule is coded twice. Tables are exact while neither
+changes: the model is not adaptive and the analyser draws no random number (`FixedRisk`).
+`box_learn` is Algorithm 26's model update and switch after the learner's update.
 """
 
 from __future__ import annotations
@@ -36,25 +36,40 @@ from conjure.agents.compiled_agent import (
     shift_preference_into,
 )
 from conjure.core.compiled_form import compiled_form
-from conjure.planners.cbba_planner import MissionPlanner, first_move
+from conjure.domains.uav_mission import count_unintended
+from conjure.models.approximate_model import NoiseModel, observe_moves
+from conjure.planners.cbba_planner import MissionPlanner, planned_action
 from conjure.planners.model_planner import PlannedPolicy
+from conjure.planners.switching_planner import (
+    PlannerPair,
+    active_planner,
+    fixed_pair,
+    switch_by_noise,
+)
 from conjure.policies.compiled_policy import PolicyKernel, select_action
 from conjure.representations.compiled_representation import (
     HASHED_TABULAR,
     TABULAR,
     RepresentationKernel,
     encode_into,
+    representation_kernel,
 )
 from conjure.safety.fuel_risk import FuelRisk, fuel_risk
+from conjure.safety.monte_carlo_risk import MissionRollouts, mission_failures
 
 __all__ = [
     "COOPERATIVE_LEARNER",
     "ICCA",
     "NO_BOX",
+    "NO_MISSION",
     "BoxKernel",
     "BoxTables",
+    "CompiledBox",
     "FixedRisk",
+    "MissionBox",
+    "alone",
     "box_action",
+    "box_learn",
     "cooperative_action",
     "cooperative_learner_action",
     "cooperative_learner_kernel",
@@ -67,12 +82,66 @@ __all__ = [
 NO_BOX, ICCA, COOPERATIVE_LEARNER = 0, 1, 2
 #: The generator a box without draws holds (the field's type is fixed).
 _NO_DRAWS = np.random.default_rng(0)
-#: Stand-ins of the per-state planner and fuel rule for boxes that tabulate them.
-_NO_MISSION = MissionPlanner(
-    np.zeros((0, 0)), np.zeros((0, 0), dtype=np.int64), np.zeros((0, 4)), 0, 0, 0.0,
-    np.zeros(3), False, 0.0, False, 0,
-)  # fmt: skip
-_NO_FUEL = FuelRisk(np.zeros(4, dtype=np.int64), np.zeros(0, dtype=np.int64), 1.0)
+
+
+class MissionBox(NamedTuple):
+    """The parts of a box on a UAV mission, called per state (Sections 5.3.1, 5.3.5, 5.5).
+
+    Parameters
+    ----------
+    planners : PlannerPair
+        π^p: CBBA's `planned_action` (with the planner's own plan cache), conservative or
+        aggressive by η̂ for a `SwitchingPlanner`, else one planner that never switches.
+    has_rollouts : bool
+        Whether proposals are judged by Algorithm 25 (``rollouts``) or the fuel rule.
+    fuel : FuelRisk
+        The fuel rule (`fuel_risk`).
+    rollouts : MissionRollouts
+        Algorithm 25's rollouts on T̂ (`mission_failures`).
+    model : NoiseModel
+        T̂'s η̂ and its counts (updated in place by Algorithm 26's `box_learn`).
+    layout : ndarray of int64, shape (4,)
+        T̂'s mission layout (`MissionGraph.layout`), for counting moves.
+    is_adaptive : bool
+        Algorithm 26 (`AdaptiveCooperativeLearner`): T̂ learns, π^p may switch.
+    replan_threshold : float
+        ΔT.
+    planned_noise : ndarray of float64, shape (1,)
+        η̂^p, updated in place.
+    policy_changes : ndarray of int64, shape (1,)
+        How often π^p changed, updated in place.
+    """
+
+    planners: PlannerPair
+    has_rollouts: bool
+    fuel: FuelRisk
+    rollouts: MissionRollouts
+    model: NoiseModel
+    layout: np.ndarray
+    is_adaptive: bool
+    replan_threshold: float
+    planned_noise: np.ndarray
+    policy_changes: np.ndarray
+
+
+def _no_mission() -> MissionBox:
+    """The stand-in `MissionBox` of the boxes that tabulate their parts."""
+    no_ints = np.zeros(0, dtype=np.int64)
+    no_cache = representation_kernel(HASHED_TABULAR, 1)
+    planner = MissionPlanner(
+        np.zeros((0, 0)), np.zeros((0, 0), dtype=np.int64), np.zeros((0, 4)), 0, 0, 0.0,
+        np.zeros(3), False, 0.0, False, 0, no_cache, no_ints, False,
+    )  # fmt: skip
+    layout = np.zeros(4, dtype=np.int64)
+    return MissionBox(
+        fixed_pair(planner), False, FuelRisk(layout, no_ints, 1.0),
+        MissionRollouts(0, 0, 1.0, layout, np.zeros((0, 4)), _NO_DRAWS),
+        NoiseModel(np.zeros(2, dtype=np.int64), np.zeros(1), 0.0, 0.0, False), layout,
+        False, 0.0, np.zeros(1), np.zeros(1, dtype=np.int64),
+    )  # fmt: skip
+
+
+NO_MISSION = _no_mission()
 
 
 class FixedRisk(NamedTuple):
@@ -102,15 +171,9 @@ class BoxKernel(NamedTuple):
     planner_actions : ndarray of int64, shape (rows,)
         π^p(s) per row (−1: not planned yet, with ``plans_online``).
     safe : ndarray of bool, shape (rows, |A|)
-        safe(s, a) per row and action (true for a = π^p(s)); empty with ``has_fuel_risk``.
-    mission : MissionPlanner
-        CBBA's kernel form, which plans a row's π^p(s) on the first visit if ``plans_online``.
-    plans_online : bool
-        Whether ``planner_actions`` is a cache that `first_move` fills.
-    fuel : FuelRisk
-        The fuel rule, which judges proposals if ``has_fuel_risk`` (else ``safe`` does).
-    has_fuel_risk : bool
-        Whether ``fuel`` judges proposals.
+        safe(s, a) per row and action (true for a = π^p(s)).
+    is_mission : bool
+        Whether the box's `MissionBox` gives π^p and safe(s, a) instead of the tables.
     visits : ndarray of int64, shape (rows,)
         n(s), the agent's ``visits_`` (updated in place).
     bias, half_life : float
@@ -135,10 +198,7 @@ class BoxKernel(NamedTuple):
     index: RepresentationKernel
     planner_actions: np.ndarray
     safe: np.ndarray
-    mission: MissionPlanner
-    plans_online: bool
-    fuel: FuelRisk
-    has_fuel_risk: bool
+    is_mission: bool
     visits: np.ndarray
     bias: float
     half_life: float
@@ -157,85 +217,130 @@ def no_box(index: RepresentationKernel) -> BoxKernel:
     no_table = np.zeros((0, 0), dtype=np.bool_)
     no_counts = np.zeros((0, 0), dtype=np.int32)
     return BoxKernel(
-        NO_BOX, index, empty, no_table, _NO_MISSION, False, _NO_FUEL, False, empty, 0.0, 0.0,
-        False, no_counts, 1.0, 0.0, False, 2.0, _NO_DRAWS,
+        NO_BOX, index, empty, no_table, False, empty, 0.0, 0.0, False, no_counts, 1.0, 0.0, False,
+        2.0, _NO_DRAWS,
     )  # fmt: skip
+
+
+class CompiledBox(NamedTuple):
+    """A cooperative agent's compiled form: its `BoxKernel` and its `MissionBox`.
+
+    Geramifard (2012), Algorithms 23, 24 and 26. Two arguments of the loop, not one: numba
+    keeps a reference count per array of a tuple of ten or more arrays wherever it is passed,
+    and the mission's parts hold about thirty, so the grid worlds' box stays small.
+
+    Parameters
+    ----------
+    box : BoxKernel
+        The box (`NO_BOX` for a learner alone).
+    mission : MissionBox
+        Its UAV mission parts (`NO_MISSION` elsewhere).
+    """
+
+    box: BoxKernel
+    mission: MissionBox
+
+
+def alone(index: RepresentationKernel) -> CompiledBox:
+    """The `NO_BOX` form of a learner alone (``index`` a stand-in of the loop's type)."""
+    return CompiledBox(no_box(index), NO_MISSION)
 
 
 class BoxTables(NamedTuple):
     """A box's tabulated parts (`tabulate`).
 
-    Geramifard (2012), Sections 5.3.1, 5.3.3 and 5.3.5: π^p and the risk analyser's verdicts,
-    per row of the box's index, or the kernels that give them per state.
+    Geramifard (2012), Sections 5.3.1 and 5.3.3: π^p and the risk analyser's verdicts, per
+    row of the box's index; on a UAV mission both come from per-state kernels instead.
 
     Parameters
     ----------
     index : RepresentationKernel
         The index's compiled form (a state's row).
     planner_actions : ndarray of int64, shape (rows,)
-        π^p(s) per row (−1: a row no planned state has, or one not planned yet).
+        π^p(s) per row (−1: a row no planned state has); empty on a mission.
     safe : ndarray of bool, shape (rows, |A|)
-        safe(s, a) per row and action (empty with a ``fuel`` rule).
-    mission : MissionPlanner or None
-        CBBA's form when π^p is planned per state (``planner_actions`` is then its cache).
-    fuel : FuelRisk or None
-        The fuel rule when it judges proposals per state.
+        safe(s, a) per row and action; empty on a mission.
+    is_mission : bool
+        Whether π^p and safe(s, a) are the mission's kernels (`mission_box`).
     """
 
     index: RepresentationKernel
     planner_actions: np.ndarray
     safe: np.ndarray
-    mission: MissionPlanner | None
-    fuel: FuelRisk | None
+    is_mission: bool
 
     def box(self, kind: int) -> BoxKernel:
         """A ``kind`` box around these tables (the agent's own fields still to be set)."""
         return no_box(self.index)._replace(
             kind=kind, planner_actions=self.planner_actions, safe=self.safe,
-            mission=self.mission or _NO_MISSION, plans_online=self.mission is not None,
-            fuel=self.fuel or _NO_FUEL, has_fuel_risk=self.fuel is not None,
+            is_mission=self.is_mission,
         )  # fmt: skip
+
+    def mission(self, agent: Any) -> MissionBox:
+        """``agent``'s `MissionBox` (`mission_box`) on a mission, else the stand-in."""
+        return mission_box(agent) if self.is_mission else NO_MISSION
 
 
 def tabulate(agent: Any) -> BoxTables | None:
-    """π^p and safe(s, a) per index row of a set-up box, or the kernels; None (`icca_kernel`).
+    """π^p and safe(s, a) per index row of a set-up box, or None (see `icca_kernel`).
 
     A planned policy (`PlannedPolicy`) and a `FixedRisk` are tabulated by calling the
-    planner's and the analyser's own methods on every planned state (a `Tabular` index); CBBA
-    (`MissionPlanner`) and the fuel rule (`FuelRisk`) are the components' kernels, called per
-    state (any one-row-per-state index). The agent keeps the result until it replans
-    (`CooperativeAgent.compiled_tables`).
+    planner's and the analyser's own methods on every planned state (a `Tabular` index, a
+    static model). On a UAV mission, CBBA (`MissionPlanner`, or a `PlannerPair` of them) and
+    the fuel rule (`FuelRisk`) or Algorithm 25's rollouts (`MissionRollouts`) are called per
+    state instead, with any one-row-per-state index and a static or adaptive model. The
+    agent keeps the result until it replans (`CooperativeAgent.compiled_tables`).
     """
-    if agent.model_.is_adaptive:
-        return None
     planned, risk = compiled_form(agent.planner_), compiled_form(agent.risk_)
     index = compiled_form(agent.index_)
     if not isinstance(index, RepresentationKernel) or index.kind not in (TABULAR, HASHED_TABULAR):
         return None
+    no_actions, no_table = np.zeros(0, dtype=np.int64), np.zeros((0, 0), dtype=np.bool_)
+    if isinstance(planned, (MissionPlanner, PlannerPair)):
+        if not isinstance(risk, (FuelRisk, MissionRollouts)):
+            return None
+        return BoxTables(index, no_actions, no_table, True)
+    is_fixed = isinstance(risk, FixedRisk) and not agent.model_.is_adaptive
+    if not (isinstance(planned, PlannedPolicy) and is_fixed and index.kind == TABULAR):
+        return None
     rows, num_actions = agent.index_.num_features_, agent.spec_.num_actions
     planner_actions = np.full(rows, -1, dtype=np.int64)
-    safe = np.zeros((0, 0), dtype=np.bool_)
-    if isinstance(planned, PlannedPolicy) and index.kind == TABULAR:
-        for state, planner_action in zip(planned.states, planned.actions, strict=True):
-            planner_actions[agent.state_row(state)] = planner_action
-    elif not isinstance(planned, MissionPlanner):
-        return None
-    if isinstance(risk, FixedRisk) and isinstance(planned, PlannedPolicy):
-        safe = np.zeros((rows, num_actions), dtype=np.bool_)
-        for state, planner_action in zip(planned.states, planned.actions, strict=True):
-            row = agent.state_row(state)
-            for action in range(num_actions):
-                safe[row, action] = agent.risk_.is_safe(
-                    state, action, planner_action=int(planner_action)
-                )
-    elif not isinstance(risk, FuelRisk):
-        return None
-    mission = planned if isinstance(planned, MissionPlanner) else None
-    fuel = risk if isinstance(risk, FuelRisk) else None
-    return BoxTables(index, planner_actions, safe, mission, fuel)
+    safe = np.zeros((rows, num_actions), dtype=np.bool_)
+    for state, planner_action in zip(planned.states, planned.actions, strict=True):
+        row = agent.state_row(state)
+        planner_actions[row] = planner_action
+        for action in range(num_actions):
+            safe[row, action] = agent.risk_.is_safe(
+                state, action, planner_action=int(planner_action)
+            )
+    return BoxTables(index, planner_actions, safe, False)
 
 
-def icca_kernel(agent: Any) -> BoxKernel | None:
+def mission_box(agent: Any) -> MissionBox:
+    """The `MissionBox` of a set-up box on a UAV mission, from its parts' current forms.
+
+    Made for every call of the loop: the model's counts, the planner in use and Algorithm
+    26's η̂^p are copies that `CooperativeAgent.load_compiled_form` takes back.
+    """
+    planners = compiled_form(agent.planner_)
+    if isinstance(planners, MissionPlanner):
+        planners = fixed_pair(planners)
+    risk = compiled_form(agent.risk_)
+    is_adaptive = agent.adapts_model  # Algorithm 26
+    has_rollouts = isinstance(risk, MissionRollouts)
+    return NO_MISSION._replace(
+        planners=planners, has_rollouts=has_rollouts,
+        fuel=NO_MISSION.fuel if has_rollouts else risk,
+        rollouts=risk if has_rollouts else NO_MISSION.rollouts,
+        model=agent.model_.noise_model(), layout=agent.model_.domain_.graph_.layout,
+        is_adaptive=is_adaptive,
+        replan_threshold=float(agent.replan_threshold) if is_adaptive else 0.0,
+        planned_noise=np.array([getattr(agent, "planned_noise_", 0.0)]),
+        policy_changes=np.array([getattr(agent, "num_policy_changes_", 0)], dtype=np.int64),
+    )  # fmt: skip
+
+
+def icca_kernel(agent: Any) -> CompiledBox | None:
     """The `ICCA` form of a set-up `CooperativeActorCritic`, or None when it cannot be tabulated.
 
     None unless `tabulate` can: the planner gives a table (`ModelPlanner`'s `PlannedPolicy`,
@@ -249,12 +354,13 @@ def icca_kernel(agent: Any) -> BoxKernel | None:
         return None
     half_life = agent.bias_half_life
     fading = (float(agent.bias), 0.0 if half_life is None else float(half_life))
-    return tables.box(ICCA)._replace(
+    box = tables.box(ICCA)._replace(
         visits=agent.visits_, bias=fading[0], half_life=fading[1], is_fading=half_life is not None
     )
+    return CompiledBox(box, tables.mission(agent))
 
 
-def cooperative_learner_kernel(agent: Any) -> BoxKernel | None:
+def cooperative_learner_kernel(agent: Any) -> CompiledBox | None:
     """The `COOPERATIVE_LEARNER` form of a set-up `CooperativeLearner`, or None.
 
     As `icca_kernel`, for a SARSA or Q-Learning learner (the compiled imagined update of a
@@ -269,29 +375,37 @@ def cooperative_learner_kernel(agent: Any) -> BoxKernel | None:
     if representation.is_adaptive and getattr(representation, "sparsify", False) is not True:
         return None
     veto, trusted = agent.veto_reward, agent.trusted_knownness
-    return tables.box(COOPERATIVE_LEARNER)._replace(
+    box = tables.box(COOPERATIVE_LEARNER)._replace(
         counts=agent.counts_, num_known=float(agent.num_known_visits),
         veto_reward=0.0 if veto is None else float(veto), has_veto=veto is not None,
         trusted=2.0 if trusted is None else float(trusted), rng=agent.rng_,
     )  # fmt: skip
+    return CompiledBox(box, tables.mission(agent))
 
 
 @njit(cache=True, inline="always")
-def _planner_action(box: BoxKernel, row: int, obs: np.ndarray) -> int:
-    """π^p(s) of the state ``obs`` at ``row``: its table entry, planned on the first visit."""
-    action = box.planner_actions[row]
-    if action < 0 and box.plans_online:
-        action = first_move(box.mission, obs)
-        box.planner_actions[row] = action
-    return action
+def _planner_action(box: BoxKernel, mission: MissionBox, row: int, obs: np.ndarray) -> int:
+    """π^p(s) of the state ``obs`` at ``row``: its table entry, or the CBBA planner in use."""
+    if not box.is_mission:
+        return box.planner_actions[row]
+    return planned_action(active_planner(mission.planners), obs)
 
 
 @njit(cache=True, inline="always")
-def _is_safe(box: BoxKernel, row: int, obs: np.ndarray, action: int, planner_action: int) -> bool:
-    """safe(s, a) (`RiskAnalyzer.is_safe`): π^p(s) is safe; else the table or the fuel rule."""
-    if not box.has_fuel_risk:
+def _is_safe(
+    box: BoxKernel, mission: MissionBox, row: int, obs: np.ndarray, action: int, planner_action: int
+) -> bool:
+    """safe(s, a) (`RiskAnalyzer.is_safe`): π^p(s) is safe; else the table or the mission's rule."""
+    if not box.is_mission:
         return box.safe[row, action]
-    return action == planner_action or fuel_risk(box.fuel, obs, action) < box.fuel.risk_tolerance
+    if action == planner_action:
+        return True
+    if not mission.has_rollouts:
+        return fuel_risk(mission.fuel, obs, action) < mission.fuel.risk_tolerance
+    rollouts, noise = mission.rollouts, mission.model.noise[0]
+    planner = active_planner(mission.planners)
+    risk = mission_failures(rollouts, planner, obs, action, noise) / rollouts.num_rollouts
+    return risk < rollouts.risk_tolerance
 
 
 @njit(cache=True, inline="always")
@@ -300,9 +414,10 @@ def _planner_bias(box: BoxKernel, visits: int) -> float:
     return box.bias * box.half_life / (box.half_life + visits)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def cooperative_action(
     box: BoxKernel,
+    mission: MissionBox,
     actor_weights: np.ndarray,
     phi: np.ndarray,
     values: np.ndarray | None,
@@ -324,7 +439,7 @@ def cooperative_action(
     row = encode_into(box.index, obs, quanta, row_buffer)[0]
     if row < 0:
         return -1
-    planner_action = _planner_action(box, row, obs)
+    planner_action = _planner_action(box, mission, row, obs)
     visits = box.visits[row]
     box.visits[row] = visits + 1
     if visits == 0:  # Section 5.3.2: bias ρ toward π^p on the first visit
@@ -334,15 +449,16 @@ def cooperative_action(
         shift_preference_into(actor_weights, phi, values, planner_action, fade)
     q_values_into(actor_weights, phi, values, preferences)
     learner_action = select_action(policy, preferences, legal, rng)  # line 2
-    if _is_safe(box, row, obs, learner_action, planner_action):  # line 4
+    if _is_safe(box, mission, row, obs, learner_action, planner_action):  # line 4
         return learner_action  # line 3
     shift_preference_into(actor_weights, phi, values, learner_action, -box.bias)  # line 6
     return planner_action  # line 5
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def cooperative_learner_action(
     box: BoxKernel,
+    mission: MissionBox,
     agent: AgentKernel,
     arrays: LearnerArrays,
     phi: np.ndarray,
@@ -360,14 +476,14 @@ def cooperative_learner_action(
     δ is 0 unless one was, and a non-finite one diverged. ``q``: the learner's Q(s, ·)
     (recomputed after that update); ``row``: the index row of s (``obs``).
     """
-    planner_action = _planner_action(box, row, obs)  # line 1
+    planner_action = _planner_action(box, mission, row, obs)  # line 1
     knownness = min(1.0, box.counts[row, planner_action] / box.num_known)  # line 2
     consult = knownness >= 1.0 or (knownness > 0.0 and box.rng.random() < knownness)
     if not consult:  # line 3 failed
         box.counts[row, planner_action] += 1  # line 8
         return planner_action, 0.0, False
     learner_action = select_action(agent.policy, q, legal, rng)  # line 4
-    if knownness >= box.trusted or _is_safe(box, row, obs, learner_action, planner_action):
+    if knownness >= box.trusted or _is_safe(box, mission, row, obs, learner_action, planner_action):
         return learner_action, 0.0, False  # line 6
     if not box.has_veto:
         return planner_action, 0.0, False
@@ -380,6 +496,7 @@ def cooperative_learner_action(
 @njit(cache=True, inline="always")
 def box_action(
     box: BoxKernel,
+    mission: MissionBox,
     agent: AgentKernel,
     arrays: LearnerArrays,
     phi: np.ndarray,
@@ -401,8 +518,8 @@ def box_action(
     """
     if box.kind == ICCA:
         action = cooperative_action(
-            box, arrays.actor_weights, phi, values, q, legal, agent.policy, rng, obs, quanta,
-            row_buffer,
+            box, mission, arrays.actor_weights, phi, values, q, legal, agent.policy, rng, obs,
+            quanta, row_buffer,
         )  # fmt: skip
         return action, 0.0, False
     q_values_into(arrays.weights, phi, values, q)
@@ -410,5 +527,33 @@ def box_action(
     if row < 0:
         return -1, 0.0, False
     return cooperative_learner_action(
-        box, agent, arrays, phi, values, q, legal, rng, obs, row, episode
+        box, mission, agent, arrays, phi, values, q, legal, rng, obs, row, episode
     )
+
+
+@njit(cache=True)
+def box_learn(
+    mission: MissionBox, counts: np.ndarray, obs: np.ndarray, action: int, next_obs: np.ndarray
+) -> None:
+    """Algorithm 26, lines 10-15, after the learner's update (`AdaptiveCooperativeLearner.learn`).
+
+    T̂ counts the transition's moves (`observe_moves`); when η̂ moved more than ΔT from η̂^p,
+    η̂^p ← η̂ and the planner switches by η̂ (CBBA itself never replans, `switch_by_noise`);
+    if π^p changed, every count restarts at zero (``counts``, the box's). For a box with
+    ``mission.is_adaptive``.
+    """
+    n = obs.shape[0]
+    before, after = np.empty(n, dtype=np.int64), np.empty(n, dtype=np.int64)
+    for k in range(n):
+        before[k], after[k] = np.int64(obs[k]), np.int64(next_obs[k])
+    unintended, moves = count_unintended(before, action, after, mission.layout)
+    model = mission.model
+    noise = model.noise[0]
+    observe_moves(model, unintended, moves)  # line 10
+    if model.noise[0] == noise:  # T̂ unchanged
+        return
+    if abs(model.noise[0] - mission.planned_noise[0]) > mission.replan_threshold:  # line 11
+        mission.planned_noise[0] = model.noise[0]  # line 12
+        if switch_by_noise(mission.planners, model.noise[0]):  # lines 13-14
+            counts.fill(0)  # line 15
+            mission.policy_changes[0] += 1

@@ -10,7 +10,7 @@ from conjure.core.interfaces import Representation, check_is_set_up
 from conjure.core.params import InstanceOf, Interval
 from conjure.models.approximate_model import ApproximateModel
 from conjure.policies import greedy_action
-from conjure.safety.compiled_cooperative import BoxKernel, icca_kernel
+from conjure.safety.compiled_cooperative import CompiledBox, icca_kernel
 from conjure.safety.cooperative_agent import CooperativeAgent
 
 __all__ = ["CooperativeActorCritic"]
@@ -164,7 +164,7 @@ class CooperativeActorCritic(CooperativeAgent):
         "and a one-row-per-state index, around a compiled learner on fixed features"
     )
 
-    def compiled_form(self) -> BoxKernel | None:
+    def compiled_form(self) -> CompiledBox | None:
         """Algorithm 23's box for the compiled loop (`icca_kernel`), or None."""
         check_is_set_up(self, "compiled_form")
         return icca_kernel(self)

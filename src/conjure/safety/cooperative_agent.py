@@ -16,7 +16,7 @@ from conjure.core.seeding import make_rng, rng_from_state, rng_state, split_seed
 from conjure.models.approximate_model import ApproximateModel
 from conjure.representations import HashedTabular, Tabular
 from conjure.safety._control_box import set_up_control_box
-from conjure.safety.compiled_cooperative import BoxTables, tabulate
+from conjure.safety.compiled_cooperative import BoxTables, CompiledBox, tabulate
 
 __all__ = ["CooperativeAgent"]
 
@@ -141,6 +141,24 @@ class CooperativeAgent(Agent):
         self._compiled_tables: BoxTables | object | None = _NOT_TABULATED
         self.is_set_up_ = True
         return self
+
+    #: Whether the box learns T̂ and may switch π^p as it learns (Algorithm 26).
+    adapts_model = False
+
+    def load_compiled_form(self, form: CompiledBox) -> None:
+        """Take back what the compiled loop changed outside the agent's own arrays.
+
+        On a UAV mission (`MissionBox`): T̂'s counts, which planner a switching π^p uses,
+        η̂^p and the count of policy changes (Algorithm 26); nothing otherwise.
+        """
+        mission = form.mission
+        if not (form.box.is_mission and self.adapts_model):
+            return
+        self.model_.load_noise_model(mission.model)
+        if mission.planners.is_switching:
+            self.planner_.load_compiled_form(mission.planners)
+        self.planned_noise_ = float(mission.planned_noise[0])
+        self.num_policy_changes_ = int(mission.policy_changes[0])
 
     def compiled_tables(self) -> BoxTables | None:
         """π^p and safe(s, a) per index row for the compiled box (`tabulate`), or None.

@@ -12,7 +12,7 @@ from conjure.core.cooperative import CooperativePlanner, RiskAnalyzer
 from conjure.core.interfaces import Agent, Representation, Transition, check_is_set_up
 from conjure.core.params import InstanceOf, Interval, Predicate
 from conjure.models.approximate_model import ApproximateModel
-from conjure.safety.compiled_cooperative import BoxKernel, cooperative_learner_kernel
+from conjure.safety.compiled_cooperative import CompiledBox, cooperative_learner_kernel
 from conjure.safety.cooperative_agent import CooperativeAgent
 
 __all__ = ["CooperativeLearner"]
@@ -204,7 +204,7 @@ class CooperativeLearner(CooperativeAgent):
         "features or online iFDD with sparsified activation"
     )
 
-    def compiled_form(self) -> BoxKernel | None:
+    def compiled_form(self) -> CompiledBox | None:
         """Algorithm 24's box for the compiled loop (`cooperative_learner_kernel`), or None."""
         check_is_set_up(self, "compiled_form")
         return cooperative_learner_kernel(self)

@@ -139,5 +139,4 @@ class FuelRiskAnalyzer(RiskAnalyzer):
 
 def _fuel_tables(graph: MissionGraph) -> tuple[np.ndarray, np.ndarray]:
     """`FuelRisk`'s layout and hops home of ``graph``."""
-    layout = np.array([graph.num_uavs, graph.num_nodes, graph.base, graph.horizon], np.int64)
-    return layout, np.ascontiguousarray(graph.distances[:, graph.base], dtype=np.int64)
+    return graph.layout, np.ascontiguousarray(graph.distances[:, graph.base], dtype=np.int64)

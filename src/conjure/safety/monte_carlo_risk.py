@@ -2,16 +2,28 @@
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 import scipy.sparse as sp
+from numba import njit
 
+from conjure.core.compiled_form import compiled_form
 from conjure.core.cooperative import RISK_TOLERANCE, RiskAnalyzer
 from conjure.core.errors import IncompatibleComponentsError, InvalidParameterError
 from conjure.core.interfaces import Domain, check_is_set_up
 from conjure.core.params import InstanceOf, Interval
+from conjure.domains.uav_mission import UAVMission, is_crashed, mission_step
+from conjure.planners.cbba_planner import MissionPlanner, planned_action
+from conjure.planners.switching_planner import PlannerPair
 from conjure.safety import _kernels
 
-__all__ = ["MAX_ROLLOUT_STEPS", "MonteCarloRiskAnalyzer"]
+__all__ = [
+    "MAX_ROLLOUT_STEPS",
+    "MissionRollouts",
+    "MonteCarloRiskAnalyzer",
+    "mission_failures",
+]
 
 #: Most simulated transitions 𝓜𝓗 one judgement may take if no rollout ends early: seconds in
 #: the compiled rollouts, minutes in Python ones, for each action the learner suggests
@@ -74,8 +86,10 @@ class MonteCarloRiskAnalyzer(RiskAnalyzer):
     - Choice: when the model's domain has a `noise_decomposition` (grid worlds), rollouts run
       in a numba kernel over the two tabular models, drawing the noise with probability η̂ at
       each step; π^p is tabulated over the model's states and re-tabulated after `update`
-      says π^p changed. Otherwise each step calls ``model.sample`` and ``planner.action`` in
-      Python. Both sample the same T̂.
+      says π^p changed. On a UAV mission model with CBBA as π^p (a `CBBAPlanner` or a
+      `SwitchingPlanner` of two), rollouts run in `mission_failures`: the mission's own random
+      step and CBBA's cached plans, the kernel the compiled iCCA box calls too. Otherwise each
+      step calls ``model.sample`` and ``planner.action`` in Python. All sample the same T̂.
 
     Complexity
     ----------
@@ -132,6 +146,12 @@ class MonteCarloRiskAnalyzer(RiskAnalyzer):
             )
         else:
             self.horizon_ = self.horizon
+        self._mission: MissionRollouts | None = None
+        if isinstance(domain, UAVMission):
+            graph = domain.graph_
+            self._mission = MissionRollouts(
+                self.num_rollouts, self.horizon_, 1.0, graph.layout, graph.node_table, self.rng_
+            )
         decomposition = domain.noise_decomposition()
         self.is_compiled_ = decomposition is not None
         if self.is_compiled_:
@@ -143,6 +163,21 @@ class MonteCarloRiskAnalyzer(RiskAnalyzer):
             self._tabular = calm
             self._is_constrained = np.array([domain.is_constrained(s) for s in calm.states])
             self._is_terminal = np.asarray(calm.is_terminal, dtype=bool)
+
+    compiled_methods = ("risk", "is_safe")
+
+    def compiled_form(self) -> MissionRollouts | None:
+        """Algorithm 25 on a UAV mission model for the compiled iCCA box, else None.
+
+        Only mission models (`mission_failures`, with CBBA as π^p) run in the compiled box;
+        the tabular rollouts on grid worlds stay with the Python box.
+        """
+        check_is_set_up(self, "compiled_form")
+        if self._mission is None:
+            return None
+        return self._mission._replace(
+            num_rollouts=int(self.num_rollouts), risk_tolerance=float(self.risk_tolerance)
+        )
 
     def update(self, *, is_policy_changed: bool = True) -> None:
         """π^p changed: tabulate it again before the next compiled rollout.
@@ -156,7 +191,13 @@ class MonteCarloRiskAnalyzer(RiskAnalyzer):
         """Algorithm 25: the fraction of 𝓜 rollouts from ⟨s, a⟩ that end constrained."""
         check_is_set_up(self, "risk")
         rng = self.rng_ if rng is None else rng
-        if self.is_compiled_:
+        planner = _mission_planner(self.planner_)
+        if self._mission is not None and planner is not None:
+            self.model_.nominal_next_state(state, action)  # checks s and that a is legal
+            rollouts = self._mission._replace(num_rollouts=int(self.num_rollouts), rng=rng)
+            state = np.asarray(state, dtype=np.float64)
+            failures = mission_failures(rollouts, planner, state, int(action), self.model_.noise_)
+        elif self.is_compiled_:
             failures = self._compiled_failures(state, int(action), rng)
         else:
             failures = sum(
@@ -198,6 +239,73 @@ class MonteCarloRiskAnalyzer(RiskAnalyzer):
             t += 1
             constrained = model.is_constrained(state)
         return constrained
+
+
+class MissionRollouts(NamedTuple):
+    """Algorithm 25 on a UAV mission model as a compiled kernel reads it (`mission_failures`).
+
+    Parameters
+    ----------
+    num_rollouts, horizon : int
+        𝓜 and 𝓗.
+    risk_tolerance : float
+        ε: safe iff risk < ε.
+    layout, node_table : ndarray
+        The model mission's kernel tables (`MissionGraph.layout`, `MissionGraph.node_table`).
+    rng : numpy.random.Generator
+        The analyser's ``rng_``.
+    """
+
+    num_rollouts: int
+    horizon: int
+    risk_tolerance: float
+    layout: np.ndarray
+    node_table: np.ndarray
+    rng: np.random.Generator
+
+
+@njit(cache=True)
+def mission_failures(
+    rollouts: MissionRollouts, planner: MissionPlanner, state: np.ndarray, action: int, noise: float
+) -> int:
+    """How many of 𝓜 rollouts from ⟨s, a⟩, then π^p (CBBA's cached plans), end crashed.
+
+    Algorithm 25, lines 2-8, on T̂ at η̂ = ``noise``: each step is the mission's own random
+    step (`mission_step`, 2n uniforms from ``rollouts.rng``) and a crash its constrained state;
+    a rollout ends crashed, terminal or after 𝓗 transitions. ``state`` is a valid float64
+    mission state and ``action`` legal there.
+    """
+    layout = rollouts.layout
+    start = np.empty(state.shape[0], dtype=np.int64)
+    for k in range(state.shape[0]):
+        start[k] = np.int64(state[k])
+    observed = np.empty(state.shape[0])
+    failures = 0
+    for _ in range(rollouts.num_rollouts):
+        current, _, terminated, _ = mission_step(  # line 4: s_t ~ T̂(s, a)
+            start, action, layout, rollouts.node_table, noise, rollouts.rng
+        )
+        t = 1
+        constrained = is_crashed(current, layout)
+        while not constrained and not terminated and t < rollouts.horizon:  # line 5
+            for k in range(current.shape[0]):
+                observed[k] = current[k]
+            move = planned_action(planner, observed)
+            current, _, terminated, _ = mission_step(  # line 6
+                current, move, layout, rollouts.node_table, noise, rollouts.rng
+            )
+            t += 1
+            constrained = is_crashed(current, layout)
+        failures += constrained
+    return failures
+
+
+def _mission_planner(planner: object) -> MissionPlanner | None:
+    """The CBBA form π^p is in use in (`planned_action`), or None for other planners."""
+    form = compiled_form(planner)
+    if isinstance(form, PlannerPair):
+        return form.aggressive if form.is_aggressive[0] else form.conservative
+    return form if isinstance(form, MissionPlanner) else None
 
 
 def _check_rollout_steps(num_rollouts: int, horizon: int | None, source: str = "") -> None:
