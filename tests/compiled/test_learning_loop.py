@@ -7,6 +7,7 @@ from conjure.compiled import learning_loop as lp
 from conjure.compiled.combination import agent_form, box_form, representation_form
 from conjure.domains import ChainMDP
 from conjure.representations import Tabular
+from conjure.safety.compiled_cooperative import packed_mission
 
 
 def _loop_arguments():
@@ -19,7 +20,7 @@ def _loop_arguments():
     rep = representation_form(agent)
     box = box_form(agent, rep)
     args = (domain.compiled_form(), domain.np_random, rep, agent_form(agent), arrays,
-            agent.rng_, 100, obs, state, box.box, box.mission)  # fmt: skip
+            agent.rng_, 100, obs, state, box.box, packed_mission(box.mission))  # fmt: skip
     return args, arrays, state
 
 

@@ -94,6 +94,34 @@ def test_the_box_takes_the_same_steps_on_both_paths(variant, world, seed):
     assert agent.act(state, greedy=True) == python_agent.act(state, greedy=True)
 
 
+def _uav_box(domain: UAVMission, variant: str) -> CooperativeActorCritic:
+    """Fig. 5-6's iCCA on UAV 7-2: CBBA planned per state and the fuel rule, a hashed index."""
+    learner = _learner(variant).set_params(representation=HashedTabular(capacity=20_000))
+    return CooperativeActorCritic(
+        learner=learner,
+        planner=CBBAPlanner(variant="aggressive"),
+        risk=FuelRiskAnalyzer(),
+        model=ApproximateModel(domain=domain.clone().set_params(traverse_failure=0.0)),
+        index=HashedTabular(capacity=20_000),
+        bias=30.0 if variant != "printed" else 100.0,
+        bias_half_life=2.0 if variant != "printed" else None,
+    )
+
+
+@pytest.mark.parametrize("variant", ["fading", "printed"])
+def test_the_box_on_a_mission_takes_the_same_steps_on_both_paths(variant):
+    def world():
+        return UAVMission(scenario="uav-7-2", traverse_failure=0.05)
+
+    python, python_agent = _run(_uav_box, world, variant, 1, compiled=False)
+    compiled, agent = _run(_uav_box, world, variant, 1, compiled=True)
+    learner, python_learner = agent.learner_, python_agent.learner_
+    np.testing.assert_array_equal(agent.visits_, python_agent.visits_)
+    np.testing.assert_array_equal(learner.actor_weights_, python_learner.actor_weights_)
+    _assert_same_steps(python, compiled)
+    assert compiled.num_failures > 0 and agent.planner_.num_cached_ > 200
+
+
 def test_a_box_it_cannot_tabulate_stays_in_python_and_says_why():
     domain = GridWorld.gridworld_1()
     risk = MonteCarloRiskAnalyzer(num_rollouts=5)  # draws random rollouts: not a fixed table

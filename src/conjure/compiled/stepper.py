@@ -57,6 +57,7 @@ from conjure.compiled.combination import (
 from conjure.core.errors import DivergenceError, InvalidParameterError
 from conjure.core.interfaces import Agent, Domain
 from conjure.domains.compiled_domain import DomainKernel, callback_error
+from conjure.safety.compiled_cooperative import packed_mission
 
 __all__ = [
     "AdvanceStats",
@@ -240,7 +241,7 @@ class CompiledStepper:
         box = box_form(self.agent, rep)
         args = (domain_form, self.domain.np_random, rep, agent_form(agent), arrays, agent.rng_,
                 self.selection.max_episode_steps, self._obs, self._state, box.box,
-                box.mission)  # fmt: skip
+                packed_mission(box.mission))  # fmt: skip
         name = _kernel_name(self.selection)
         if name not in _COMPILE_SECONDS:  # a zero-step call: compile (or load the cache) alone
             started = time.perf_counter()

@@ -25,7 +25,9 @@ from __future__ import annotations
 from typing import Any, NamedTuple
 
 import numpy as np
-from numba import njit
+from numba import njit, typeof
+from numba.core import types
+from numba.experimental import structref
 
 from conjure.agents.compiled_agent import (
     ACTOR_CRITIC,
@@ -67,6 +69,7 @@ __all__ = [
     "CompiledBox",
     "FixedRisk",
     "MissionBox",
+    "MissionStruct",
     "alone",
     "box_action",
     "box_learn",
@@ -75,6 +78,7 @@ __all__ = [
     "cooperative_learner_kernel",
     "icca_kernel",
     "no_box",
+    "packed_mission",
     "tabulate",
 ]
 
@@ -124,6 +128,24 @@ class MissionBox(NamedTuple):
     policy_changes: np.ndarray
 
 
+@structref.register
+class MissionStructType(types.StructRef):
+    """The numba type of `MissionStruct`."""
+
+    def preprocess_fields(self, fields):
+        return tuple((name, types.unliteral(kind)) for name, kind in fields)
+
+
+class MissionStruct(structref.StructRefProxy):
+    """A `MissionBox` as the compiled loop receives it: one reference (a numba structref).
+
+    Its fields are the `MissionBox`'s, arrays shared: kernels read them by the same names.
+    """
+
+
+structref.define_boxing(MissionStructType, MissionStruct)
+
+
 def _no_mission() -> MissionBox:
     """The stand-in `MissionBox` of the boxes that tabulate their parts."""
     no_ints = np.zeros(0, dtype=np.int64)
@@ -142,6 +164,29 @@ def _no_mission() -> MissionBox:
 
 
 NO_MISSION = _no_mission()
+#: Every `MissionBox` has the stand-in's field types (so one loop compilation serves all).
+_MISSION_TYPE = MissionStructType(
+    [(name, typeof(getattr(NO_MISSION, name))) for name in MissionBox._fields]
+)
+
+
+@njit(cache=True)
+def _pack(
+    planners, has_rollouts, fuel, rollouts, model, layout, is_adaptive, replan_threshold,
+    planned_noise, policy_changes,
+):  # fmt: skip
+    mission = structref.new(_MISSION_TYPE)
+    mission.planners = planners
+    mission.has_rollouts = has_rollouts
+    mission.fuel = fuel
+    mission.rollouts = rollouts
+    mission.model = model
+    mission.layout = layout
+    mission.is_adaptive = is_adaptive
+    mission.replan_threshold = replan_threshold
+    mission.planned_noise = planned_noise
+    mission.policy_changes = policy_changes
+    return mission
 
 
 class FixedRisk(NamedTuple):
@@ -225,9 +270,9 @@ def no_box(index: RepresentationKernel) -> BoxKernel:
 class CompiledBox(NamedTuple):
     """A cooperative agent's compiled form: its `BoxKernel` and its `MissionBox`.
 
-    Geramifard (2012), Algorithms 23, 24 and 26. Two arguments of the loop, not one: numba
-    keeps a reference count per array of a tuple of ten or more arrays wherever it is passed,
-    and the mission's parts hold about thirty, so the grid worlds' box stays small.
+    Geramifard (2012), Algorithms 23, 24 and 26. Two arguments of the loop, the mission as
+    one reference (`packed_mission`): numba keeps a reference count per array of a tuple of
+    ten or more arrays wherever it is passed, and the mission's parts hold about thirty.
 
     Parameters
     ----------
@@ -239,6 +284,11 @@ class CompiledBox(NamedTuple):
 
     box: BoxKernel
     mission: MissionBox
+
+
+def packed_mission(mission: MissionBox) -> MissionStruct:
+    """``mission`` as the loop's `MissionStruct` (the same arrays)."""
+    return _pack(*mission)
 
 
 def alone(index: RepresentationKernel) -> CompiledBox:
