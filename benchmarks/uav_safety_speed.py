@@ -87,7 +87,7 @@ def main() -> None:
     planners = (agent.planner_.conservative_, agent.planner_.aggressive_)
     print(
         f"aggressive CBBA in use: {agent.planner_.is_aggressive_}; η̂ = {agent.model_.noise_:.3f}; "
-        f"plans cached: {sum(len(planner.cache_) for planner in planners):,}"
+        f"plans cached: {sum(planner.num_cached_ for planner in planners):,}"
     )
 
 

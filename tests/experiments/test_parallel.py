@@ -334,3 +334,23 @@ def test_the_summary_says_which_path_each_method_learned_on(fakes, tmp_path):
         assert f"{label}: learned on the Python path (the domain FakeWalk has no compiled" in text
     recorded = read_run(path_of(tmp_path, fake_config(), "slow", 0))["meta"]["path"]
     assert recorded == "python: the domain FakeWalk has no compiled kernel"
+
+
+def _record_compile_steps(spec):
+    """A run function for `warm_up`'s worker: records what the tiny run was told."""
+    with open(spec["record_to"], "a") as out:
+        out.write(f"{spec['budget_steps']} {spec['compile_steps']}\n")
+    raise RuntimeError("only recording")
+
+
+def test_the_warm_up_compiles_for_the_whole_sweep(tmp_path):
+    from conjure.experiments.parallel import warm_up
+
+    record = tmp_path / "record.txt"
+    runs = [
+        {"domain": {"kind": "ChainMDP"}, "agent": {"kind": "SARSA"}, "budget_steps": 10**5,
+         "record_to": str(record)}
+        for _ in range(30)
+    ]  # fmt: skip
+    assert warm_up(runs, _record_compile_steps) == 1  # one structure, one tiny run
+    assert record.read_text().split() == ["50", str(30 * 10**5)]

@@ -386,3 +386,24 @@ def test_a_run_says_which_path_its_learning_steps_took(monkeypatch):
         "seed": 0,
     }
     assert run_task(spec)["meta"]["path"].startswith("python: ActorCritic with these")
+
+
+def test_compile_steps_weighs_a_cold_compile_against_more_than_the_run(monkeypatch):
+    # A thesis-scale sweep of 10⁵-step runs on a fresh machine ran every run in Python: no run
+    # alone earned the compile back, and the warm-up's tiny runs never compiled.
+    import conjure.compiled
+    from conjure.experiments import loop
+
+    monkeypatch.setattr(conjure.compiled, "is_warm", lambda stepper=None: False)
+    short = {"domain": ChainMDP(), "budget_steps": 100, "seed": 0}
+    python = run(agent=SARSA(representation=Tabular()), **short)
+    assert "would not earn the compile back" in python.path
+    steps = loop.COMPILE_WORTH_STEPS
+    compiled = run(agent=SARSA(representation=Tabular()), compile_steps=steps, **short)
+    assert compiled.path == "compiled"
+    timing = ("wall_time_s", "steps_per_second")
+    same = [
+        [{k: v for k, v in row.items() if k not in timing} for row in r.rows]
+        for r in (compiled, python)
+    ]
+    assert same[0] == same[1]  # the same steps either way

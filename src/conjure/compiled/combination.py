@@ -8,15 +8,17 @@ Python path; `why_not_compiled` names the first such part.
 Covered today (Geramifard 2012): the domains `InvertedPendulum`, `GridWorld`, `ChainMDP`,
 `BlocksWorld`, `PersistentSurveillance`, `RescueMission`, `UAVMission`, and any Gymnasium
 environment through `GymnasiumDomain` (its own ``step`` called back); the representations
-`TileCoding` (hashed or not), `Tabular`, `IndependentDiscretization`, `BinaryIndicators`, `RBF`
+`TileCoding` (hashed or not), `Tabular`, `HashedTabular`, `IndependentDiscretization`,
+`BinaryIndicators`, `RBF`
 (real-valued φ, Section 3.1.2) and online iFDD (`OnlineIFDD` and `RandomExpansion`, Algorithms
 19-21) over a binary base; the learners `SARSA` (with or without traces), `QLearning` and
 `ActorCritic` (Algorithm 12 as printed, or with a V critic and the log-policy actor, with the
 actor sharing the critic's features and no traces); the policies `EpsilonGreedy`, `Gibbs`; the
 schedules `ConstantStepSize`, `FeatureNormalizedDecay`, `EpisodicDecay`; and the iCCA boxes
 around such a learner (`CooperativeActorCritic`, Algorithm 23; `CooperativeLearner` with SARSA
-or Q-Learning, Algorithm 24) when their planner and risk analyser can be tabulated
-(`conjure.safety.compiled_cooperative`).
+or Q-Learning, Algorithm 24, also around online iFDD; `AdaptiveCooperativeLearner`, Algorithm
+26) when their planner and risk analyser can be tabulated (grid worlds) or are UAV mission
+kernels (CBBA, the fuel rule, Monte-Carlo rollouts; `conjure.safety.compiled_cooperative`).
 """
 
 from __future__ import annotations

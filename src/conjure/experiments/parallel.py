@@ -54,6 +54,7 @@ from conjure.core.errors import ResultsWriteError, RunsInterruptedError
 from conjure.experiments.claims import Claims
 from conjure.experiments.config import ExperimentConfig, dump_yaml, parse_config, resolve_run
 from conjure.experiments.executors import NOT_CLAIMED, Executor, LocalExecutor, TaskFailure
+from conjure.experiments.loop import COMPILE_WORTH_STEPS
 from conjure.experiments.numbers import format_interval, format_value
 from conjure.experiments.preflight import check_runs
 from conjure.experiments.results import (
@@ -167,14 +168,20 @@ def warm_up(
     """Compile (and cache) numba code with one tiny run per component structure.
 
     The tiny runs run one after another in one worker process (under ``max_memory``, if
-    given): one that crashes or outgrows memory must not take the driver down. Returns the
+    given): one that crashes or outgrows memory must not take the driver down. Each weighs
+    the loop's compile against all of ``runs``' learning steps (``compile_steps``), so a
+    sweep of many short runs compiles once here and its runs find the loop warm. Returns the
     number of tiny runs (their errors and deaths are ignored: the real runs record them).
     """
+    sweep_steps = sum(int(spec.get("budget_steps", 0)) for spec in runs)
     tiny: dict[Any, dict[str, Any]] = {}
     for spec in runs:
         key = (_structure(spec.get("domain")), _structure(spec.get("agent")))
         if key not in tiny:
-            changes = {"budget_steps": _WARMUP_STEPS, "num_policy_checks": 1, "eval_episodes": 1}
+            changes = {
+                "budget_steps": _WARMUP_STEPS, "num_policy_checks": 1, "eval_episodes": 1,
+                "compile_steps": sweep_steps,
+            }  # fmt: skip
             tiny[key] = {**spec, **changes}
     with LocalExecutor(
         max_workers=1, max_retries=0, max_memory=max_memory, in_process=False
@@ -431,8 +438,14 @@ class _Batch:
 def prepare_executor(
     executor: Executor, todo: Sequence[dict[str, Any]], run_fn: RunFunction
 ) -> None:
-    """Warm numba's cache with ``todo``'s structures if workers are local processes; start it."""
-    if todo and executor.is_local and min(executor.num_workers, len(todo)) > 1:
+    """Warm numba's cache with ``todo``'s structures if workers are local processes; start it.
+
+    Also with one worker when the runs' steps together earn a compile back
+    (`COMPILE_WORTH_STEPS`): each short run alone would keep to the Python path.
+    """
+    is_many = min(executor.num_workers, len(todo)) > 1
+    is_long = sum(int(spec.get("budget_steps", 0)) for spec in todo) >= COMPILE_WORTH_STEPS
+    if todo and executor.is_local and (is_many or is_long):
         warm_up(todo, run_fn, executor.max_memory)
     executor.start()
 

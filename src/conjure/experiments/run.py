@@ -216,6 +216,7 @@ def run(
     num_policy_checks: int = 10,
     eval_episodes: int = 1,
     config: dict[str, Any] | None = None,
+    compile_steps: int | None = None,
 ) -> Result:
     """Set up ``agent``, learn on ``domain`` for ``budget_steps`` steps and record a curve.
 
@@ -235,6 +236,10 @@ def run(
         Greedy episodes per policy check (their mean is recorded).
     config : dict or None
         The resolved config to record in the result.
+    compile_steps : int or None
+        The learning steps a cold compile of the loop is weighed against
+        (`conjure.experiments.loop.learning_stepper`); None: ``budget_steps``. A sweep's
+        warm-up run passes the whole sweep's steps, so that it compiles for all its runs.
 
     Returns
     -------
@@ -254,7 +259,10 @@ def run(
     eval_domain = domain.clone()
     eval_seed = seed_to_int(seeds["evaluation"])
     loop = learning_stepper(
-        domain, agent, seed=seed_to_int(seeds["domain"]), budget_steps=budget_steps
+        domain,
+        agent,
+        seed=seed_to_int(seeds["domain"]),
+        budget_steps=budget_steps if compile_steps is None else compile_steps,
     )
     names = {
         "agent_name": type(agent).__name__,
@@ -323,6 +331,7 @@ def run_resolved(run_spec: dict[str, Any]) -> Result:
         num_policy_checks=run_spec["num_policy_checks"],
         eval_episodes=run_spec["eval_episodes"],
         config=run_spec,
+        compile_steps=run_spec.get("compile_steps"),
     )
 
 
