@@ -354,3 +354,24 @@ def test_the_warm_up_compiles_for_the_whole_sweep(tmp_path):
     ]  # fmt: skip
     assert warm_up(runs, _record_compile_steps) == 1  # one structure, one tiny run
     assert record.read_text().split() == ["50", str(30 * 10**5)]
+
+
+def test_a_started_executor_is_warmed_too(monkeypatch):
+    # `conjure sweep` and `conjure reproduce` open their executor with `with engine:`, which
+    # starts it; the warm-up was skipped for started executors, so on a fresh machine every
+    # run of a thesis-scale sweep took the Python path.
+    from conjure.experiments import parallel
+    from conjure.experiments.executors import LocalExecutor
+
+    warmed = []
+    monkeypatch.setattr(parallel, "warm_up", lambda runs, *args: warmed.append(len(runs)))
+    spec = {
+        "name": "x", "label": "sarsa", "seed": 0, "domain": {"kind": "ChainMDP"},
+        "agent": {"kind": "SARSA", "params": {"representation": {"kind": "Tabular"}}},
+        "budget_steps": 10**6, "num_policy_checks": 1, "eval_episodes": 1,
+    }  # fmt: skip
+    with LocalExecutor(max_workers=1) as engine:
+        assert engine.is_started
+        with parallel.open_executor(engine, [spec, {**spec, "seed": 1}]) as opened:
+            assert opened is engine
+    assert warmed == [2]  # 2·10⁶ steps together earn the compile back

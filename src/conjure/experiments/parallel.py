@@ -441,13 +441,16 @@ def prepare_executor(
     """Warm numba's cache with ``todo``'s structures if workers are local processes; start it.
 
     Also with one worker when the runs' steps together earn a compile back
-    (`COMPILE_WORTH_STEPS`): each short run alone would keep to the Python path.
+    (`COMPILE_WORTH_STEPS`): each short run alone would keep to the Python path. An executor
+    already started (``with executor:``) is warmed too: the warm-up runs in its own process
+    and the workers load the cached code on their first run.
     """
     is_many = min(executor.num_workers, len(todo)) > 1
     is_long = sum(int(spec.get("budget_steps", 0)) for spec in todo) >= COMPILE_WORTH_STEPS
     if todo and executor.is_local and (is_many or is_long):
         warm_up(todo, run_fn, executor.max_memory)
-    executor.start()
+    if not executor.is_started:
+        executor.start()
 
 
 def _record(out_dir: Path, spec: dict[str, Any], outcome: Any) -> str | None:
@@ -522,16 +525,15 @@ def open_executor(
 
     First every agent of the ``pending`` runs is set up on its domain, once per distinct pair
     (`conjure.experiments.preflight.check_runs`): a config whose parts cannot work together
-    raises one error before any run starts. An executor started here then warms numba's cache
-    with the ``pending`` runs' structures (`prepare_executor`); a started one keeps its own
-    workers and limits.
+    raises one error before any run starts. Then numba's cache is warmed with the ``pending``
+    runs' structures and the executor started if it was not (`prepare_executor`); a started
+    one keeps its own workers and limits.
     """
     executor = executor or LocalExecutor(max_workers=max_workers, max_memory=max_memory)
     check_runs(pending, executor)
     owns = not executor.is_started
     try:
-        if owns:
-            prepare_executor(executor, pending, run_fn)
+        prepare_executor(executor, pending, run_fn)
         yield executor
     finally:
         if owns:

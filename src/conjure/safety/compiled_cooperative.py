@@ -69,7 +69,6 @@ __all__ = [
     "CompiledBox",
     "FixedRisk",
     "MissionBox",
-    "MissionStruct",
     "alone",
     "box_action",
     "box_learn",
@@ -129,21 +128,23 @@ class MissionBox(NamedTuple):
 
 
 @structref.register
-class MissionStructType(types.StructRef):
-    """The numba type of `MissionStruct`."""
+class _MissionStructType(types.StructRef):
+    """The numba type of `_MissionStruct` (Algorithms 24-26 on UAV missions, Section 5.3.5)."""
 
     def preprocess_fields(self, fields):
         return tuple((name, types.unliteral(kind)) for name, kind in fields)
 
 
-class MissionStruct(structref.StructRefProxy):
+class _MissionStruct(structref.StructRefProxy):
     """A `MissionBox` as the compiled loop receives it: one reference (a numba structref).
 
-    Its fields are the `MissionBox`'s, arrays shared: kernels read them by the same names.
+    Geramifard (2012), Algorithms 24-26 on UAV missions (Section 5.3.5). Its fields are the
+    `MissionBox`'s, arrays shared: kernels read them by the same names. Made by
+    `packed_mission`; nothing to construct by hand.
     """
 
 
-structref.define_boxing(MissionStructType, MissionStruct)
+structref.define_boxing(_MissionStructType, _MissionStruct)
 
 
 def _no_mission() -> MissionBox:
@@ -165,7 +166,7 @@ def _no_mission() -> MissionBox:
 
 NO_MISSION = _no_mission()
 #: Every `MissionBox` has the stand-in's field types (so one loop compilation serves all).
-_MISSION_TYPE = MissionStructType(
+_MISSION_TYPE = _MissionStructType(
     [(name, typeof(getattr(NO_MISSION, name))) for name in MissionBox._fields]
 )
 
@@ -286,8 +287,8 @@ class CompiledBox(NamedTuple):
     mission: MissionBox
 
 
-def packed_mission(mission: MissionBox) -> MissionStruct:
-    """``mission`` as the loop's `MissionStruct` (the same arrays)."""
+def packed_mission(mission: MissionBox) -> _MissionStruct:
+    """``mission`` as the loop's `_MissionStruct` (the same arrays)."""
     return _pack(*mission)
 
 
