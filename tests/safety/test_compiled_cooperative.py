@@ -5,6 +5,7 @@ import pytest
 
 from conjure.agents import SARSA, ActorCritic, QLearning
 from conjure.compiled import CompiledStepper, for_combination, why_not_compiled
+from conjure.core.errors import InvalidParameterError
 from conjure.core.schedules import EpisodicDecay
 from conjure.domains import GridWorld, UAVMission
 from conjure.experiments.loop import LearningLoop
@@ -209,6 +210,20 @@ def test_algorithm_24_with_cbba_and_the_fuel_rule_takes_the_same_steps_on_both_p
     assert compiled.num_failures > 0  # crashes happened: the rule judged real proposals
     # The box planned each state it met once, in the planner's own cache.
     assert agent.planner_.num_cached_ == python_agent.planner_.num_cached_ > 500
+
+
+def test_a_full_box_index_raises_its_own_error_at_the_same_step_on_both_paths():
+    errors, steps = [], []
+    for make_stepper in (LearningLoop, for_combination):
+        domain = UAVMission(scenario="uav-7-2", traverse_failure=0.05)
+        agent = _uav_csarsa(domain, "veto").set_params(index=HashedTabular(capacity=30))
+        agent.setup(domain.domain_spec, 3)
+        stepper = make_stepper(domain, agent, seed=3)
+        with pytest.raises(InvalidParameterError, match="HashedTabular is full") as raised:
+            stepper.advance(5_000)
+        errors.append(str(raised.value))
+        steps.append((stepper.total_steps, agent.index_.num_stored_))
+    assert errors[0] == errors[1] and steps[0] == steps[1] and steps[0][1] == 30
 
 
 def _uav_csarsa_ifdd(domain: UAVMission, variant: str) -> CooperativeLearner:
