@@ -440,14 +440,16 @@ def prepare_executor(
 ) -> None:
     """Warm numba's cache with ``todo``'s structures if workers are local processes; start it.
 
-    Also with one worker when the runs' steps together earn a compile back
-    (`COMPILE_WORTH_STEPS`): each short run alone would keep to the Python path. An executor
+    Also with one worker when short runs' steps together earn a compile back
+    (`COMPILE_WORTH_STEPS`): each alone would keep to the Python path. An executor
     already started (``with executor:``) is warmed too: the warm-up runs in its own process
     and the workers load the cached code on their first run.
     """
+    steps = [int(spec.get("budget_steps", 0)) for spec in todo]
     is_many = min(executor.num_workers, len(todo)) > 1
-    is_long = sum(int(spec.get("budget_steps", 0)) for spec in todo) >= COMPILE_WORTH_STEPS
-    if todo and executor.is_local and (is_many or is_long):
+    # Short runs that earn a compile back only together (a long run compiles for itself).
+    is_shared = bool(steps) and sum(steps) >= COMPILE_WORTH_STEPS > min(steps)
+    if todo and executor.is_local and (is_many or is_shared):
         warm_up(todo, run_fn, executor.max_memory)
     if not executor.is_started:
         executor.start()
