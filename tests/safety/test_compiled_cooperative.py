@@ -76,6 +76,23 @@ def _assert_same_steps(python, compiled) -> None:
     assert learner.num_learning_steps_ == python_learner.num_learning_steps_ == sum(CHUNKS)
 
 
+def _noisy_uav_7_2() -> UAVMission:
+    return UAVMission(scenario="uav-7-2", traverse_failure=0.05)
+
+
+def _same_algorithm_24_steps(make_box, variant: str, seed: int):
+    """Both paths of ``make_box(UAV 7-2, variant)``: the same counts, draws and steps.
+
+    Returns (Python agent, compiled stepper, compiled agent) for further checks.
+    """
+    python, python_agent = _run(make_box, _noisy_uav_7_2, variant, seed, compiled=False)
+    compiled, agent = _run(make_box, _noisy_uav_7_2, variant, seed, compiled=True)
+    np.testing.assert_array_equal(agent.counts_, python_agent.counts_)
+    assert agent.rng_.bit_generator.state == python_agent.rng_.bit_generator.state
+    _assert_same_steps(python, compiled)
+    return python_agent, compiled, agent
+
+
 @pytest.mark.parametrize("variant", ["fading", "printed"])
 @pytest.mark.parametrize(
     "world", [GridWorld.gridworld_1, lambda: GridWorld(map_name="gridworld2", noise=0.2)]
@@ -111,11 +128,8 @@ def _uav_box(domain: UAVMission, variant: str) -> CooperativeActorCritic:
 
 @pytest.mark.parametrize("variant", ["fading", "printed"])
 def test_the_box_on_a_mission_takes_the_same_steps_on_both_paths(variant):
-    def world():
-        return UAVMission(scenario="uav-7-2", traverse_failure=0.05)
-
-    python, python_agent = _run(_uav_box, world, variant, 1, compiled=False)
-    compiled, agent = _run(_uav_box, world, variant, 1, compiled=True)
+    python, python_agent = _run(_uav_box, _noisy_uav_7_2, variant, 1, compiled=False)
+    compiled, agent = _run(_uav_box, _noisy_uav_7_2, variant, 1, compiled=True)
     learner, python_learner = agent.learner_, python_agent.learner_
     np.testing.assert_array_equal(agent.visits_, python_agent.visits_)
     np.testing.assert_array_equal(learner.actor_weights_, python_learner.actor_weights_)
@@ -199,14 +213,7 @@ def _uav_csarsa(domain: UAVMission, variant: str) -> CooperativeLearner:
 
 @pytest.mark.parametrize("variant", ["veto", "printed", "conservative", "qlearning"])
 def test_algorithm_24_with_cbba_and_the_fuel_rule_takes_the_same_steps_on_both_paths(variant):
-    def world():
-        return UAVMission(scenario="uav-7-2", traverse_failure=0.05)
-
-    python, python_agent = _run(_uav_csarsa, world, variant, 4, compiled=False)
-    compiled, agent = _run(_uav_csarsa, world, variant, 4, compiled=True)
-    np.testing.assert_array_equal(agent.counts_, python_agent.counts_)
-    assert agent.rng_.bit_generator.state == python_agent.rng_.bit_generator.state
-    _assert_same_steps(python, compiled)
+    python_agent, compiled, agent = _same_algorithm_24_steps(_uav_csarsa, variant, 4)
     assert compiled.num_failures > 0  # crashes happened: the rule judged real proposals
     # The box planned each state it met once, in the planner's own cache.
     assert agent.planner_.num_cached_ == python_agent.planner_.num_cached_ > 500
@@ -241,16 +248,9 @@ def _uav_csarsa_ifdd(domain: UAVMission, variant: str) -> CooperativeLearner:
 
 @pytest.mark.parametrize("variant", ["veto", "printed", "traces"])
 def test_algorithm_24_around_online_ifdd_takes_the_same_steps_on_both_paths(variant):
-    def world():
-        return UAVMission(scenario="uav-7-2", traverse_failure=0.05)
-
-    python, python_agent = _run(_uav_csarsa_ifdd, world, variant, 6, compiled=False)
-    compiled, agent = _run(_uav_csarsa_ifdd, world, variant, 6, compiled=True)
-    np.testing.assert_array_equal(agent.counts_, python_agent.counts_)
-    _assert_same_steps(python, compiled)
+    python_agent, _, agent = _same_algorithm_24_steps(_uav_csarsa_ifdd, variant, 6)
     ifdd, python_ifdd = agent.learner_.representation_, python_agent.learner_.representation_
     assert ifdd.num_features_ == python_ifdd.num_features_ > ifdd.num_initial_features_
-    assert agent.rng_.bit_generator.state == python_agent.rng_.bit_generator.state
 
 
 def test_algorithm_24_around_unsparsified_ifdd_stays_in_python():
@@ -292,14 +292,7 @@ def _uav_am_icca(domain: UAVMission, variant: str) -> AdaptiveCooperativeLearner
 
 @pytest.mark.parametrize("variant", ["adaptive", "calm-prior", "fuel", "static"])
 def test_algorithm_26_on_a_mission_takes_the_same_steps_on_both_paths(variant):
-    def world():
-        return UAVMission(scenario="uav-7-2", traverse_failure=0.05)
-
-    python, python_agent = _run(_uav_am_icca, world, variant, 2, compiled=False)
-    compiled, agent = _run(_uav_am_icca, world, variant, 2, compiled=True)
-    np.testing.assert_array_equal(agent.counts_, python_agent.counts_)
-    _assert_same_steps(python, compiled)
-    assert agent.rng_.bit_generator.state == python_agent.rng_.bit_generator.state
+    python_agent, _, agent = _same_algorithm_24_steps(_uav_am_icca, variant, 2)
     risk_rngs = [a.risk_.rng_.bit_generator.state for a in (agent, python_agent)]
     assert risk_rngs[0] == risk_rngs[1]
     model, python_model = agent.model_, python_agent.model_

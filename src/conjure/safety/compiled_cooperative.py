@@ -593,10 +593,7 @@ def box_learn(
     if π^p changed, every count restarts at zero (``counts``, the box's). For a box with
     ``mission.is_adaptive``.
     """
-    n = obs.shape[0]
-    before, after = np.empty(n, dtype=np.int64), np.empty(n, dtype=np.int64)
-    for k in range(n):
-        before[k], after[k] = np.int64(obs[k]), np.int64(next_obs[k])
+    before, after = obs.astype(np.int64), next_obs.astype(np.int64)
     unintended, moves = count_unintended(before, action, after, mission.layout)
     model = mission.model
     noise = model.noise[0]

@@ -48,10 +48,7 @@ def is_stranded(state: np.ndarray, layout: np.ndarray, home: np.ndarray) -> bool
 @njit(cache=True)
 def fuel_risk(risk: FuelRisk, state: np.ndarray, action: int) -> float:
     """1.0 if a legal ``action`` strands a UAV after its noise-free outcome, else 0.0."""
-    ints = np.empty(state.shape[0], dtype=np.int64)
-    for k in range(state.shape[0]):
-        ints[k] = np.int64(state[k])
-    outcome = nominal_next_state(ints, action, risk.layout)
+    outcome = nominal_next_state(state.astype(np.int64), action, risk.layout)
     return 1.0 if is_stranded(outcome, risk.layout, risk.home) else 0.0
 
 

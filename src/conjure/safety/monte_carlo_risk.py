@@ -276,9 +276,7 @@ def mission_failures(
     mission state and ``action`` legal there.
     """
     layout = rollouts.layout
-    start = np.empty(state.shape[0], dtype=np.int64)
-    for k in range(state.shape[0]):
-        start[k] = np.int64(state[k])
+    start = state.astype(np.int64)
     observed = np.empty(state.shape[0])
     failures = 0
     for _ in range(rollouts.num_rollouts):
