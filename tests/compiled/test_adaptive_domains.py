@@ -393,7 +393,9 @@ def test_a_run_records_the_same_curve_on_both_paths(monkeypatch, rep):
         return run(domain=domain, agent=agent, budget_steps=8000, seed=11, num_policy_checks=4)
 
     python_result, compiled_result = result(False), result(True)
-    assert offered == [CompiledStepper, CompiledStepper]  # the compiled path ran the second
+    # Each run's learning stepper and its 5 policy checks' greedy steppers were offered; the
+    # compiled path ran the second run's.
+    assert offered == [CompiledStepper] * 2 * (1 + 5)
     assert _curve(compiled_result.rows) == _curve(python_result.rows)
     np.testing.assert_array_equal(compiled_result.agent.weights_, python_result.agent.weights_)
 

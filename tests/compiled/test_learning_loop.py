@@ -10,7 +10,7 @@ from conjure.representations import Tabular
 from conjure.safety.compiled_cooperative import packed_mission
 
 
-def _loop_arguments():
+def _loop_arguments(*, learn: bool = True, max_episodes: int = 10**6):
     domain = ChainMDP(num_states=4, step_reward=1.0)  # one action: 0 → 1 → 2 → 3 (terminal)
     agent = SARSA(representation=Tabular(), step_size=0.5).setup(domain.domain_spec, 0)
     obs = domain.reset(seed=0)[0].copy()
@@ -20,7 +20,8 @@ def _loop_arguments():
     rep = representation_form(agent)
     box = box_form(agent, rep)
     args = (domain.compiled_form(), domain.np_random, rep, agent_form(agent), arrays,
-            agent.rng_, 100, obs, state, box.box, packed_mission(box.mission))  # fmt: skip
+            agent.rng_, 100, obs, state, box.box, packed_mission(box.mission), learn,
+            max_episodes)  # fmt: skip
     return args, arrays, state
 
 
@@ -34,6 +35,15 @@ def test_every_chain_episode_takes_three_steps_and_earns_three():
     # θ(s, a) after SARSA's updates with α = 0.5 from 0: the last state before the end
     # has seen r = 1 three times: 0.5, 0.75, 0.875.
     assert arrays.weights[2, 0] == 0.875
+
+
+def test_greedy_steps_learn_nothing_and_stop_after_the_episodes_asked_for():
+    # A policy check: three-step episodes, no update, no learning episode begun.
+    args, arrays, state = _loop_arguments(learn=False, max_episodes=2)
+    status, done, failures, _, ep_float, ep_int = lp.learning_loop(100, *args)
+    assert (status, done, failures) == (lp.DONE, 6, 0)
+    assert ep_int[:, 0].tolist() == [3, 3] and ep_float[:, 0].tolist() == [3.0, 3.0]
+    assert not arrays.weights.any() and state.episode[0] == state.learning_steps[0] == 0
 
 
 def test_an_episode_continues_across_calls():

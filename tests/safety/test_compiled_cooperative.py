@@ -8,7 +8,7 @@ from conjure.compiled import CompiledStepper, for_combination, why_not_compiled
 from conjure.core.errors import InvalidParameterError
 from conjure.core.schedules import EpisodicDecay
 from conjure.domains import GridWorld, UAVMission
-from conjure.experiments.loop import LearningLoop
+from conjure.experiments.loop import LearningLoop, greedy_episodes, run_episode
 from conjure.models.approximate_model import ApproximateModel
 from conjure.planners import CBBAPlanner, ModelPlanner, SwitchingPlanner
 from conjure.representations import HashedTabular, IndependentDiscretization, OnlineIFDD, Tabular
@@ -331,3 +331,41 @@ def test_the_box_tabulates_once_per_plan_and_again_after_a_restore(tmp_path):
     assert again is not tables
     np.testing.assert_array_equal(again.planner_actions, tables.planner_actions)
     np.testing.assert_array_equal(again.safe, tables.safe)
+
+
+@pytest.mark.parametrize(
+    ("make_box", "world", "variant"),
+    [
+        (_box, GridWorld.gridworld_1, "fading"),
+        (_box, lambda: GridWorld(map_name="gridworld2", noise=0.2), "printed"),
+        (_csarsa, lambda: GridWorld(map_name="gridworld2", noise=0.2), "veto"),
+        (_csarsa, GridWorld.gridworld_1, "trusting"),
+        (_uav_box, _noisy_uav_7_2, "fading"),
+        (_uav_csarsa, _noisy_uav_7_2, "veto"),
+        (_uav_csarsa_ifdd, _noisy_uav_7_2, "veto"),
+        (_uav_am_icca, _noisy_uav_7_2, "adaptive"),
+    ],
+)
+def test_a_policy_check_plays_the_same_greedy_episodes_on_both_paths(make_box, world, variant):
+    # The greedy box: unvisited states biased (23), only known pairs consulted (24), unsafe
+    # moves replaced by π^p, Algorithm 25's rollouts drawn from the agent's evaluation
+    # generator; nothing recorded.
+    _, python_agent = _run(make_box, world, variant, 2, compiled=False)
+    _, agent = _run(make_box, world, variant, 2, compiled=True)
+    table = (agent.counts_ if hasattr(agent, "counts_") else agent.visits_).copy()
+    python_domain, domain = world(), world()
+    checks = []
+    for _ in range(2):  # the second check replays the first one's start states
+        seeds = [7] + [None] * 11
+        checks.append([run_episode(python_domain, python_agent, seed=seed) for seed in seeds])
+    stepper = for_combination(domain, agent, seed=7, learn=False)
+    played = stepper.play_episodes(12)
+    assert played.episode_returns.tolist() == [e.episode_return for e in checks[0]]
+    assert played.episode_lengths.tolist() == [e.num_steps for e in checks[0]]
+    assert played.episode_failures.tolist() == [e.num_failures for e in checks[0]]
+    assert stepper.num_episodes == 12 and stepper.total_steps == sum(played.episode_lengths)
+    assert greedy_episodes(domain, agent, 12, seed=7) == checks[1]  # the run's dispatcher
+    assert agent.eval_rng_.bit_generator.state == python_agent.eval_rng_.bit_generator.state
+    assert agent.learner_.num_learning_steps_ == sum(CHUNKS)  # nothing learned, nothing counted
+    after = agent.counts_ if hasattr(agent, "counts_") else agent.visits_
+    np.testing.assert_array_equal(after, table)

@@ -78,6 +78,7 @@ from conjure.safety.compiled_cooperative import (
     MissionBox,
     box_action,
     box_learn,
+    greedy_box_action,
 )
 
 __all__ = ["LoopState", "learning_loop"]
@@ -191,13 +192,18 @@ def learning_loop(
     state: LoopState,
     box: BoxKernel,
     mission: MissionBox,
+    learn: bool,
+    max_episodes: int,
 ) -> tuple[int, int, int, float, np.ndarray, np.ndarray]:
-    """Take up to ``num_steps`` learning steps; stop early on a status other than `DONE`.
+    """Take up to ``num_steps`` steps; stop early on a status other than `DONE`.
 
     ``cap``: the episode cap; ``obs``: s, updated in place; ``box`` and ``mission``: iCCA's
     box around the learner and its UAV mission parts (`conjure.safety.compiled_cooperative`:
     its `box_action` chooses the actions, `box_learn` is Algorithm 26's model update), or
-    `NO_BOX` and `NO_MISSION`. Returns (status, steps taken, failures, last δ, episodes (m, 2)
+    `NO_BOX` and `NO_MISSION`. ``learn``: learning steps, or greedy ones (a policy check:
+    `greedy_box_action`; no begin_episode, update, discovery or model update, as the Python
+    `Stepper` with ``learn=False``); the call also stops when ``max_episodes`` episodes
+    ended. Returns (status, steps taken, failures, last δ, episodes (m, 2)
     float64 [return, discounted return], episodes (m, 2) int64 [length, failures]) for the m
     episodes that ended during the call.
 
@@ -212,15 +218,17 @@ def learning_loop(
     """
     num_actions = arrays.actor_weights.shape[1]  # θ has one column for a V critic
     has_traces = agent.traces != NO_TRACES
+    is_tracing = learn and has_traces
     is_actor_critic = agent.kind == ACTOR_CRITIC
-    is_log_policy = agent.is_log_policy  # keeps π(s, ·) as the action was drawn (`drawn`)
-    is_box = box.kind != NO_BOX
-    is_adaptive_box = box.is_mission and mission.is_adaptive
+    is_log_policy = learn and agent.is_log_policy  # keeps π(s, ·) as drawn (`drawn`)
+    is_box = learn and box.kind != NO_BOX  # a learning box (greedy acting: `greedy_box_action`)
+    is_adaptive_box = is_box and box.is_mission and mission.is_adaptive
     row_buffer = np.empty(1, dtype=np.int64)
     # The actor's preferences choose actions for Actor-Critic (shared features), θ otherwise.
     chooser = arrays.actor_weights
     # Scratch: φ(s) and φ(s') buffers of tile coding, legal-action lists, Q(s', ·).
     base, is_ifdd = rep.base, rep.is_ifdd
+    is_discovering = learn and is_ifdd
     is_growing_box = is_box and is_ifdd  # Algorithm 24's veto rule may discover features
     max_active = max(base.max_active, 1)
     quanta = np.empty(obs.shape[0], dtype=np.int64)
@@ -262,8 +270,9 @@ def learning_loop(
             if is_growing_box and not has_room_for(rep, 1):  # a vetoed proposal's discovery
                 status = GROW_REPRESENTATION
                 break
-            episode += 1
-            clear_learner_traces(agent, arrays)
+            if learn:
+                episode += 1
+                clear_learner_traces(agent, arrays)
             phi = encode_into(base, obs, quanta, phi_buffer)
             if is_indexed and phi[0] < 0:
                 status, phase = FULL_INDEX, NEEDS_RESET
@@ -272,7 +281,9 @@ def learning_loop(
                 phi = sparsify(rep, phi)
             values = values_of(base, obs)
             legal = legal_into(domain, False, legal_buffer) if is_masked else all_actions
-            if is_box:  # the box fills q (after moving ρ, for Algorithm 23)
+            if not learn:
+                action = greedy_box_action(box, mission, chooser, phi, values, q, legal, obs)
+            elif is_box:  # the box fills q (after moving ρ, for Algorithm 23)
                 action, vetoed, imagined = box_action(
                     box, mission, agent, arrays, phi, values, q, legal, agent_rng, obs, quanta,
                     row_buffer, episode,
@@ -295,11 +306,11 @@ def learning_loop(
             episode_steps = episode_failures = 0
             total, discounted, weight = 0.0, 0.0, 1.0
             phase = IN_EPISODE
-        room = room_for(rep, phi) if is_ifdd else 0
+        room = room_for(rep, phi) if is_discovering else 0
         if room < 0 or (is_growing_box and not has_room_for(rep, 2)):  # discoveries at s', s
             status = GROW_REPRESENTATION
             break
-        if has_traces and arrays.trace_count[0] + phi.shape[0] > arrays.trace_values.shape[0]:
+        if is_tracing and arrays.trace_count[0] + phi.shape[0] > arrays.trace_values.shape[0]:
             status = GROW_TRACES
             break
         reward, terminated, cost = step_into(domain, action, next_obs, domain_rng)
@@ -321,7 +332,11 @@ def learning_loop(
                 next_phi = sparsify(rep, next_phi)
             next_values = values_of(base, next_obs)
             next_legal = legal_into(domain, True, next_legal_buffer) if is_masked else all_actions
-            if is_box:
+            if not learn:
+                next_action = greedy_box_action(
+                    box, mission, chooser, next_phi, next_values, q, next_legal, next_obs
+                )
+            elif is_box:
                 next_action, vetoed, imagined = box_action(
                     box, mission, agent, arrays, next_phi, next_values, q, next_legal, agent_rng,
                     next_obs, quanta, row_buffer, episode,
@@ -348,20 +363,23 @@ def learning_loop(
                 next_action = select_action(agent.policy, q, next_legal, agent_rng)
             if is_log_policy:
                 gibbs_policy(agent.policy, q, next_legal, next_drawn)
-            if is_actor_critic:
-                q_values_into(arrays.weights, next_phi, next_values, critic_q)
-            target = bootstrap(agent, reward, q, next_action, next_legal, critic_q)
-        delta = td_learn(agent, arrays, phi, values, action, target, episode, drawn)
-        learning_steps += 1
-        if not math.isfinite(delta):
-            status = DIVERGED
-            phase = NEEDS_RESET
-            break
-        grew = is_ifdd and _discover(rep, arrays, phi, delta, room, is_actor_critic, has_traces)
-        if is_adaptive_box:  # Algorithm 26: T̂ learns from the move, π^p may switch
-            box_learn(mission, box.counts, obs, action, next_obs)
-        if terminated:
-            clear_learner_traces(agent, arrays)
+            if learn:
+                if is_actor_critic:
+                    q_values_into(arrays.weights, next_phi, next_values, critic_q)
+                target = bootstrap(agent, reward, q, next_action, next_legal, critic_q)
+        grew = False
+        if learn:
+            delta = td_learn(agent, arrays, phi, values, action, target, episode, drawn)
+            learning_steps += 1
+            if not math.isfinite(delta):
+                status = DIVERGED
+                phase = NEEDS_RESET
+                break
+            grew = is_ifdd and _discover(rep, arrays, phi, delta, room, is_actor_critic, has_traces)
+            if is_adaptive_box:  # Algorithm 26: T̂ learns from the move, π^p may switch
+                box_learn(mission, box.counts, obs, action, next_obs)
+            if terminated:
+                clear_learner_traces(agent, arrays)
         done += 1
         if cost > 0.0:  # a failure step (`info["cost"] > 0`)
             failures += 1
@@ -375,6 +393,8 @@ def learning_loop(
             )
             num_ended += 1
             phase = NEEDS_RESET
+            if num_ended >= max_episodes:
+                break
         else:
             _copy(obs, next_obs)
             if grew:  # φ(s) with the new features, as the Python learner re-encodes

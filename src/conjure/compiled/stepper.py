@@ -73,6 +73,8 @@ __all__ = [
 MAX_KERNEL_STEPS = 2**18
 #: The first call's seconds (compile or cache load) of each compilation, by `_kernel_name`.
 _COMPILE_SECONDS: dict[str, float] = {}
+#: No limit on the steps or episodes of one `CompiledStepper._run`.
+_NO_EPISODE_LIMIT = 2**62
 #: Position of the representation among `learning_loop`'s arguments.
 _REP_ARGUMENT = 3
 
@@ -111,6 +113,10 @@ class CompiledStepper:
         What `conjure.compiled.combination.select` found for them.
     seed : int or None, default None
         Passed to the first ``domain.reset(seed=...)``.
+    learn : bool, default True
+        Learning steps (`advance`), or greedy ones (`play_episodes`: a policy check, as the
+        Python `Stepper` with ``learn=False``; a box acts by `greedy_box_action` and its
+        analyser draws from the agent's ``eval_rng_``).
 
     Attributes
     ----------
@@ -124,9 +130,16 @@ class CompiledStepper:
     path = "compiled"
 
     def __init__(
-        self, domain: Domain, agent: Agent, selection: Selection, *, seed: int | None = None
+        self,
+        domain: Domain,
+        agent: Agent,
+        selection: Selection,
+        *,
+        seed: int | None = None,
+        learn: bool = True,
     ):
         self.domain = domain
+        self.learn = learn
         self.agent = agent
         self.selection = selection
         self.total_steps = 0
@@ -167,6 +180,24 @@ class CompiledStepper:
             raise InvalidParameterError(f"`num_steps` must be an int; got {num_steps!r}.")
         if num_steps < 0:
             raise InvalidParameterError(f"`num_steps` must be >= 0; got {num_steps!r}.")
+        return self._run(int(num_steps), _NO_EPISODE_LIMIT)
+
+    def play_episodes(self, num_episodes: int) -> AdvanceStats:
+        """Step until ``num_episodes`` episodes ended (`Stepper.play_episode`, repeated).
+
+        With ``learn=False`` these are a policy check's greedy episodes: the first one starts
+        from ``domain.reset(seed=seed)``, the next ones from resets that continue the
+        domain's generator, as ``run_episode(..., seed=seed if k == 0 else None)`` does.
+        Raises as `advance`.
+        """
+        if isinstance(num_episodes, bool) or not isinstance(num_episodes, (int, np.integer)):
+            raise InvalidParameterError(f"`num_episodes` must be an int; got {num_episodes!r}.")
+        if num_episodes < 1:
+            raise InvalidParameterError(f"`num_episodes` must be >= 1; got {num_episodes!r}.")
+        return self._run(_NO_EPISODE_LIMIT, int(num_episodes))
+
+    def _run(self, num_steps: int, max_episodes: int) -> AdvanceStats:
+        """Kernel calls until ``num_steps`` steps were taken or ``max_episodes`` ended."""
         domain, agent, state = self.domain, learner_of(self.agent), self._state
         if not self._started and num_steps > 0:
             self._obs[:] = domain.reset(seed=self._seed)[0]
@@ -176,16 +207,20 @@ class CompiledStepper:
         state.episode[0] = agent.episode_
         state.learning_steps[0] = agent.num_learning_steps_
         chunks: list[tuple[np.ndarray, np.ndarray]] = []
-        done = failures = 0
+        done = failures = ended = 0
         diverged: float | None = None
         raised: BaseException | None = None
         try:
-            while done < num_steps:
+            while done < num_steps and ended < max_episodes:
                 before = int(state.episode[0])
                 status, steps, fails, delta, ep_float, ep_int = self._call(
-                    min(num_steps - done, MAX_KERNEL_STEPS), domain_form
+                    min(num_steps - done, MAX_KERNEL_STEPS), domain_form, max_episodes - ended
                 )
-                self.num_episodes += int(state.episode[0]) - before
+                ended += ep_float.shape[0]
+                # learning episodes begun (greedy episodes begin none: counted as they end)
+                self.num_episodes += (
+                    int(state.episode[0]) - before if self.learn else ep_float.shape[0]
+                )
                 done += steps
                 failures += fails
                 chunks.append((ep_float, ep_int))
@@ -230,7 +265,7 @@ class CompiledStepper:
                     return error
         return InvalidParameterError(f"A full index could not store state {self._obs.tolist()}.")
 
-    def _call(self, num_steps: int, domain_form: DomainKernel) -> tuple:
+    def _call(self, num_steps: int, domain_form: DomainKernel, max_episodes: int) -> tuple:
         """One call of the loop with the learner's current arrays (iFDD may have grown them)."""
         agent = learner_of(self.agent)
         representation = agent.representation_
@@ -238,17 +273,17 @@ class CompiledStepper:
         assert rep is not None  # `select` checked it
         rows = representation.feature_capacity_ if rep.is_ifdd else 0
         arrays = agent.compiled_arrays(rows)
-        box = box_form(self.agent, rep)
+        box = box_form(self.agent, rep, greedy=not self.learn)
         args = (domain_form, self.domain.np_random, rep, agent_form(agent), arrays, agent.rng_,
                 self.selection.max_episode_steps, self._obs, self._state, box.box,
-                packed_mission(box.mission))  # fmt: skip
+                packed_mission(box.mission), self.learn)  # fmt: skip
         name = _kernel_name(self.selection)
         if name not in _COMPILE_SECONDS:  # a zero-step call: compile (or load the cache) alone
             started = time.perf_counter()
-            lp.learning_loop(0, *args)
+            lp.learning_loop(0, *args, max_episodes)
             _COMPILE_SECONDS[name] = time.perf_counter() - started
         try:
-            return lp.learning_loop(num_steps, *args)
+            return lp.learning_loop(num_steps, *args, max_episodes)
         finally:  # θ's rows in use: n_t after the discoveries (a fixed φ keeps its n)
             rows_in_use = representation.num_features_ if rep.is_ifdd else None
             agent.load_compiled_arrays(arrays, rows_in_use)
@@ -318,13 +353,14 @@ def warm_up() -> float:
 
 
 def for_combination(
-    domain: Domain, agent: Agent, *, seed: int | None = None
+    domain: Domain, agent: Agent, *, seed: int | None = None, learn: bool = True
 ) -> CompiledStepper | None:
     """Return a `CompiledStepper` for a set-up ``agent`` on ``domain``, or ``None``.
 
     ``None`` means some part (domain, representation, agent, policy or schedule) has no
     compiled kernel; the caller then uses the Python path unchanged. ``seed`` is passed to the
-    first ``domain.reset``, as `conjure.experiments.loop.LearningLoop` does.
+    first ``domain.reset``, as `conjure.experiments.loop.LearningLoop` does; ``learn=False``
+    gives a stepper of greedy episodes (a policy check).
 
     Examples
     --------
@@ -341,4 +377,4 @@ def for_combination(
     selection = select(domain, agent)
     if isinstance(selection, str):
         return None
-    return CompiledStepper(domain, agent, selection, seed=seed)
+    return CompiledStepper(domain, agent, selection, seed=seed, learn=learn)

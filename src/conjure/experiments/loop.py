@@ -7,8 +7,10 @@ every caller uses it:
   takes exactly that many learning steps, ending and starting episodes as needed, and can stop
   in the middle of an episode (for a policy check, or when the budget runs out) and continue
   it later; `learning_stepper` picks the compiled path when there is one (below);
-- policy checks and planners' episodes: `run_episode` (``Stepper(..., learn=False)``, one
-  episode with ``play_episode``);
+- policy checks: `greedy_episodes` (the compiled loop's greedy episodes when the learning
+  path is compiled, else `run_episode` repeated);
+- planners' episodes: `run_episode` (``Stepper(..., learn=False)``, one episode with
+  ``play_episode``);
 - profiling: `profile_steps` (``Stepper(..., timed=True)``, a timer around every call).
 
 Per step: ``s', r, terminated, truncated, info = domain.step(a)``; ``a' = agent.act(s')``
@@ -60,6 +62,7 @@ __all__ = [
     "EpisodeStats",
     "LearningLoop",
     "Stepper",
+    "greedy_episodes",
     "learning_stepper",
     "profile_steps",
     "run_episode",
@@ -375,6 +378,41 @@ def run_episode(
     """
     stepper = Stepper(domain, agent, learn=learn, seed=seed, max_episode_steps=max_steps)
     return stepper.play_episode()
+
+
+def greedy_episodes(
+    domain: Domain, agent: Agent, num_episodes: int, *, seed: int | None = None
+) -> list[EpisodeStats]:
+    """A policy check: ``num_episodes`` greedy episodes, the first from ``reset(seed=seed)``.
+
+    Same episodes as ``[run_episode(domain, agent, seed=seed if k == 0 else None) for k in
+    range(num_episodes)]`` (the later resets continue the domain's generator), played by the
+    compiled loop's greedy steps when every part has a kernel and the loop is warm (a
+    compiled learning run's is), else by that Python loop. Nothing is learned.
+    """
+    try:
+        from conjure.compiled import for_combination, is_warm
+    except ModuleNotFoundError as exc:
+        if exc.name != "conjure.compiled":
+            raise
+        compiled = None
+    else:
+        compiled = for_combination(domain, agent, seed=seed, learn=False)
+    if compiled is None or not is_warm(compiled):
+        return [
+            run_episode(domain, agent, seed=seed if k == 0 else None) for k in range(num_episodes)
+        ]
+    played = compiled.play_episodes(num_episodes)
+    return [
+        EpisodeStats(float(total), float(discounted), int(length), int(failures))
+        for total, discounted, length, failures in zip(
+            played.episode_returns,
+            played.discounted_returns,
+            played.episode_lengths,
+            played.episode_failures,
+            strict=True,
+        )
+    ]
 
 
 def profile_steps(

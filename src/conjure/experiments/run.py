@@ -46,7 +46,7 @@ import numpy as np
 from conjure.core.errors import DivergenceError, InvalidParameterError, raise_if_interrupted
 from conjure.core.interfaces import Agent, Domain
 from conjure.core.seeding import seed_to_int, split_seed
-from conjure.experiments.loop import CURVE_COLUMNS, learning_stepper, run_episode
+from conjure.experiments.loop import CURVE_COLUMNS, greedy_episodes, learning_stepper
 from conjure.experiments.memory import explain_memory_error
 from conjure.experiments.metric_ranges import domain_bounds
 from conjure.experiments.numbers import format_number
@@ -190,10 +190,7 @@ def _evaluate(
     bounds: tuple[float, float] | None,
 ) -> dict[str, float]:
     """One policy check: the greedy episodes' means, failure rate and optimality."""
-    stats = [
-        run_episode(domain, agent, learn=False, seed=seed if k == 0 else None)
-        for k in range(num_episodes)
-    ]
+    stats = greedy_episodes(domain, agent, num_episodes, seed=seed)
     mean_return = float(np.mean([s.episode_return for s in stats]))
     return {
         "return": mean_return,

@@ -13,7 +13,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from conjure.representations._hashed_tabular_kernels import EMPTY, FULL, find_cell
+from conjure.representations._hashed_tabular_kernels import EMPTY, FULL, find_cell, lookup_cell
 from conjure.representations._kernels import (
     hashed_tile_features,
     independent_features,
@@ -35,6 +35,7 @@ __all__ = [
     "clear_index",
     "encode_into",
     "index_row",
+    "lookup_row",
     "representation_kernel",
     "values_of",
 ]
@@ -137,6 +138,17 @@ def encode_into(
 def index_row(rep: RepresentationKernel, state: np.ndarray) -> int:
     """A `HASHED_TABULAR` index's row of s, stored first if new; `FULL` if it does not fit."""
     return find_cell(state, rep.dims, rep.vector, rep.hash_table, rep.hash_counts)[0]
+
+
+@njit(cache=True, inline="always")
+def lookup_row(rep: RepresentationKernel, state: np.ndarray) -> int:
+    """A one-row-per-state index's row of s, storing nothing (greedy acting's lookup).
+
+    −1 when a `HASHED_TABULAR` index never saw s (`HashedTabular.index_of`).
+    """
+    if rep.kind == HASHED_TABULAR:
+        return lookup_cell(state, rep.dims, rep.vector, rep.hash_table)
+    return tabular_feature(state, rep.dims, rep.vector)[0]
 
 
 @njit(cache=True)

@@ -48,12 +48,14 @@ from conjure.planners.switching_planner import (
     fixed_pair,
     switch_by_noise,
 )
+from conjure.policies import greedy_action
 from conjure.policies.compiled_policy import PolicyKernel, select_action
 from conjure.representations.compiled_representation import (
     HASHED_TABULAR,
     TABULAR,
     RepresentationKernel,
     encode_into,
+    lookup_row,
     representation_kernel,
 )
 from conjure.safety.fuel_risk import FuelRisk, fuel_risk
@@ -75,6 +77,8 @@ __all__ = [
     "cooperative_action",
     "cooperative_learner_action",
     "cooperative_learner_kernel",
+    "for_evaluation",
+    "greedy_box_action",
     "icca_kernel",
     "no_box",
     "packed_mission",
@@ -580,6 +584,60 @@ def box_action(
     return cooperative_learner_action(
         box, mission, agent, arrays, phi, values, q, legal, rng, obs, row, episode
     )
+
+
+def for_evaluation(form: CompiledBox, rng: np.random.Generator) -> CompiledBox:
+    """``form`` for greedy acting (a policy check).
+
+    Algorithm 25's rollouts draw from ``rng`` (the agent's ``eval_rng_``, as
+    ``is_safe(..., rng)`` in a policy check), not from the analyser's own generator.
+    """
+    mission = form.mission
+    if not mission.has_rollouts:
+        return form
+    return form._replace(mission=mission._replace(rollouts=mission.rollouts._replace(rng=rng)))
+
+
+@njit(cache=True, inline="always")
+def greedy_box_action(
+    box: BoxKernel,
+    mission: MissionBox,
+    chooser: np.ndarray,
+    phi: np.ndarray,
+    values: np.ndarray | None,
+    q: np.ndarray,
+    legal: np.ndarray,
+    obs: np.ndarray,
+) -> int:
+    """The greedy action in ``obs`` (a policy check's ``act(s, greedy=True)``); records nothing.
+
+    ``chooser``: the weights the agent acts on (the actor's, or θ). A learner alone takes
+    argmax over them. Algorithm 23's box (`CooperativeActorCritic.act`) adds λ to π^p(s) in
+    an unvisited state; Algorithm 24's (`CooperativeLearner.act`) consults the learner only in
+    a known pair, breaking ties toward π^p(s). Both replace an unsafe action by π^p(s) (the
+    analyser's draws come from the generator `for_evaluation` put in). The index is looked
+    up without storing s (`lookup_row`, −1: never seen).
+    """
+    q_values_into(chooser, phi, values, q)
+    if box.kind == NO_BOX:
+        return greedy_action(q, legal)
+    row = lookup_row(box.index, obs)
+    planner_action = _planner_action(box, mission, row, obs)
+    if box.kind == ICCA:
+        if row < 0 or box.visits[row] == 0:
+            q[planner_action] += box.bias
+        learner_action = greedy_action(q, legal)
+    else:
+        knownness = 0.0 if row < 0 else min(1.0, box.counts[row, planner_action] / box.num_known)
+        if knownness < 1.0:
+            return planner_action
+        best = greedy_action(q, legal)
+        learner_action = planner_action if q[planner_action] >= q[best] else best
+        if knownness >= box.trusted:
+            return learner_action
+    if _is_safe(box, mission, row, obs, learner_action, planner_action):
+        return learner_action
+    return planner_action
 
 
 @njit(cache=True)
