@@ -30,6 +30,16 @@ AGENTS = {
     "advantage-actor-critic": lambda: ActorCritic(
         representation=Tabular(), step_size=0.3, critic="v", actor_update="log_policy"
     ),
+    "advantage-actor-critic-traces": lambda: ActorCritic(
+        representation=Tabular(),
+        step_size=0.3,
+        critic="v",
+        actor_update="log_policy",
+        trace_decay=0.8,
+    ),
+    "actor-critic-traces": lambda: ActorCritic(
+        representation=Tabular(), step_size=0.3, trace_decay=1.0
+    ),
 }
 
 
@@ -39,9 +49,10 @@ def test_td_learn_updates_as_learn(name):
     python = AGENTS[name]().setup(domain.domain_spec, 0)
     compiled = AGENTS[name]().setup(domain.domain_spec, 0)
     form, arrays = compiled.compiled_form(), compiled.compiled_arrays()
+    traces = compiled.compiled_row_traces()
     rng = np.random.default_rng(1)
     python.begin_episode()
-    compiled.episode_ = 1
+    compiled.begin_episode()
     for _ in range(40):
         s, a = float(rng.integers(0, 4)), int(rng.integers(0, 2))
         s_next, a_next, reward = s + 1.0, int(rng.integers(0, 2)), float(rng.normal())
@@ -59,9 +70,9 @@ def test_td_learn_updates_as_learn(name):
             target = bootstrap(form, reward, q, a_next, np.arange(2), critic_q)
         # π(s, ·) of the log-policy actor: learn met s without act, so over all actions now.
         drawn = Gibbs().probabilities(arrays.actor_weights[phi[0]], np.arange(2))
-        assert td_learn(form, arrays, phi, None, a, target, 1, drawn) == delta
-        if terminated:  # the loop's part of SARSA(λ)'s episode end
-            clear_learner_traces(form, arrays)
+        assert td_learn(form, arrays, traces, phi, None, a, target, 1, drawn) == delta
+        if terminated and not isinstance(compiled, ActorCritic):  # SARSA(λ)'s episode end
+            clear_learner_traces(form, arrays, traces)
     np.testing.assert_array_equal(arrays.weights, python.weights_)
     actor = getattr(python, "actor_weights_", python.weights_)
     np.testing.assert_array_equal(arrays.actor_weights, actor)

@@ -20,8 +20,8 @@ def _loop_arguments(*, learn: bool = True, max_episodes: int = 10**6):
     rep = representation_form(agent)
     box = box_form(agent, rep)
     args = (domain.compiled_form(), domain.np_random, rep, agent_form(agent), arrays,
-            agent.rng_, 100, obs, state, box.box, packed_mission(box.mission), learn,
-            max_episodes)  # fmt: skip
+            agent.compiled_row_traces(), agent.rng_, 100, obs, state, box.box,
+            packed_mission(box.mission), learn, max_episodes)  # fmt: skip
     return args, arrays, state
 
 

@@ -33,6 +33,17 @@ def _tiles(**params):
     return TileCoding(num_tilings=8, tiles_per_dim=10, **params)
 
 
+def _advantage_actor_critic(actor_alpha: float, trace_decay: float) -> ActorCritic:
+    return ActorCritic(
+        representation=Tabular(),
+        step_size=EpisodicDecay(alpha_0=1.0, n_0=100),
+        actor_step_size=EpisodicDecay(alpha_0=actor_alpha, n_0=1000),
+        critic="v",
+        actor_update="log_policy",
+        trace_decay=trace_decay,
+    )
+
+
 #: Every compiled combination, with the parameters that take each branch of the kernel.
 COMBINATIONS = {
     "pendulum-tiles-sarsa": (
@@ -99,15 +110,28 @@ COMBINATIONS = {
             policy=Gibbs(temperature=0.5),
         ),
     ),
-    # The advantage actor-critic of iCCA's learner (Fig. 5-5): V critic, log-policy actor.
+    # The advantage actor-critic of iCCA's learner (Fig. 5-5): V critic, log-policy actor;
+    # with eligibility traces of θ and ω by feature row (Figs. 5-6 and 5-7's).
     "gridworld-tabular-advantage-actor-critic": (
         GridWorld.gridworld_1,
+        lambda: _advantage_actor_critic(actor_alpha=1.0, trace_decay=0.0),
+    ),
+    "gridworld-tabular-advantage-actor-critic-traces": (
+        GridWorld.gridworld_1,
+        lambda: _advantage_actor_critic(actor_alpha=0.1, trace_decay=0.9),
+    ),
+    "open-gridworld-tiles-actor-critic-traces-grows-rows": (
+        lambda: GridWorld.from_grid(open_grid(30, 30, seed=1), discount=1.0),
         lambda: ActorCritic(
-            representation=Tabular(),
-            step_size=EpisodicDecay(alpha_0=1.0, n_0=100),
-            actor_step_size=EpisodicDecay(alpha_0=1.0, n_0=1000),
-            critic="v",
-            actor_update="log_policy",
+            representation=TileCoding(num_tilings=4, tiles_per_dim=30),
+            step_size=0.01,
+            trace_decay=1.0,
+        ),
+    ),
+    "pendulum-rbf-actor-critic-traces": (
+        InvertedPendulum,
+        lambda: ActorCritic(
+            representation=RBF(num_centers=4), step_size=0.05, policy=Gibbs(), trace_decay=0.7
         ),
     ),
     "chain-tabular-state-value-actor-critic": (
@@ -242,6 +266,10 @@ def test_same_seed_gives_the_same_curve_on_both_paths(name, seed):
     np.testing.assert_array_equal(agent.weights_, python_agent.weights_)
     if isinstance(agent, ActorCritic):
         np.testing.assert_array_equal(agent.actor_weights_, python_agent.actor_weights_)
+        if agent.trace_decay > 0:  # the same live rows of z^θ and z^ω
+            for name in ("critic_traces_", "actor_traces_"):
+                traces, python_traces = getattr(agent, name), getattr(python_agent, name)
+                np.testing.assert_array_equal(traces.slot_of, python_traces.slot_of)
     assert (stepper.total_steps, stepper.num_completed_episodes, stepper.num_failures) == (
         loop.total_steps,
         loop.num_completed_episodes,
@@ -262,6 +290,12 @@ def test_trace_growth_is_exercised():
     domain, agent = _build("open-gridworld-tiles-sarsa-lambda-grows-traces", 0)
     for_combination(domain, agent, seed=0).advance(3000)
     assert agent.trace_values_.shape[0] > 1024  # grew past the initial capacity
+
+
+def test_actor_critic_trace_rows_grow_in_the_loop():
+    domain, agent = _build("open-gridworld-tiles-actor-critic-traces-grows-rows", 0)
+    for_combination(domain, agent, seed=0).advance(3000)
+    assert agent.critic_traces_.rows.shape[0] > 64 < agent.actor_traces_.rows.shape[0]
 
 
 def test_episode_statistics_are_hand_checkable_on_the_chain():

@@ -361,10 +361,10 @@ def test_a_run_says_which_path_its_learning_steps_took(monkeypatch):
         domain=ChainMDP(), agent=SARSA(representation=Tabular()), budget_steps=200, seed=0
     )
     assert compiled.path == "compiled" and "(compiled path)" in compiled.summary()
-    traced = ActorCritic(representation=Tabular(), critic="v", trace_decay=0.5)
-    python = run(domain=ChainMDP(), agent=traced, budget_steps=200, seed=0)
+    separate = ActorCritic(representation=Tabular(), actor_representation=Tabular())
+    python = run(domain=ChainMDP(), agent=separate, budget_steps=200, seed=0)
     assert python.path.startswith("python: ActorCritic with these parameters has no compiled")
-    assert "no traces" in python.path
+    assert "sharing the critic's features" in python.path
     fake = run(domain=FakeWalk(), agent=FakeAgent(), budget_steps=50, seed=0)
     assert fake.path == "python: the domain FakeWalk has no compiled kernel"
     monkeypatch.setattr(loop, "COMPILE_WORTH_STEPS", 10**9)
@@ -378,7 +378,10 @@ def test_a_run_says_which_path_its_learning_steps_took(monkeypatch):
         "domain": {"kind": "ChainMDP"},
         "agent": {
             "kind": "ActorCritic",
-            "params": {"representation": {"kind": "Tabular"}, "trace_decay": 0.5},
+            "params": {
+                "representation": {"kind": "Tabular"},
+                "actor_representation": {"kind": "Tabular"},
+            },
         },
         "budget_steps": 100,
         "num_policy_checks": 1,

@@ -27,12 +27,13 @@ CHUNKS = (0, 1, 337, 1500, 2162)
 def _learner(variant: str) -> ActorCritic:
     if variant == "printed":  # Algorithm 23 as printed: Q critic, Algorithm 12's actor step
         return ActorCritic(representation=Tabular(), step_size=EpisodicDecay(alpha_0=0.1))
-    return ActorCritic(  # Fig. 5-5's iCCA: V critic, log-policy actor
+    return ActorCritic(  # Fig. 5-5's iCCA: V critic, log-policy actor (Fig. 5-6's: traces)
         representation=Tabular(),
         step_size=EpisodicDecay(alpha_0=1.0, n_0=100),
         actor_step_size=EpisodicDecay(alpha_0=1.0, n_0=1000),
         critic="v",
         actor_update="log_policy",
+        trace_decay=1.0 if variant == "traces" else 0.0,
     )
 
 
@@ -126,7 +127,7 @@ def _uav_box(domain: UAVMission, variant: str) -> CooperativeActorCritic:
     )
 
 
-@pytest.mark.parametrize("variant", ["fading", "printed"])
+@pytest.mark.parametrize("variant", ["fading", "printed", "traces"])
 def test_the_box_on_a_mission_takes_the_same_steps_on_both_paths(variant):
     python, python_agent = _run(_uav_box, _noisy_uav_7_2, variant, 1, compiled=False)
     compiled, agent = _run(_uav_box, _noisy_uav_7_2, variant, 1, compiled=True)
@@ -340,7 +341,7 @@ def test_the_box_tabulates_once_per_plan_and_again_after_a_restore(tmp_path):
         (_box, lambda: GridWorld(map_name="gridworld2", noise=0.2), "printed"),
         (_csarsa, lambda: GridWorld(map_name="gridworld2", noise=0.2), "veto"),
         (_csarsa, GridWorld.gridworld_1, "trusting"),
-        (_uav_box, _noisy_uav_7_2, "fading"),
+        (_uav_box, _noisy_uav_7_2, "traces"),
         (_uav_csarsa, _noisy_uav_7_2, "veto"),
         (_uav_csarsa_ifdd, _noisy_uav_7_2, "veto"),
         (_uav_am_icca, _noisy_uav_7_2, "adaptive"),

@@ -173,6 +173,14 @@ def apply_row_traces(
 
 
 @njit(cache=True)
+def clear_row_traces(slot_of: np.ndarray, rows: np.ndarray, count: np.ndarray) -> None:
+    """Forget every live row (a new episode): ``slot_of`` of each live feature back to −1."""
+    for k in range(count[0]):
+        slot_of[rows[k]] = -1
+    count[0] = 0
+
+
+@njit(cache=True)
 def l1_norm(values: np.ndarray) -> float:
     """|φ(s)|₁ = Σ_i |φ_i(s)|: k_t, the number of active features, for binary φ."""
     total = 0.0

@@ -7,7 +7,7 @@ import numpy as np
 from conjure.agents import _kernels, persistence
 from conjure.agents import compiled_agent as forms
 from conjure.agents.linear_td import STEP_SIZE, LinearTDAgent, make_schedule, state_key
-from conjure.agents.row_traces import RowTraces
+from conjure.agents.row_traces import MIN_TRACE, RowTraces
 from conjure.core.errors import IncompatibleComponentsError
 from conjure.core.interfaces import (
     DomainSpec,
@@ -194,23 +194,26 @@ class ActorCritic(LinearTDAgent):
         return self
 
     compiled_variant = (
-        "the actor sharing the critic's features, no traces, and the log-policy actor only "
+        "the actor sharing the critic's features, and the log-policy actor or traces only "
         "over fixed features"
     )
 
     def compiled_form(self) -> forms.AgentKernel | None:
-        """Algorithm 12 (either critic, either actor step) for the compiled loop, else None.
+        """Algorithm 12 (either critic, either actor step, λ ≥ 0) for the compiled loop, or None.
 
-        See `compiled_variant`. Choice: the log-policy actor over an adaptive representation
-        stays in Python, where a discovery drops the cached π(s, ·) and ``learn`` recomputes it.
+        See `compiled_variant`. Choice: the log-policy actor and the traces over an adaptive
+        representation stay in Python, where a discovery drops the cached π(s, ·) and grows
+        the traces' rows.
         """
         check_is_set_up(self, "compiled_form")
-        if not self._is_shared or self._has_traces:
+        if not self._is_shared:
             return None
-        if self._is_log_policy and self.representation_.is_adaptive:
+        if (self._is_log_policy or self._has_traces) and self.representation_.is_adaptive:
             return None
+        traces = (forms.ROW_TRACES, self._trace_factor, MIN_TRACE) if self._has_traces else ()
         return self._kernel(
             forms.ACTOR_CRITIC,
+            *traces,
             actor_schedule=self.actor_schedule_,
             is_state_value=self._is_state_value,
             is_log_policy=self._is_log_policy,
@@ -220,6 +223,18 @@ class ActorCritic(LinearTDAgent):
         """θ and the actor's ω, each with room for ``rows`` features."""
         arrays = super().compiled_arrays(rows)
         return arrays._replace(actor_weights=with_room(self.actor_weights_, rows))
+
+    def compiled_row_traces(self) -> forms.RowTracePair:
+        """z^θ and z^ω, the traces' own arrays (`RowTraces.compiled_form`), with λ > 0."""
+        if not self._has_traces:
+            return forms.NO_ROW_TRACE_PAIR
+        critic, actor = self.critic_traces_.compiled_form(), self.actor_traces_.compiled_form()
+        return forms.row_trace_pair(critic, actor)
+
+    def grow_trace_capacity(self) -> None:
+        """Double the live rows of both traces (the compiled loop asks before it overflows)."""
+        self.critic_traces_.grow_rows()
+        self.actor_traces_.grow_rows()
 
     def load_compiled_arrays(
         self, arrays: forms.LearnerArrays, num_features: int | None = None

@@ -3,8 +3,9 @@
 `AgentKernel` holds a learner's kind, traces, γ, step-size schedules and behaviour policy;
 `LearnerArrays` its θ, ω and sparse traces. The kernels here are the learners' ``learn``
 (`td_learn`: α_t, δ and the updates of Algorithms 10-12 through `td_step` or
-`td_step_traces`, then the actor's), its target (`bootstrap`) and ``begin_episode``'s trace
-clearing, over the same kernels the Python learners call; `q_values_into` is Q(s, ·) = θᵀφ(s).
+`td_step_traces`, then the actor's; Actor-Critic's traces through `RowTraces`' kernels),
+its target (`bootstrap`) and ``begin_episode``'s trace clearing, over the same kernels the
+Python learners call; `q_values_into` is Q(s, ·) = θᵀφ(s).
 """
 
 from __future__ import annotations
@@ -13,18 +14,25 @@ import math
 from typing import NamedTuple
 
 import numpy as np
-from numba import njit
+from numba import njit, typeof
+from numba.core import types
+from numba.experimental import structref
 
 from conjure.agents._kernels import (
     add,
     add_log_policy_gradient,
+    add_row_traces,
+    apply_row_traces,
+    clear_row_traces,
     clear_traces,
+    decay_row_traces,
     l1_norm,
     q_values_into,
     squared_norm,
     td_step,
     td_step_traces,
 )
+from conjure.agents.row_traces import NO_ROW_TRACES, RowTraceArrays
 from conjure.core.schedules import (
     EPISODIC,
     FEATURE_NORMALIZED,
@@ -37,26 +45,32 @@ from conjure.policies.compiled_policy import PolicyKernel
 __all__ = [
     "ACCUMULATING",
     "ACTOR_CRITIC",
+    "NO_ROW_TRACE_PAIR",
     "NO_TRACES",
     "Q_LEARNING",
     "REPLACING",
+    "ROW_TRACES",
     "SARSA",
     "AgentKernel",
     "LearnerArrays",
+    "RowTracePair",
     "bootstrap",
     "clear_learner_traces",
     "imagined_learn",
     "q_values_into",
+    "row_trace_pair",
     "shift_preference_into",
     "step_size",
     "td_learn",
+    "traces_fit",
 ]
 
 
 #: Learner kinds of `AgentKernel`: Algorithms 11, 10 and 12.
 SARSA, Q_LEARNING, ACTOR_CRITIC = 0, 1, 2
-#: Eligibility traces of `AgentKernel`.
-NO_TRACES, REPLACING, ACCUMULATING = 0, 1, 2
+#: Eligibility traces of `AgentKernel`: none, SARSA(λ)'s sparse (feature, action) traces,
+#: replacing or accumulating, and Actor-Critic's traces of θ and ω by feature row (`RowTraces`).
+NO_TRACES, REPLACING, ACCUMULATING, ROW_TRACES = 0, 1, 2, 3
 
 
 class AgentKernel(NamedTuple):
@@ -67,7 +81,7 @@ class AgentKernel(NamedTuple):
     kind : int
         `SARSA`, `Q_LEARNING` or `ACTOR_CRITIC` (the actor sharing the critic's features).
     traces : int
-        `NO_TRACES`, `REPLACING` or `ACCUMULATING`.
+        `NO_TRACES`, `REPLACING` or `ACCUMULATING` (SARSA), `ROW_TRACES` (Actor-Critic).
     trace_decay, min_trace : float
         γλ and the smallest trace kept.
     discount : float
@@ -95,7 +109,7 @@ class AgentKernel(NamedTuple):
 
 
 class LearnerArrays(NamedTuple):
-    """θ, the actor's ω and SARSA(λ)'s sparse traces (Algorithms 11-12), updated in place.
+    """θ, the actor's ω and their traces (Algorithms 11-12), updated in place.
 
     Parameters
     ----------
@@ -104,7 +118,10 @@ class LearnerArrays(NamedTuple):
     actor_weights : ndarray of shape (n, |A|)
         Actor-Critic's ω; θ itself for the other learners.
     trace_slots, trace_features, trace_actions, trace_values, trace_count : ndarray
-        The sparse traces of `td_step_traces` (empty stand-ins without traces).
+        SARSA(λ)'s sparse traces of `td_step_traces` (empty stand-ins without them).
+
+    Actor-Critic's traces are a separate `RowTracePair`: numba counts a reference per array
+    wherever a tuple of ten or more arrays is passed, which slowed every learner's step.
     """
 
     weights: np.ndarray
@@ -114,6 +131,46 @@ class LearnerArrays(NamedTuple):
     trace_actions: np.ndarray
     trace_values: np.ndarray
     trace_count: np.ndarray
+
+
+@structref.register
+class _RowTracePairType(types.StructRef):
+    """The numba type of `RowTracePair`."""
+
+    def preprocess_fields(self, fields):
+        return tuple((name, types.unliteral(kind)) for name, kind in fields)
+
+
+class RowTracePair(structref.StructRefProxy):
+    """Actor-Critic's eligibility traces z^θ and z^ω (Algorithm 12 with λ > 0), in place.
+
+    Fields ``critic`` and ``actor`` (`RowTraceArrays`, the traces' own arrays), as one
+    reference (a numba structref): a call that passes its eight arrays in a tuple made numba
+    count references in every learner's step. Made by `row_trace_pair`.
+    """
+
+
+structref.define_boxing(_RowTracePairType, RowTracePair)
+_ROW_TRACE_PAIR_TYPE = _RowTracePairType(
+    [("critic", typeof(NO_ROW_TRACES)), ("actor", typeof(NO_ROW_TRACES))]
+)
+
+
+@njit(cache=True)
+def _pack_row_traces(critic: RowTraceArrays, actor: RowTraceArrays) -> RowTracePair:
+    pair = structref.new(_ROW_TRACE_PAIR_TYPE)
+    pair.critic = critic
+    pair.actor = actor
+    return pair
+
+
+def row_trace_pair(critic: RowTraceArrays, actor: RowTraceArrays) -> RowTracePair:
+    """z^θ and z^ω as the loop's `RowTracePair` (the same arrays)."""
+    return _pack_row_traces(critic, actor)
+
+
+#: The `RowTracePair` of a learner without row traces.
+NO_ROW_TRACE_PAIR = row_trace_pair(NO_ROW_TRACES, NO_ROW_TRACES)
 
 
 _feature_normalized_rate = njit(cache=True, inline="always")(feature_normalized_rate)
@@ -168,6 +225,7 @@ def _num_active(indices: np.ndarray, values: np.ndarray | None) -> float:
 def td_learn(
     agent: AgentKernel,
     arrays: LearnerArrays,
+    row_traces: RowTracePair,
     phi: np.ndarray,
     values: np.ndarray | None,
     action: int,
@@ -187,6 +245,12 @@ def td_learn(
     k_t = _num_active(phi, values)
     counted = max(episode, 1)
     alpha = step_size(agent.schedule, counted, k_t)  # as `imagined_learn`
+    if agent.traces == ROW_TRACES:
+        actor_alpha = step_size(agent.actor_schedule, counted, k_t)
+        return _learn_with_row_traces(
+            agent, arrays.weights, arrays.actor_weights, row_traces, phi, values, action, target,
+            alpha, actor_alpha, drawn,
+        )  # fmt: skip
     if agent.traces == NO_TRACES:
         column = 0 if agent.is_state_value else action
         delta = td_step(arrays.weights, phi, values, column, target, alpha)
@@ -206,10 +270,76 @@ def td_learn(
     return delta
 
 
+@njit(cache=True)
+def _learn_with_row_traces(
+    agent: AgentKernel,
+    weights: np.ndarray,
+    actor_weights: np.ndarray,
+    row_traces: RowTracePair,
+    phi: np.ndarray,
+    values: np.ndarray | None,
+    action: int,
+    target: float,
+    alpha: float,
+    actor_alpha: float,
+    drawn: np.ndarray,
+) -> float:
+    """Actor-Critic's ``learn`` with λ > 0 (`ActorCritic._learn_with_traces`, then both updates).
+
+    δ = target − θ(s)[column]; z^θ ← γλz^θ + φ(s) ⊗ e_column; z^ω ← γλz^ω + φ(s) ⊗ e_a, or
+    ⊗ (e_a − π(s, ·))/τ for the log-policy actor (π(s, ·) as drawn); θ += αδz^θ and
+    ω += α'δz^ω, whatever δ (the loop stops on a non-finite one).
+    """
+    critic, actor = row_traces.critic, row_traces.actor
+    column = 0 if agent.is_state_value else action
+    critic_values = np.empty(weights.shape[1])
+    q_values_into(weights, phi, values, critic_values)
+    delta = target - critic_values[column]
+    unit = np.zeros(weights.shape[1])
+    unit[column] = 1.0
+    decay_row_traces(critic.slot_of, critic.rows, critic.values, critic.count,
+                     agent.trace_decay, agent.min_trace)  # fmt: skip
+    add_row_traces(critic.slot_of, critic.rows, critic.values, critic.count, phi, values, unit)
+    direction = np.zeros(actor_weights.shape[1])
+    direction[action] = 1.0
+    if agent.is_log_policy:
+        for b in range(direction.shape[0]):
+            direction[b] = (direction[b] - drawn[b]) / agent.policy.parameter
+    decay_row_traces(actor.slot_of, actor.rows, actor.values, actor.count,
+                     agent.trace_decay, agent.min_trace)  # fmt: skip
+    add_row_traces(actor.slot_of, actor.rows, actor.values, actor.count, phi, values, direction)
+    apply_row_traces(weights, critic.rows, critic.values, critic.count, alpha * delta)
+    apply_row_traces(actor_weights, actor.rows, actor.values, actor.count,
+                     actor_alpha * delta)  # fmt: skip
+    return delta
+
+
 @njit(cache=True, inline="always")
-def clear_learner_traces(agent: AgentKernel, arrays: LearnerArrays) -> None:
-    """`clear_traces` of the learner's sparse traces, if it has any."""
-    if agent.traces != NO_TRACES:
+def traces_fit(
+    agent: AgentKernel, arrays: LearnerArrays, row_traces: RowTracePair, num_active: int
+) -> bool:
+    """Whether the traces have room for ``num_active`` more features (else the loop grows them)."""
+    if agent.traces == NO_TRACES:
+        return True
+    if agent.traces == ROW_TRACES:
+        critic, actor = row_traces.critic, row_traces.actor
+        return (
+            critic.count[0] + num_active <= critic.rows.shape[0]
+            and actor.count[0] + num_active <= actor.rows.shape[0]
+        )
+    return arrays.trace_count[0] + num_active <= arrays.trace_values.shape[0]
+
+
+@njit(cache=True, inline="always")
+def clear_learner_traces(
+    agent: AgentKernel, arrays: LearnerArrays, row_traces: RowTracePair
+) -> None:
+    """Forget the learner's traces, if it has any (``begin_episode``)."""
+    if agent.traces == ROW_TRACES:
+        critic, actor = row_traces.critic, row_traces.actor
+        clear_row_traces(critic.slot_of, critic.rows, critic.count)
+        clear_row_traces(actor.slot_of, actor.rows, actor.count)
+    elif agent.traces != NO_TRACES:
         clear_traces(arrays.trace_slots, arrays.trace_features, arrays.trace_actions,
                      arrays.trace_count)  # fmt: skip
 

@@ -162,6 +162,10 @@ class LinearTDAgent(Agent):
         weights = with_room(self.weights_, rows)
         return forms.LearnerArrays(weights, weights, *_NO_TRACES)
 
+    def compiled_row_traces(self) -> forms.RowTracePair:
+        """Actor-Critic's traces for the compiled loop; `NO_ROW_TRACE_PAIR` for the others."""
+        return forms.NO_ROW_TRACE_PAIR
+
     def load_compiled_arrays(
         self, arrays: forms.LearnerArrays, num_features: int | None = None
     ) -> None:

@@ -8,16 +8,38 @@ gives feature f's row (−1: none), so a step costs Θ(live rows × width), neve
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 
 from conjure.agents import _kernels
 from conjure.core.interfaces import Expansion, SparseFeatures
 
-__all__ = ["MIN_TRACE", "RowTraces"]
+__all__ = ["MIN_TRACE", "NO_ROW_TRACES", "RowTraceArrays", "RowTraces"]
 
 #: Rows whose every entry decays below this are forgotten (as SARSA's ``min_trace``).
 MIN_TRACE = 1e-3
 _INITIAL_ROWS = 64
+
+
+class RowTraceArrays(NamedTuple):
+    """One `RowTraces` (Algorithm 12 with λ > 0) as the compiled loop reads it, in place.
+
+    ``slot_of[f]``: feature f's row (−1: none); ``rows[:count[0]]``, ``values[:count[0]]``:
+    the live features and their traces (a row of ``width`` entries each).
+    """
+
+    slot_of: np.ndarray
+    rows: np.ndarray
+    values: np.ndarray
+    count: np.ndarray
+
+
+#: The `RowTraceArrays` of a learner without row traces (the fields' types, empty).
+NO_ROW_TRACES = RowTraceArrays(
+    np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64), np.zeros((0, 0)),
+    np.zeros(1, dtype=np.int64),
+)  # fmt: skip
 
 
 class RowTraces:
@@ -47,7 +69,7 @@ class RowTraces:
         while not _kernels.add_row_traces(
             self.slot_of, self.rows, self.traces, self.count, phi[0], phi[1], vector
         ):
-            self._grow_rows()
+            self.grow_rows()
 
     def apply(self, weights: np.ndarray, amount: float) -> None:
         """Update: weights ← weights + amount·z."""
@@ -55,8 +77,11 @@ class RowTraces:
 
     def clear(self) -> None:
         """Forget every live row (a new episode)."""
-        self.slot_of[self.rows[: self.count[0]]] = -1
-        self.count[0] = 0
+        _kernels.clear_row_traces(self.slot_of, self.rows, self.count)
+
+    def compiled_form(self) -> RowTraceArrays:
+        """The traces' own arrays for the compiled loop (`RowTraceArrays`, updated in place)."""
+        return RowTraceArrays(self.slot_of, self.rows, self.traces, self.count)
 
     def grow(self, expansion: Expansion) -> None:
         """Make room for the features an adaptive representation added (their z is 0)."""
@@ -72,14 +97,15 @@ class RowTraces:
         """Restore the live rows ``state_arrays`` saved (validated by the caller)."""
         self.clear()
         while self.rows.shape[0] < rows.shape[0]:
-            self._grow_rows()
+            self.grow_rows()
         count = rows.shape[0]
         self.rows[:count] = rows
         self.traces[:count] = values
         self.slot_of[rows] = np.arange(count)
         self.count[0] = count
 
-    def _grow_rows(self) -> None:
+    def grow_rows(self) -> None:
+        """Double the room for live rows (``step`` does when needed; the compiled loop asks)."""
         size, width = self.traces.shape
         self.rows = np.concatenate([self.rows, np.zeros(size, dtype=np.int64)])
         self.traces = np.concatenate([self.traces, np.zeros((size, width))])

@@ -49,12 +49,15 @@ from numba import njit
 from conjure.agents.compiled_agent import (
     ACTOR_CRITIC,
     NO_TRACES,
+    ROW_TRACES,
     AgentKernel,
     LearnerArrays,
+    RowTracePair,
     bootstrap,
     clear_learner_traces,
     q_values_into,
     td_learn,
+    traces_fit,
 )
 from conjure.domains.compiled_domain import DomainKernel, legal_into, reset_into, step_into
 from conjure.policies.compiled_policy import gibbs_policy, select_action
@@ -186,6 +189,7 @@ def learning_loop(
     rep: IFDDKernel,
     agent: AgentKernel,
     arrays: LearnerArrays,
+    row_traces: RowTracePair,
     agent_rng: np.random.Generator,
     cap: int,
     obs: np.ndarray,
@@ -272,7 +276,7 @@ def learning_loop(
                 break
             if learn:
                 episode += 1
-                clear_learner_traces(agent, arrays)
+                clear_learner_traces(agent, arrays, row_traces)
             phi = encode_into(base, obs, quanta, phi_buffer)
             if is_indexed and phi[0] < 0:
                 status, phase = FULL_INDEX, NEEDS_RESET
@@ -310,7 +314,7 @@ def learning_loop(
         if room < 0 or (is_growing_box and not has_room_for(rep, 2)):  # discoveries at s', s
             status = GROW_REPRESENTATION
             break
-        if is_tracing and arrays.trace_count[0] + phi.shape[0] > arrays.trace_values.shape[0]:
+        if is_tracing and not traces_fit(agent, arrays, row_traces, phi.shape[0]):
             status = GROW_TRACES
             break
         reward, terminated, cost = step_into(domain, action, next_obs, domain_rng)
@@ -369,7 +373,7 @@ def learning_loop(
                 target = bootstrap(agent, reward, q, next_action, next_legal, critic_q)
         grew = False
         if learn:
-            delta = td_learn(agent, arrays, phi, values, action, target, episode, drawn)
+            delta = td_learn(agent, arrays, row_traces, phi, values, action, target, episode, drawn)
             learning_steps += 1
             if not math.isfinite(delta):
                 status = DIVERGED
@@ -378,8 +382,8 @@ def learning_loop(
             grew = is_ifdd and _discover(rep, arrays, phi, delta, room, is_actor_critic, has_traces)
             if is_adaptive_box:  # Algorithm 26: T̂ learns from the move, π^p may switch
                 box_learn(mission, box.counts, obs, action, next_obs)
-            if terminated:
-                clear_learner_traces(agent, arrays)
+            if terminated and agent.traces != ROW_TRACES:  # SARSA(λ) clears at the end
+                clear_learner_traces(agent, arrays, row_traces)
         done += 1
         if cost > 0.0:  # a failure step (`info["cost"] > 0`)
             failures += 1

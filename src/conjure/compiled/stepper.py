@@ -274,7 +274,8 @@ class CompiledStepper:
         rows = representation.feature_capacity_ if rep.is_ifdd else 0
         arrays = agent.compiled_arrays(rows)
         box = box_form(self.agent, rep, greedy=not self.learn)
-        args = (domain_form, self.domain.np_random, rep, agent_form(agent), arrays, agent.rng_,
+        args = (domain_form, self.domain.np_random, rep, agent_form(agent), arrays,
+                agent.compiled_row_traces(), agent.rng_,
                 self.selection.max_episode_steps, self._obs, self._state, box.box,
                 packed_mission(box.mission), self.learn)  # fmt: skip
         name = _kernel_name(self.selection)
