@@ -144,9 +144,13 @@ class _RowTracePairType(types.StructRef):
 class RowTracePair(structref.StructRefProxy):
     """Actor-Critic's eligibility traces z^θ and z^ω (Algorithm 12 with λ > 0), in place.
 
-    Fields ``critic`` and ``actor`` (`RowTraceArrays`, the traces' own arrays), as one
-    reference (a numba structref): a call that passes its eight arrays in a tuple made numba
-    count references in every learner's step. Made by `row_trace_pair`.
+    One reference (a numba structref): a call that passed their eight arrays in a tuple made
+    numba count references in every learner's step. Made by `row_trace_pair`.
+
+    Parameters
+    ----------
+    critic, actor : RowTraceArrays
+        z^θ and z^ω: the traces' own arrays (`RowTraces.compiled_form`).
     """
 
 

@@ -25,8 +25,13 @@ _INITIAL_ROWS = 64
 class RowTraceArrays(NamedTuple):
     """One `RowTraces` (Algorithm 12 with λ > 0) as the compiled loop reads it, in place.
 
-    ``slot_of[f]``: feature f's row (−1: none); ``rows[:count[0]]``, ``values[:count[0]]``:
-    the live features and their traces (a row of ``width`` entries each).
+    Parameters
+    ----------
+    slot_of : ndarray of int64, shape (n,)
+        Feature f's row (−1: none).
+    rows, values, count : ndarray
+        ``rows[:count[0]]`` and ``values[:count[0]]``: the live features and their traces (a
+        row of ``width`` entries each).
     """
 
     slot_of: np.ndarray
