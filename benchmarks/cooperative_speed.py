@@ -25,7 +25,9 @@ AM-iCCA + Monte-Carlo risk, UAV 7-2 5% (``fig_5_9_13.yaml``, ``am_icca``) 146x  
 CSARSA + iFDD⁺, UAV 10-2 5% (``ifdd_csarsa.yaml``, ``csarsa_ifdd``)     148x         ≤ 35x
 =====================================================================  ===========  ======
 
-and, beside them, CSARSA on GridWorld-1 (``fig_5_8.yaml``, ``csarsa``: Algorithm 24's box).
+and, beside them, CSARSA on GridWorld-1 (``fig_5_8.yaml``, ``csarsa``: Algorithm 24's box) and
+Fig. 5-6's iCCA, whose advantage actor-critic has eligibility traces (``fig_5_6.yaml``,
+``icca``).
 """
 
 from __future__ import annotations
@@ -50,6 +52,7 @@ WORKLOADS = (
     ("CSARSA + fuel risk + CBBA, UAV 7-2 5%", "fig_5_9_13.yaml", "csarsa", 12.0),
     ("AM-iCCA + Monte-Carlo risk, UAV 7-2 5%", "fig_5_9_13.yaml", "am_icca", 35.0),
     ("CSARSA + iFDD⁺, UAV 10-2 5%", "ifdd_csarsa.yaml", "csarsa_ifdd", 35.0),
+    ("iCCA with eligibility traces, UAV 7-2", "fig_5_6.yaml", "icca", None),
 )
 #: The sweep-only keys of a reproduction config; the rest is an experiment at base settings.
 SWEEP_KEYS = ("grid", "selection")
