@@ -10,7 +10,8 @@ path is shown), one process, after numba's compilation (or cache load). Two cost
   median): what a run pays, the first plans of every new state and the iFDD discoveries of
   the early episodes included;
 - **window**: ``--steps`` steps after a warm-up of ``--steps`` / 5 (median of R windows of one
-  agent): the start of a run, where new states are most frequent.
+  agent): the start of a run, where new states are most frequent; also on the Python path
+  (`Stepper`), what the same steps cost without the compiled loop.
 
 Each ratio is that cost over the cost of compiled SARSA + tabular on GridWorld-1
 (`fig_5_8.yaml`'s ``sarsa``) timed in alternation with it, so both see the same machine
@@ -41,7 +42,7 @@ from rich.console import Console
 from rich.table import Table
 
 from conjure.experiments.config import build_components, load_yaml, parse_config
-from conjure.experiments.loop import learning_stepper
+from conjure.experiments.loop import Stepper, learning_stepper
 
 ROOT = Path(__file__).resolve().parents[1] / "examples" / "reproduction"
 #: The reference: compiled SARSA + tabular on GridWorld-1.
@@ -65,11 +66,18 @@ def _experiment(config_name: str):
     return parse_config(data, source=config_name)
 
 
-def stepper_for(config_name: str, label: str, steps: int, seed: int = 0):
-    """The run's stepper for ``label`` of a shipped config at its base settings, warmed up."""
+def stepper_for(config_name: str, label: str, steps: int, seed: int = 0, python: bool = False):
+    """The run's stepper for ``label`` of a shipped config at its base settings, warmed up.
+
+    ``python``: the Python `Stepper` instead (what the run would cost without the compiled
+    path).
+    """
     domain, agents = build_components(_experiment(config_name))
     agent = agents[label].setup(domain.domain_spec, seed=seed)
-    stepper = learning_stepper(domain, agent, seed=seed, budget_steps=10**9)
+    if python:
+        stepper = Stepper(domain, agent, seed=seed)
+    else:
+        stepper = learning_stepper(domain, agent, seed=seed, budget_steps=10**9)
     stepper.advance(steps)
     return stepper
 
@@ -98,14 +106,16 @@ def main() -> None:
 
     table = Table(title=f"Cooperative learners, median of {args.repeats} (window: {args.steps:,})")
     columns = ("workload", "config, agent", "path", "us/step run", "ratio run", "target",
-               "us/step window", "ratio window")  # fmt: skip
+               "us/step window", "ratio window", "us/step window, Python path")  # fmt: skip
     for column in columns:
         table.add_column(column, justify="left" if column in ("workload", "path") else "right")
     for name, config_name, label, target in WORKLOADS:
         stepper = stepper_for(config_name, label, args.steps // 5)
-        window, window_ratios, run, run_ratios = [], [], [], []
+        python = stepper_for(config_name, label, args.steps // 5, python=True)
+        window, window_ratios, run, run_ratios, python_window = [], [], [], [], []
         for seed in range(args.repeats):
             window.append(seconds_per_step(stepper, args.steps))
+            python_window.append(seconds_per_step(python, args.steps))
             window_ratios.append(window[-1] / reference_cost())
             run.append(run_cost(config_name, label, seed))
             run_ratios.append(run[-1] / reference_cost())
@@ -118,6 +128,7 @@ def main() -> None:
             "" if target is None else f"≤ {target:g}x",
             f"{1e6 * statistics.median(window):.2f}",
             f"{statistics.median(window_ratios):.0f}x",
+            f"{1e6 * statistics.median(python_window):.1f}",
         )
     cost = statistics.median(reference_cost() for _ in range(3))
     table.add_row(
@@ -129,6 +140,7 @@ def main() -> None:
         "",
         f"{1e6 * cost:.2f}",
         "1x",
+        "",
     )
     Console(width=180).print(table)
 
