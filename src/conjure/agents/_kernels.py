@@ -173,6 +173,29 @@ def apply_row_traces(
 
 
 @njit(cache=True)
+def step_row_traces(
+    slot_of: np.ndarray,
+    rows: np.ndarray,
+    traces: np.ndarray,
+    count: np.ndarray,
+    factor: float,
+    min_trace: float,
+    indices: np.ndarray,
+    values: np.ndarray | None,
+    vector: np.ndarray,
+) -> bool:
+    """One step of a row trace: z ← factor·z (`decay_row_traces`) + φ(s) ⊗ ``vector``.
+
+    Returns False, changing nothing, when the live rows might overflow (count + |φ(s)| rows
+    before the decay; the caller grows them and calls again).
+    """
+    if count[0] + indices.shape[0] > rows.shape[0]:
+        return False
+    decay_row_traces(slot_of, rows, traces, count, factor, min_trace)
+    return add_row_traces(slot_of, rows, traces, count, indices, values, vector)
+
+
+@njit(cache=True)
 def clear_row_traces(slot_of: np.ndarray, rows: np.ndarray, count: np.ndarray) -> None:
     """Forget every live row (a new episode): ``slot_of`` of each live feature back to −1."""
     for k in range(count[0]):

@@ -21,14 +21,13 @@ from numba.experimental import structref
 from conjure.agents._kernels import (
     add,
     add_log_policy_gradient,
-    add_row_traces,
     apply_row_traces,
     clear_row_traces,
     clear_traces,
-    decay_row_traces,
     l1_norm,
     q_values_into,
     squared_norm,
+    step_row_traces,
     td_step,
     td_step_traces,
 )
@@ -56,6 +55,7 @@ __all__ = [
     "RowTracePair",
     "bootstrap",
     "clear_learner_traces",
+    "end_of_episode_traces",
     "imagined_learn",
     "q_values_into",
     "row_trace_pair",
@@ -292,7 +292,8 @@ def _learn_with_row_traces(
 
     δ = target − θ(s)[column]; z^θ ← γλz^θ + φ(s) ⊗ e_column; z^ω ← γλz^ω + φ(s) ⊗ e_a, or
     ⊗ (e_a − π(s, ·))/τ for the log-policy actor (π(s, ·) as drawn); θ += αδz^θ and
-    ω += α'δz^ω, whatever δ (the loop stops on a non-finite one).
+    ω += α'δz^ω, whatever δ (the loop stops on a non-finite one). The rows fit (`traces_fit`
+    before the step, the same rule as `step_row_traces`).
     """
     critic, actor = row_traces.critic, row_traces.actor
     column = 0 if agent.is_state_value else action
@@ -301,17 +302,15 @@ def _learn_with_row_traces(
     delta = target - critic_values[column]
     unit = np.zeros(weights.shape[1])
     unit[column] = 1.0
-    decay_row_traces(critic.slot_of, critic.rows, critic.values, critic.count,
-                     agent.trace_decay, agent.min_trace)  # fmt: skip
-    add_row_traces(critic.slot_of, critic.rows, critic.values, critic.count, phi, values, unit)
+    step_row_traces(critic.slot_of, critic.rows, critic.values, critic.count, agent.trace_decay,
+                    agent.min_trace, phi, values, unit)  # fmt: skip
     direction = np.zeros(actor_weights.shape[1])
     direction[action] = 1.0
     if agent.is_log_policy:
         for b in range(direction.shape[0]):
             direction[b] = (direction[b] - drawn[b]) / agent.policy.parameter
-    decay_row_traces(actor.slot_of, actor.rows, actor.values, actor.count,
-                     agent.trace_decay, agent.min_trace)  # fmt: skip
-    add_row_traces(actor.slot_of, actor.rows, actor.values, actor.count, phi, values, direction)
+    step_row_traces(actor.slot_of, actor.rows, actor.values, actor.count, agent.trace_decay,
+                    agent.min_trace, phi, values, direction)  # fmt: skip
     apply_row_traces(weights, critic.rows, critic.values, critic.count, alpha * delta)
     apply_row_traces(actor_weights, actor.rows, actor.values, actor.count,
                      actor_alpha * delta)  # fmt: skip
@@ -332,6 +331,17 @@ def traces_fit(
             and actor.count[0] + num_active <= actor.rows.shape[0]
         )
     return arrays.trace_count[0] + num_active <= arrays.trace_values.shape[0]
+
+
+@njit(cache=True, inline="always")
+def end_of_episode_traces(agent: AgentKernel, arrays: LearnerArrays) -> None:
+    """After a terminal step: SARSA(λ) clears its traces (its ``_after_update``).
+
+    Actor-Critic's row traces wait for the next ``begin_episode``, as in Python.
+    """
+    if agent.traces == REPLACING or agent.traces == ACCUMULATING:
+        clear_traces(arrays.trace_slots, arrays.trace_features, arrays.trace_actions,
+                     arrays.trace_count)  # fmt: skip
 
 
 @njit(cache=True, inline="always")

@@ -68,12 +68,10 @@ class RowTraces:
 
     def step(self, factor: float, phi: SparseFeatures, vector: np.ndarray) -> None:
         """One step: z ← factor·z + φ(s) ⊗ ``vector`` (``vector``: the per-column gradient)."""
-        _kernels.decay_row_traces(
-            self.slot_of, self.rows, self.traces, self.count, factor, MIN_TRACE
-        )
-        while not _kernels.add_row_traces(
-            self.slot_of, self.rows, self.traces, self.count, phi[0], phi[1], vector
-        ):
+        while not _kernels.step_row_traces(
+            self.slot_of, self.rows, self.traces, self.count, factor, MIN_TRACE, phi[0], phi[1],
+            vector,
+        ):  # fmt: skip
             self.grow_rows()
 
     def apply(self, weights: np.ndarray, amount: float) -> None:

@@ -49,12 +49,12 @@ from numba import njit
 from conjure.agents.compiled_agent import (
     ACTOR_CRITIC,
     NO_TRACES,
-    ROW_TRACES,
     AgentKernel,
     LearnerArrays,
     RowTracePair,
     bootstrap,
     clear_learner_traces,
+    end_of_episode_traces,
     q_values_into,
     td_learn,
     traces_fit,
@@ -382,8 +382,8 @@ def learning_loop(
             grew = is_ifdd and _discover(rep, arrays, phi, delta, room, is_actor_critic, has_traces)
             if is_adaptive_box:  # Algorithm 26: T̂ learns from the move, π^p may switch
                 box_learn(mission, box.counts, obs, action, next_obs)
-            if terminated and agent.traces != ROW_TRACES:  # SARSA(λ) clears at the end
-                clear_learner_traces(agent, arrays, row_traces)
+            if terminated:
+                end_of_episode_traces(agent, arrays)
         done += 1
         if cost > 0.0:  # a failure step (`info["cost"] > 0`)
             failures += 1

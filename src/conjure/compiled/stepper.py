@@ -74,7 +74,7 @@ MAX_KERNEL_STEPS = 2**18
 #: The first call's seconds (compile or cache load) of each compilation, by `_kernel_name`.
 _COMPILE_SECONDS: dict[str, float] = {}
 #: No limit on the steps or episodes of one `CompiledStepper._run`.
-_NO_EPISODE_LIMIT = 2**62
+_NO_LIMIT = 2**62
 #: Position of the representation among `learning_loop`'s arguments.
 _REP_ARGUMENT = 3
 
@@ -180,7 +180,7 @@ class CompiledStepper:
             raise InvalidParameterError(f"`num_steps` must be an int; got {num_steps!r}.")
         if num_steps < 0:
             raise InvalidParameterError(f"`num_steps` must be >= 0; got {num_steps!r}.")
-        return self._run(int(num_steps), _NO_EPISODE_LIMIT)
+        return self._run(int(num_steps), _NO_LIMIT)
 
     def play_episodes(self, num_episodes: int) -> AdvanceStats:
         """Step until ``num_episodes`` episodes ended (`Stepper.play_episode`, repeated).
@@ -194,7 +194,7 @@ class CompiledStepper:
             raise InvalidParameterError(f"`num_episodes` must be an int; got {num_episodes!r}.")
         if num_episodes < 1:
             raise InvalidParameterError(f"`num_episodes` must be >= 1; got {num_episodes!r}.")
-        return self._run(_NO_EPISODE_LIMIT, int(num_episodes))
+        return self._run(_NO_LIMIT, int(num_episodes))
 
     def _run(self, num_steps: int, max_episodes: int) -> AdvanceStats:
         """Kernel calls until ``num_steps`` steps were taken or ``max_episodes`` ended."""

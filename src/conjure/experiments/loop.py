@@ -47,6 +47,7 @@ Notes
 
 from __future__ import annotations
 
+import importlib
 import time
 from collections.abc import Callable
 from typing import Any, NamedTuple
@@ -314,6 +315,16 @@ LearningLoop = Stepper
 COMPILE_WORTH_STEPS = 2_000_000
 
 
+def _compiled_module() -> Any:
+    """The `conjure.compiled` module, or None when it is not installed."""
+    try:
+        return importlib.import_module("conjure.compiled")
+    except ModuleNotFoundError as exc:
+        if exc.name != "conjure.compiled":
+            raise
+        return None
+
+
 def learning_stepper(
     domain: Domain, agent: Agent, *, seed: int | None = None, budget_steps: int = 0
 ) -> Any:
@@ -327,17 +338,14 @@ def learning_stepper(
     compile it would not earn back; otherwise, when ``for_combination`` answers ``None`` (some
     part has no kernel), or ``conjure.compiled`` is not installed, a learning `Stepper` runs.
     """
-    try:
-        from conjure.compiled import for_combination, is_warm, why_not_compiled
-    except ModuleNotFoundError as exc:
-        if exc.name != "conjure.compiled":
-            raise
+    module = _compiled_module()
+    if module is None:
         return Stepper(domain, agent, seed=seed, path="python: conjure.compiled is not installed")
-    compiled = for_combination(domain, agent, seed=seed)  # packing only: no compile
+    compiled = module.for_combination(domain, agent, seed=seed)  # packing only: no compile
     if compiled is None:
-        reason = why_not_compiled(domain, agent)
+        reason = module.why_not_compiled(domain, agent)
         return Stepper(domain, agent, seed=seed, path=f"python: {reason}")
-    if budget_steps < COMPILE_WORTH_STEPS and not is_warm(compiled):
+    if budget_steps < COMPILE_WORTH_STEPS and not module.is_warm(compiled):
         reason = (
             f"its kernel is not compiled yet and {budget_steps:,} steps would not earn the "
             f"compile back (the compiled path starts at {COMPILE_WORTH_STEPS:,})"
@@ -390,15 +398,9 @@ def greedy_episodes(
     compiled loop's greedy steps when every part has a kernel and the loop is warm (a
     compiled learning run's is), else by that Python loop. Nothing is learned.
     """
-    try:
-        from conjure.compiled import for_combination, is_warm
-    except ModuleNotFoundError as exc:
-        if exc.name != "conjure.compiled":
-            raise
-        compiled = None
-    else:
-        compiled = for_combination(domain, agent, seed=seed, learn=False)
-    if compiled is None or not is_warm(compiled):
+    module = _compiled_module()
+    compiled = module and module.for_combination(domain, agent, seed=seed, learn=False)
+    if compiled is None or not module.is_warm(compiled):
         return [
             run_episode(domain, agent, seed=seed if k == 0 else None) for k in range(num_episodes)
         ]

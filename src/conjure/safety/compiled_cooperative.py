@@ -464,6 +464,12 @@ def _is_safe(
 
 
 @njit(cache=True, inline="always")
+def _knownness(box: BoxKernel, row: int, action: int) -> float:
+    """min(1, count(s, a)/𝒦) (Algorithm 24, line 2); 0 for a state the index never saw (−1)."""
+    return 0.0 if row < 0 else min(1.0, box.counts[row, action] / box.num_known)
+
+
+@njit(cache=True, inline="always")
 def _planner_bias(box: BoxKernel, visits: int) -> float:
     """b(n) = λ·N_b/(N_b + n) (`CooperativeActorCritic.planner_bias`)."""
     return box.bias * box.half_life / (box.half_life + visits)
@@ -532,7 +538,7 @@ def cooperative_learner_action(
     (recomputed after that update); ``row``: the index row of s (``obs``).
     """
     planner_action = _planner_action(box, mission, row, obs)  # line 1
-    knownness = min(1.0, box.counts[row, planner_action] / box.num_known)  # line 2
+    knownness = _knownness(box, row, planner_action)  # line 2
     consult = knownness >= 1.0 or (knownness > 0.0 and box.rng.random() < knownness)
     if not consult:  # line 3 failed
         box.counts[row, planner_action] += 1  # line 8
@@ -628,7 +634,7 @@ def greedy_box_action(
             q[planner_action] += box.bias
         learner_action = greedy_action(q, legal)
     else:
-        knownness = 0.0 if row < 0 else min(1.0, box.counts[row, planner_action] / box.num_known)
+        knownness = _knownness(box, row, planner_action)
         if knownness < 1.0:
             return planner_action
         best = greedy_action(q, legal)
