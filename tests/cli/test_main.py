@@ -331,6 +331,11 @@ LONG_PENDULUM = textwrap.dedent(
 def test_ctrl_c_stops_a_run_inside_the_compiled_loop_and_says_what_is_saved(tmp_path, workers):
     # Issue 20: in-process, SIGINT inside the kernel became the run's recorded failure and the
     # sweep went on; with workers, click printed a bare "Aborted!" with status 1.
+    from conjure.compiled import warm_up
+
+    # The loop compiled into numba's disk cache first: a cold compile (a minute on a busy
+    # 2-core machine) runs in LLVM, where Python sees no signal until it returns.
+    warm_up()
     config = tmp_path / "long.yaml"
     config.write_text(LONG_PENDULUM)
     out = tmp_path / "out"
