@@ -26,9 +26,10 @@ AM-iCCA + Monte-Carlo risk, UAV 7-2 5% (``fig_5_9_13.yaml``, ``am_icca``) 146x  
 CSARSA + iFDD⁺, UAV 10-2 5% (``ifdd_csarsa.yaml``, ``csarsa_ifdd``)     148x         ≤ 35x
 =====================================================================  ===========  ======
 
-and, beside them, CSARSA on GridWorld-1 (``fig_5_8.yaml``, ``csarsa``: Algorithm 24's box) and
+and, beside them, CSARSA on GridWorld-1 (``fig_5_8.yaml``, ``csarsa``: Algorithm 24's box),
 Fig. 5-6's iCCA, whose advantage actor-critic has eligibility traces (``fig_5_6.yaml``,
-``icca``).
+``icca``), and the grid-world boxes with Algorithm 25's rollouts of Figs. 5-12 and 5-14
+(``icca`` and ``am_icca`` on GridWorld-2, ``am_icca_switch_off`` on GridWorld-3).
 """
 
 from __future__ import annotations
@@ -54,6 +55,9 @@ WORKLOADS = (
     ("AM-iCCA + Monte-Carlo risk, UAV 7-2 5%", "fig_5_9_13.yaml", "am_icca", 35.0),
     ("CSARSA + iFDD⁺, UAV 10-2 5%", "ifdd_csarsa.yaml", "csarsa_ifdd", 35.0),
     ("iCCA with eligibility traces, UAV 7-2", "fig_5_6.yaml", "icca", None),
+    ("iCCA + Monte-Carlo risk (static model), GridWorld-2", "fig_5_12.yaml", "icca", None),
+    ("AM-iCCA + Monte-Carlo risk, GridWorld-2", "fig_5_12.yaml", "am_icca", None),
+    ("AM-iCCA, check off when trusted, GridWorld-3", "fig_5_14.yaml", "am_icca_switch_off", None),
 )
 #: The sweep-only keys of a reproduction config; the rest is an experiment at base settings.
 SWEEP_KEYS = ("grid", "selection")

@@ -10,7 +10,7 @@ from conjure.core.schedules import EpisodicDecay
 from conjure.domains import GridWorld, UAVMission
 from conjure.experiments.loop import LearningLoop, greedy_episodes, run_episode
 from conjure.models.approximate_model import ApproximateModel
-from conjure.planners import CBBAPlanner, ModelPlanner, SwitchingPlanner
+from conjure.planners import CBBAPlanner, ModelPlanner, ShortestPathPlanner, SwitchingPlanner
 from conjure.representations import HashedTabular, IndependentDiscretization, OnlineIFDD, Tabular
 from conjure.safety import (
     AdaptiveCooperativeLearner,
@@ -20,6 +20,7 @@ from conjure.safety import (
     MonteCarloRiskAnalyzer,
     NominalRiskAnalyzer,
 )
+from conjure.safety.monte_carlo_risk import grid_failures
 
 CHUNKS = (0, 1, 337, 1500, 2162)
 
@@ -140,8 +141,9 @@ def test_the_box_on_a_mission_takes_the_same_steps_on_both_paths(variant):
 
 def test_a_box_it_cannot_tabulate_stays_in_python_and_says_why():
     domain = GridWorld.gridworld_1()
-    risk = MonteCarloRiskAnalyzer(num_rollouts=5)  # draws random rollouts: not a fixed table
-    agent = _box(domain, "fading", risk).setup(domain.domain_spec, 0)
+    agent = _box(domain, "fading")
+    agent.set_params(index=HashedTabular())  # rows by first visit: no table before learning
+    agent.setup(domain.domain_spec, 0)
     assert for_combination(domain, agent) is None
     assert why_not_compiled(domain, agent).startswith(
         "CooperativeActorCritic with these parameters has no compiled kernel (a planner with"
@@ -320,6 +322,93 @@ def test_am_icca_stays_in_python():
     assert for_combination(domain, agent) is None
 
 
+def _grid_am_icca(domain: GridWorld, variant: str) -> CooperativeLearner:
+    """Figs. 5-12/5-14's boxes: shortest-path planners, Algorithm 25's rollouts in T̂ at 40%.
+
+    ``adaptive``: AM-iCCA (conservative -> aggressive below 25%); ``trusting``: with the
+    safety check off from knownness 0.3 (Section 5.5.3); ``static``: iCCA, conservative
+    planner, static model; ``printed``: that with a vetoed proposal not learned.
+    """
+    model = ApproximateModel(
+        domain=GridWorld(map_name="gridworld2", noise=0.2),
+        initial_noise=0.4,
+        is_adaptive=variant in ("adaptive", "trusting"),
+    )
+    learner = SARSA(
+        representation=Tabular(), step_size=EpisodicDecay(alpha_0=0.1, n_0=100), trace_decay=1.0
+    )
+    risk = MonteCarloRiskAnalyzer(num_rollouts=5, risk_tolerance=0.2)
+    if variant in ("static", "printed"):
+        return CooperativeLearner(
+            learner=learner, planner=ShortestPathPlanner.conservative(), risk=risk, model=model,
+            veto_reward=None if variant == "printed" else -1.0,
+        )  # fmt: skip
+    planner = SwitchingPlanner(
+        conservative=ShortestPathPlanner.conservative(), aggressive=ShortestPathPlanner.aggressive()
+    )
+    return AdaptiveCooperativeLearner(
+        learner=learner, planner=planner, risk=risk, model=model,
+        trusted_knownness=0.3 if variant == "trusting" else None,
+    )  # fmt: skip
+
+
+def _gridworld_2() -> GridWorld:
+    return GridWorld(map_name="gridworld2", noise=0.2, step_reward=-0.01)
+
+
+@pytest.mark.parametrize(
+    ("variant", "world"),
+    [
+        ("adaptive", _gridworld_2),
+        ("static", _gridworld_2),
+        ("printed", _gridworld_2),
+        ("trusting", GridWorld.gridworld_3),
+    ],
+)
+def test_algorithm_26_on_a_grid_takes_the_same_steps_on_both_paths(variant, world):
+    # Figs. 5-12 and 5-14: the rollouts draw from the analyser's generator on both paths; the
+    # adaptive model counts the same moves and switches to the aggressive planner at once.
+    python, python_agent = _run(_grid_am_icca, world, variant, 3, compiled=False)
+    compiled, agent = _run(_grid_am_icca, world, variant, 3, compiled=True)
+    np.testing.assert_array_equal(agent.counts_, python_agent.counts_)
+    for name in ("rng_", "eval_rng_"):
+        assert (
+            getattr(agent, name).bit_generator.state
+            == getattr(python_agent, name).bit_generator.state
+        )
+    assert agent.risk_.rng_.bit_generator.state == python_agent.risk_.rng_.bit_generator.state
+    _assert_same_steps(python, compiled)
+    model, python_model = agent.model_, python_agent.model_
+    assert (model.noise_, model.num_moves_, model.num_unintended_) == (
+        python_model.noise_, python_model.num_moves_, python_model.num_unintended_,
+    )  # fmt: skip
+    if variant in ("adaptive", "trusting"):  # GridWorld-3's 55% wind: no switch
+        assert model.num_moves_ > 1000 and model.num_unintended_ > 0
+        assert agent.num_policy_changes_ == python_agent.num_policy_changes_
+        assert agent.planner_.is_aggressive_ == python_agent.planner_.is_aggressive_
+        assert agent.planned_noise_ == python_agent.planned_noise_
+    if variant == "adaptive":
+        assert agent.num_policy_changes_ >= 1 and agent.planner_.is_aggressive_
+    assert compiled.num_failures == python.num_failures
+
+
+def test_the_grid_rollouts_renumbered_by_row_judge_as_the_analysers_own():
+    # The box's rollouts run on T̂'s tables re-indexed by the index's rows; with the same
+    # generator state they return the analyser's own risk(s, a) in every state and action.
+    domain = _gridworld_2()
+    agent = _grid_am_icca(domain, "static").setup(domain.domain_spec, 0)
+    tables = agent.compiled_tables()
+    grid = tables.grid._replace(rng=np.random.default_rng(5))
+    planner_actions = tables.tables.conservative
+    for state in agent.risk_.model_.domain_.model().states[::7]:
+        row = agent.state_row(state)
+        for action in range(4):
+            expected = agent.risk_.risk(state, action, rng=np.random.default_rng(5))
+            failures = grid_failures(grid, row, action, 0.4, planner_actions)
+            grid = grid._replace(rng=np.random.default_rng(5))
+            assert failures / 5 == expected
+
+
 def test_the_box_tabulates_once_per_plan_and_again_after_a_restore(tmp_path):
     domain = GridWorld.gridworld_1()
     agent = _box(domain, "fading").setup(domain.domain_spec, 0)
@@ -330,7 +419,7 @@ def test_the_box_tabulates_once_per_plan_and_again_after_a_restore(tmp_path):
     restored = CooperativeActorCritic.restore(agent.save(tmp_path / "box"))
     again = restored.compiled_tables()  # replanned by the restore, tabulated anew
     assert again is not tables
-    np.testing.assert_array_equal(again.planner_actions, tables.planner_actions)
+    np.testing.assert_array_equal(again.tables.conservative, tables.tables.conservative)
     np.testing.assert_array_equal(again.safe, tables.safe)
 
 
@@ -345,6 +434,8 @@ def test_the_box_tabulates_once_per_plan_and_again_after_a_restore(tmp_path):
         (_uav_csarsa, _noisy_uav_7_2, "veto"),
         (_uav_csarsa_ifdd, _noisy_uav_7_2, "veto"),
         (_uav_am_icca, _noisy_uav_7_2, "adaptive"),
+        (_grid_am_icca, _gridworld_2, "adaptive"),
+        (_grid_am_icca, GridWorld.gridworld_3, "trusting"),
     ],
 )
 def test_a_policy_check_plays_the_same_greedy_episodes_on_both_paths(make_box, world, variant):

@@ -17,8 +17,10 @@ traces on fixed features); the policies `EpsilonGreedy`, `Gibbs`; the schedules
 `ConstantStepSize`, `FeatureNormalizedDecay`, `EpisodicDecay`; and the iCCA boxes around such
 a learner (`CooperativeActorCritic`, Algorithm 23; `CooperativeLearner` with SARSA or
 Q-Learning, Algorithm 24, also around online iFDD; `AdaptiveCooperativeLearner`, Algorithm
-26) when their planner and risk analyser can be tabulated (grid worlds) or are UAV mission
-kernels (CBBA, the fuel rule, Monte-Carlo rollouts; `conjure.safety.compiled_cooperative`).
+26) when π^p can be tabulated per state (grid worlds: value iteration on a static model,
+shortest-path or switching planners) with the nominal rule or Monte-Carlo rollouts in the
+tabular T̂, or on UAV missions with CBBA and the fuel rule or Monte-Carlo rollouts
+(`conjure.safety.compiled_cooperative`).
 The same loop plays the policy checks' greedy episodes (``learn=False``).
 """
 

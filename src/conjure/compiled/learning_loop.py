@@ -78,7 +78,7 @@ from conjure.representations.weights import parent_sum_row
 from conjure.safety.compiled_cooperative import (
     NO_BOX,
     BoxKernel,
-    MissionBox,
+    BoxParts,
     box_action,
     box_learn,
     greedy_box_action,
@@ -195,16 +195,16 @@ def learning_loop(
     obs: np.ndarray,
     state: LoopState,
     box: BoxKernel,
-    mission: MissionBox,
+    parts: BoxParts,
     learn: bool,
     max_episodes: int,
 ) -> tuple[int, int, int, float, np.ndarray, np.ndarray]:
     """Take up to ``num_steps`` steps; stop early on a status other than `DONE`.
 
-    ``cap``: the episode cap; ``obs``: s, updated in place; ``box`` and ``mission``: iCCA's
-    box around the learner and its UAV mission parts (`conjure.safety.compiled_cooperative`:
+    ``cap``: the episode cap; ``obs``: s, updated in place; ``box`` and ``parts``: iCCA's
+    box around the learner and its parts called per state (`conjure.safety.compiled_cooperative`:
     its `box_action` chooses the actions, `box_learn` is Algorithm 26's model update), or
-    `NO_BOX` and `NO_MISSION`. ``learn``: learning steps, or greedy ones (a policy check:
+    `NO_BOX` and `NO_PARTS`. ``learn``: learning steps, or greedy ones (a policy check:
     `greedy_box_action`; no begin_episode, update, discovery or model update, as the Python
     `Stepper` with ``learn=False``); the call also stops when ``max_episodes`` episodes
     ended. Returns (status, steps taken, failures, last δ, episodes (m, 2)
@@ -226,7 +226,7 @@ def learning_loop(
     is_actor_critic = agent.kind == ACTOR_CRITIC
     is_log_policy = learn and agent.is_log_policy  # keeps π(s, ·) as drawn (`drawn`)
     is_box = learn and box.kind != NO_BOX  # a learning box (greedy acting: `greedy_box_action`)
-    is_adaptive_box = is_box and box.is_mission and mission.is_adaptive
+    is_adaptive_box = is_box and parts.is_adaptive
     row_buffer = np.empty(1, dtype=np.int64)
     # The actor's preferences choose actions for Actor-Critic (shared features), θ otherwise.
     chooser = arrays.actor_weights
@@ -286,10 +286,10 @@ def learning_loop(
             values = values_of(base, obs)
             legal = legal_into(domain, False, legal_buffer) if is_masked else all_actions
             if not learn:
-                action = greedy_box_action(box, mission, chooser, phi, values, q, legal, obs)
+                action = greedy_box_action(box, parts, chooser, phi, values, q, legal, obs)
             elif is_box:  # the box fills q (after moving ρ, for Algorithm 23)
                 action, vetoed, imagined = box_action(
-                    box, mission, agent, arrays, phi, values, q, legal, agent_rng, obs, quanta,
+                    box, parts, agent, arrays, phi, values, q, legal, agent_rng, obs, quanta,
                     row_buffer, episode,
                 )  # fmt: skip
                 if action < 0:  # the box's index is full
@@ -338,11 +338,11 @@ def learning_loop(
             next_legal = legal_into(domain, True, next_legal_buffer) if is_masked else all_actions
             if not learn:
                 next_action = greedy_box_action(
-                    box, mission, chooser, next_phi, next_values, q, next_legal, next_obs
+                    box, parts, chooser, next_phi, next_values, q, next_legal, next_obs
                 )
             elif is_box:
                 next_action, vetoed, imagined = box_action(
-                    box, mission, agent, arrays, next_phi, next_values, q, next_legal, agent_rng,
+                    box, parts, agent, arrays, next_phi, next_values, q, next_legal, agent_rng,
                     next_obs, quanta, row_buffer, episode,
                 )  # fmt: skip
                 if next_action < 0:  # the box's index is full
@@ -381,7 +381,7 @@ def learning_loop(
                 break
             grew = is_ifdd and _discover(rep, arrays, phi, delta, room, is_actor_critic, has_traces)
             if is_adaptive_box:  # Algorithm 26: T̂ learns from the move, π^p may switch
-                box_learn(mission, box.counts, obs, action, next_obs)
+                box_learn(box, parts, obs, action, next_obs)
             if terminated:
                 end_of_episode_traces(agent, arrays)
         done += 1

@@ -57,7 +57,7 @@ from conjure.compiled.combination import (
 from conjure.core.errors import DivergenceError, InvalidParameterError
 from conjure.core.interfaces import Agent, Domain
 from conjure.domains.compiled_domain import DomainKernel, callback_error
-from conjure.safety.compiled_cooperative import packed_mission
+from conjure.safety.compiled_cooperative import packed_parts
 
 __all__ = [
     "AdvanceStats",
@@ -277,7 +277,7 @@ class CompiledStepper:
         args = (domain_form, self.domain.np_random, rep, agent_form(agent), arrays,
                 agent.compiled_row_traces(), agent.rng_,
                 self.selection.max_episode_steps, self._obs, self._state, box.box,
-                packed_mission(box.mission), self.learn)  # fmt: skip
+                packed_parts(box.parts), self.learn)  # fmt: skip
         name = _kernel_name(self.selection)
         if name not in _COMPILE_SECONDS:  # a zero-step call: compile (or load the cache) alone
             started = time.perf_counter()

@@ -30,10 +30,14 @@ class PlannedPolicy(NamedTuple):
         The planned model's states.
     actions : ndarray of int64, shape (|S|,)
         π^p of each.
+    is_fixed : bool, default False
+        Whether π^p never changes with T̂ (``update`` never replans it), so the table also
+        holds while an adaptive model learns (Algorithm 26).
     """
 
     states: np.ndarray
     actions: np.ndarray
+    is_fixed: bool = False
 
 
 class ModelPlanner(CooperativePlanner):

@@ -12,7 +12,8 @@ from conjure.core.cooperative import CooperativePlanner
 from conjure.core.errors import IncompatibleComponentsError, InvalidParameterError
 from conjure.core.interfaces import check_is_set_up
 from conjure.core.params import InstanceOf, Predicate
-from conjure.domains.gridworld import GOAL, PIT, GridWorld
+from conjure.domains.gridworld import BLOCKED, GOAL, PIT, GridWorld
+from conjure.planners.model_planner import PlannedPolicy
 
 __all__ = ["ShortestPathPlanner"]
 
@@ -67,7 +68,8 @@ class ShortestPathPlanner(CooperativePlanner):
 
     Complexity
     ----------
-    Θ(|S|) breadth-first search at setup; Θ(1) per action.
+    Θ(|S|) breadth-first search at setup; Θ(1) per action. The compiled iCCA box reads π^p
+    as a table (`compiled_form`).
 
     Examples
     --------
@@ -122,9 +124,18 @@ class ShortestPathPlanner(CooperativePlanner):
             )
         self.distances_ = _distances(grid, domain.feasible_moves_, targets)
         self.policy_ = _policy(grid, domain.feasible_moves_, self.distances_)
-        self._num_cols = grid.shape[1]
+        self._grid, self._num_cols = grid, grid.shape[1]
         self.is_set_up_ = True
         return self
+
+    compiled_methods = ("action", "update")
+
+    def compiled_form(self) -> PlannedPolicy:
+        """π^p over every open cell, a table that never changes (``is_fixed``)."""
+        check_is_set_up(self, "compiled_form")
+        cells = np.argwhere(self._grid != BLOCKED)
+        actions = self.policy_[cells[:, 0] * self._num_cols + cells[:, 1]]
+        return PlannedPolicy(cells.astype(np.float64), actions.astype(np.int64), True)
 
     def action(self, state: np.ndarray) -> int:
         """π^p(s): the first move of the shortest path from cell s."""

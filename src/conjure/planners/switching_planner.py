@@ -13,17 +13,19 @@ from conjure.core.interfaces import check_is_set_up
 from conjure.core.params import InstanceOf, Interval
 from conjure.core.seeding import split_seed
 from conjure.planners.cbba_planner import MissionPlanner
+from conjure.planners.model_planner import PlannedPolicy
 
 __all__ = ["PlannerPair", "SwitchingPlanner", "active_planner", "fixed_pair", "switch_by_noise"]
 
 
 class PlannerPair(NamedTuple):
-    """A switching π^p of CBBA planners as a compiled kernel reads it (Section 5.5.2).
+    """A switching π^p as a compiled kernel reads it (Section 5.5.2).
 
     Parameters
     ----------
-    conservative, aggressive : MissionPlanner
-        The two planners' forms.
+    conservative, aggressive : MissionPlanner or ndarray
+        The two planners' forms: CBBA's (`MissionPlanner`), or π^p tabulated per state (an
+        array of int64 actions, made by the compiled iCCA box from `PlannedPolicy` forms).
     noise_threshold : float
         The aggressive one is used while η̂ < ``noise_threshold``.
     is_aggressive : ndarray of bool, shape (1,)
@@ -52,7 +54,7 @@ def active_planner(pair: PlannerPair) -> MissionPlanner:
 
 @njit(cache=True)
 def switch_by_noise(pair: PlannerPair, noise: float) -> bool:
-    """`SwitchingPlanner.update` for CBBA planners (which never replan): whether π^p changed."""
+    """`SwitchingPlanner.update` for planners that never replan: whether π^p changed."""
     if not pair.is_switching:
         return False
     was_aggressive = pair.is_aggressive[0]
@@ -145,13 +147,18 @@ class SwitchingPlanner(CooperativePlanner):
     compiled_methods = ("action", "update")
 
     def compiled_form(self) -> PlannerPair | None:
-        """Both planners' forms when both are CBBA's (`MissionPlanner`), else None.
+        """Both planners' forms, or None.
 
-        ``is_aggressive`` is a copy; `load_compiled_form` takes it back.
+        Both CBBA's (`MissionPlanner`), or both tables that never change with T̂ (a
+        `PlannedPolicy` with ``is_fixed``: `ShortestPathPlanner`); a planner that replans as
+        η̂ moves has no compiled switch. ``is_aggressive`` is a copy; `load_compiled_form`
+        takes it back.
         """
         check_is_set_up(self, "compiled_form")
         forms = compiled_form(self.conservative_), compiled_form(self.aggressive_)
-        if not all(isinstance(form, MissionPlanner) for form in forms):
+        is_cbba = all(isinstance(form, MissionPlanner) for form in forms)
+        is_table = all(isinstance(form, PlannedPolicy) and form.is_fixed for form in forms)
+        if not (is_cbba or is_table):
             return None
         is_aggressive = np.array([self.is_aggressive_], dtype=np.bool_)
         return PlannerPair(*forms, float(self.noise_threshold), is_aggressive, True)

@@ -141,20 +141,20 @@ class AdaptiveCooperativeLearner(CooperativeLearner):
 
     adapts_model = True
     compiled_variant = (
-        "a UAV mission: CBBA or a SwitchingPlanner of CBBA planners, the fuel rule or "
-        "Monte-Carlo rollouts, a one-row-per-state index, around a compiled SARSA or "
-        "Q-Learning on fixed features or online iFDD with sparsified activation"
+        "a planner that never replans (CBBA, or a SwitchingPlanner of CBBA or ShortestPath "
+        "planners), the fuel rule or Monte-Carlo rollouts, a one-row-per-state index (Tabular "
+        "on grid worlds), around a compiled SARSA or Q-Learning on fixed features or online "
+        "iFDD with sparsified activation"
     )
 
     def compiled_form(self) -> CompiledBox | None:
-        """Algorithm 26's box for the compiled loop on a UAV mission, or None.
+        """Algorithm 26's box for the compiled loop, or None.
 
         Algorithm 24's box (`cooperative_learner_kernel`) whose `box_learn` counts T̂'s moves
-        and switches π^p; grid worlds' tabulated planners stay on the Python path.
+        and switches π^p.
         """
         check_is_set_up(self, "compiled_form")
-        form = cooperative_learner_kernel(self)
-        return form if form is not None and form.box.is_mission else None
+        return cooperative_learner_kernel(self)
 
     def _extra_state(self) -> dict[str, int]:
         return {"num_policy_changes": self.num_policy_changes_}

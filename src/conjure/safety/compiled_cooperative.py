@@ -1,23 +1,27 @@
 """The iCCA control box as the compiled learning loop reads it (`conjure.core.compiled_form`).
 
 Geramifard (2012), Algorithms 23, 24 and 26 (Sections 5.3-5.5). `BoxKernel` holds what the
-box needs per step: π^p(s) and the verdicts safe(s, a), either tabulated per row of the box's
-index (one feature per state) when the planner and the risk analyser are fixed functions of
-the state (grid worlds), or, on UAV missions (`MissionBox`), the components' own kernels
-called per state: CBBA through its plan cache (`planned_action`, Section 5.3.1; conservative
-or aggressive by η̂ with a switching planner), the fuel rule (`fuel_risk`, Section 5.3.5) or
-Algorithm 25's rollouts (`mission_failures`), and the adaptive model's η̂ (`observe_moves`);
-and the agent's own tables, updated in place (Algorithm 23's visit counts n(s) and planner
-bias; Algorithm 24's counts of unconsulted planner actions, knownness and veto rule).
+box needs per step: π^p(s) and the verdicts safe(s, a). On grid worlds π^p is tabulated per
+row of the box's index (one feature per state; two tables for a switching planner) and
+safe(s, a) is either tabulated too (a deterministic analyser) or Algorithm 25's rollouts in
+the tabular T̂ re-indexed by those rows (`grid_failures`). On UAV missions the components'
+own kernels are called per state: CBBA through its plan cache (`planned_action`, Section
+5.3.1; conservative or aggressive by η̂ with a switching planner), the fuel rule
+(`fuel_risk`, Section 5.3.5) or Algorithm 25's rollouts (`mission_failures`). `BoxParts`
+holds those parts and the adaptive model's η̂ (`observe_moves`); the agent's own tables are
+updated in place (Algorithm 23's visit counts n(s) and planner bias; Algorithm 24's counts
+of unconsulted planner actions, knownness and veto rule).
 `box_action` is the box's ``act`` while learning (`cooperative_action`:
 `CooperativeActorCritic`, `cooperative_learner_action`: `CooperativeLearner`); the learner's
 updates stay the learner's own kernels.
 
-The tables are made by calling the parts' own methods (`planner.action` through its compiled
-form, the analyser's ``is_safe``) on every state the planner planned, and the per-state parts
-are the components' own kernels, so no rule is coded twice. Tables are exact while neither
-changes: the model is not adaptive and the analyser draws no random number (`FixedRisk`).
-`box_learn` is Algorithm 26's model update and switch after the learner's update.
+The tables are made by calling the parts' own methods (the planner's compiled form, the
+analyser's ``is_safe``, the model's ``count_unintended``) on every state the planner
+planned, and the per-state parts are the components' own kernels, so no rule is coded twice.
+A π^p table is exact while the planner does not replan (a static model, or a policy that
+never changes with T̂: `PlannedPolicy.is_fixed`); a safe(s, a) table while, in addition, the
+analyser draws no random number (`FixedRisk`). `box_learn` is Algorithm 26's model update
+and switch after the learner's update.
 """
 
 from __future__ import annotations
@@ -59,18 +63,23 @@ from conjure.representations.compiled_representation import (
     representation_kernel,
 )
 from conjure.safety.fuel_risk import FuelRisk, fuel_risk
-from conjure.safety.monte_carlo_risk import MissionRollouts, mission_failures
+from conjure.safety.monte_carlo_risk import (
+    GridRollouts,
+    MissionRollouts,
+    grid_failures,
+    mission_failures,
+)
 
 __all__ = [
     "COOPERATIVE_LEARNER",
     "ICCA",
     "NO_BOX",
-    "NO_MISSION",
+    "NO_PARTS",
     "BoxKernel",
+    "BoxParts",
     "BoxTables",
     "CompiledBox",
     "FixedRisk",
-    "MissionBox",
     "alone",
     "box_action",
     "box_learn",
@@ -81,7 +90,7 @@ __all__ = [
     "greedy_box_action",
     "icca_kernel",
     "no_box",
-    "packed_mission",
+    "packed_parts",
     "tabulate",
 ]
 
@@ -91,20 +100,35 @@ NO_BOX, ICCA, COOPERATIVE_LEARNER = 0, 1, 2
 _NO_DRAWS = np.random.default_rng(0)
 
 
-class MissionBox(NamedTuple):
-    """The parts of a box on a UAV mission, called per state (Sections 5.3.1, 5.3.5, 5.5).
+class BoxParts(NamedTuple):
+    """The parts of a box called per state or step (Sections 5.3.1, 5.3.5, 5.5).
+
+    On a UAV mission (`BoxKernel.is_mission`): CBBA, the fuel rule or Algorithm 25's
+    rollouts. On a grid world: a switching planner's two π^p tables, Algorithm 25's rollouts
+    in the tabular T̂ and the model's move table. Both: T̂'s η̂ and Algorithm 26's state.
 
     Parameters
     ----------
     planners : PlannerPair
-        π^p: CBBA's `planned_action` (with the planner's own plan cache), conservative or
-        aggressive by η̂ for a `SwitchingPlanner`, else one planner that never switches.
+        π^p on a mission: CBBA's `planned_action` (with the planner's own plan cache),
+        conservative or aggressive by η̂ for a `SwitchingPlanner`, else one planner that never
+        switches.
     has_rollouts : bool
-        Whether proposals are judged by Algorithm 25 (``rollouts``) or the fuel rule.
+        Whether proposals are judged by Algorithm 25 (``rollouts`` on a mission, ``grid`` on
+        a grid world), or else by the fuel rule (mission) or the safe(s, a) table (grid).
     fuel : FuelRisk
         The fuel rule (`fuel_risk`).
     rollouts : MissionRollouts
-        Algorithm 25's rollouts on T̂ (`mission_failures`).
+        Algorithm 25's rollouts on a mission T̂ (`mission_failures`).
+    tables : PlannerPair
+        π^p per index row on a grid world (arrays of int64; one table, never switching,
+        for a single planner); the one in use is `BoxKernel.planner_actions`.
+    grid : GridRollouts
+        Algorithm 25's rollouts in a tabular T̂ (`grid_failures`), its tables re-indexed
+        by the box's rows (π^p: `BoxKernel.planner_actions`).
+    intended : ndarray of int64, shape (rows, |A|)
+        On a grid world, the row T̂ expects a move to reach (−1: T̂ counts no move there),
+        for Algorithm 26's move counts.
     model : NoiseModel
         T̂'s η̂ and its counts (updated in place by Algorithm 26's `box_learn`).
     layout : ndarray of int64, shape (4,)
@@ -123,6 +147,9 @@ class MissionBox(NamedTuple):
     has_rollouts: bool
     fuel: FuelRisk
     rollouts: MissionRollouts
+    tables: PlannerPair
+    grid: GridRollouts
+    intended: np.ndarray
     model: NoiseModel
     layout: np.ndarray
     is_adaptive: bool
@@ -132,27 +159,27 @@ class MissionBox(NamedTuple):
 
 
 @structref.register
-class _MissionStructType(types.StructRef):
-    """The numba type of `_MissionStruct` (Algorithms 24-26 on UAV missions, Section 5.3.5)."""
+class _PartsStructType(types.StructRef):
+    """The numba type of `_PartsStruct` (Algorithms 24-26, Sections 5.3.5 and 5.5)."""
 
     def preprocess_fields(self, fields):
         return tuple((name, types.unliteral(kind)) for name, kind in fields)
 
 
-class _MissionStruct(structref.StructRefProxy):
-    """A `MissionBox` as the compiled loop receives it: one reference (a numba structref).
+class _PartsStruct(structref.StructRefProxy):
+    """A `BoxParts` as the compiled loop receives it: one reference (a numba structref).
 
-    Geramifard (2012), Algorithms 24-26 on UAV missions (Section 5.3.5). Its fields are the
-    `MissionBox`'s, arrays shared: kernels read them by the same names. Made by
-    `packed_mission`; nothing to construct by hand.
+    Geramifard (2012), Algorithms 24-26 (Sections 5.3.5 and 5.5). Its fields are the
+    `BoxParts`'s, arrays shared: kernels read them by the same names. Made by
+    `packed_parts`; nothing to construct by hand.
     """
 
 
-structref.define_boxing(_MissionStructType, _MissionStruct)
+structref.define_boxing(_PartsStructType, _PartsStruct)
 
 
-def _no_mission() -> MissionBox:
-    """The stand-in `MissionBox` of the boxes that tabulate their parts."""
+def _no_parts() -> BoxParts:
+    """The stand-in `BoxParts` of a box without such parts (every field of the loop's type)."""
     no_ints = np.zeros(0, dtype=np.int64)
     no_cache = representation_kernel(HASHED_TABULAR, 1)
     planner = MissionPlanner(
@@ -160,38 +187,47 @@ def _no_mission() -> MissionBox:
         np.zeros(3), False, 0.0, False, 0, no_cache, no_ints, False,
     )  # fmt: skip
     layout = np.zeros(4, dtype=np.int64)
-    return MissionBox(
+    no_flags = np.zeros(0, dtype=np.bool_)
+    grid = GridRollouts(
+        0, 0, 1.0, 0, np.zeros(1, dtype=np.int64), no_ints, np.zeros(0), no_flags, no_flags,
+        np.zeros((0, 2)), _NO_DRAWS,
+    )  # fmt: skip
+    return BoxParts(
         fixed_pair(planner), False, FuelRisk(layout, no_ints, 1.0),
-        MissionRollouts(0, 0, 1.0, layout, np.zeros((0, 4)), _NO_DRAWS),
+        MissionRollouts(0, 0, 1.0, layout, np.zeros((0, 4)), _NO_DRAWS), fixed_pair(no_ints),
+        grid, np.zeros((0, 0), dtype=np.int64),
         NoiseModel(np.zeros(2, dtype=np.int64), np.zeros(1), 0.0, 0.0, False), layout,
         False, 0.0, np.zeros(1), np.zeros(1, dtype=np.int64),
     )  # fmt: skip
 
 
-NO_MISSION = _no_mission()
-#: Every `MissionBox` has the stand-in's field types (so one loop compilation serves all).
-_MISSION_TYPE = _MissionStructType(
-    [(name, typeof(getattr(NO_MISSION, name))) for name in MissionBox._fields]
+NO_PARTS = _no_parts()
+#: Every `BoxParts` has the stand-in's field types (so one loop compilation serves all).
+_PARTS_TYPE = _PartsStructType(
+    [(name, typeof(getattr(NO_PARTS, name))) for name in BoxParts._fields]
 )
 
 
 @njit(cache=True)
 def _pack(
-    planners, has_rollouts, fuel, rollouts, model, layout, is_adaptive, replan_threshold,
-    planned_noise, policy_changes,
+    planners, has_rollouts, fuel, rollouts, tables, grid, intended, model, layout, is_adaptive,
+    replan_threshold, planned_noise, policy_changes,
 ):  # fmt: skip
-    mission = structref.new(_MISSION_TYPE)
-    mission.planners = planners
-    mission.has_rollouts = has_rollouts
-    mission.fuel = fuel
-    mission.rollouts = rollouts
-    mission.model = model
-    mission.layout = layout
-    mission.is_adaptive = is_adaptive
-    mission.replan_threshold = replan_threshold
-    mission.planned_noise = planned_noise
-    mission.policy_changes = policy_changes
-    return mission
+    parts = structref.new(_PARTS_TYPE)
+    parts.planners = planners
+    parts.has_rollouts = has_rollouts
+    parts.fuel = fuel
+    parts.rollouts = rollouts
+    parts.tables = tables
+    parts.grid = grid
+    parts.intended = intended
+    parts.model = model
+    parts.layout = layout
+    parts.is_adaptive = is_adaptive
+    parts.replan_threshold = replan_threshold
+    parts.planned_noise = planned_noise
+    parts.policy_changes = policy_changes
+    return parts
 
 
 class FixedRisk(NamedTuple):
@@ -219,11 +255,12 @@ class BoxKernel(NamedTuple):
     index : RepresentationKernel
         The box's index: the row of a state in the tables below.
     planner_actions : ndarray of int64, shape (rows,)
-        π^p(s) per row (−1: not planned yet, with ``plans_online``).
+        π^p(s) per row, of the planner in use (−1: a row no planned state has).
     safe : ndarray of bool, shape (rows, |A|)
-        safe(s, a) per row and action (true for a = π^p(s)).
+        safe(s, a) per row and action (true for a = π^p(s)); empty when rollouts judge.
     is_mission : bool
-        Whether the box's `MissionBox` gives π^p and safe(s, a) instead of the tables.
+        Whether π^p and safe(s, a) are the UAV mission kernels of the box's `BoxParts`
+        instead of the tables.
     visits : ndarray of int64, shape (rows,)
         n(s), the agent's ``visits_`` (updated in place).
     bias, half_life : float
@@ -273,125 +310,247 @@ def no_box(index: RepresentationKernel) -> BoxKernel:
 
 
 class CompiledBox(NamedTuple):
-    """A cooperative agent's compiled form: its `BoxKernel` and its `MissionBox`.
+    """A cooperative agent's compiled form: its `BoxKernel` and its `BoxParts`.
 
-    Geramifard (2012), Algorithms 23, 24 and 26. Two arguments of the loop, the mission as
-    one reference (`packed_mission`): numba keeps a reference count per array of a tuple of
-    ten or more arrays wherever it is passed, and the mission's parts hold about thirty.
+    Geramifard (2012), Algorithms 23, 24 and 26. Two arguments of the loop, the parts as one
+    reference (`packed_parts`): numba keeps a reference count per array of a tuple of ten or
+    more arrays wherever it is passed, and the parts hold about forty.
 
     Parameters
     ----------
     box : BoxKernel
         The box (`NO_BOX` for a learner alone).
-    mission : MissionBox
-        Its UAV mission parts (`NO_MISSION` elsewhere).
+    parts : BoxParts
+        Its parts called per state or step (`NO_PARTS` when it has none).
     """
 
     box: BoxKernel
-    mission: MissionBox
+    parts: BoxParts
 
 
-def packed_mission(mission: MissionBox) -> _MissionStruct:
-    """``mission`` as the loop's `_MissionStruct` (the same arrays)."""
-    return _pack(*mission)
+def packed_parts(parts: BoxParts) -> _PartsStruct:
+    """``parts`` as the loop's `_PartsStruct` (the same arrays)."""
+    return _pack(*parts)
 
 
 def alone(index: RepresentationKernel) -> CompiledBox:
     """The `NO_BOX` form of a learner alone (``index`` a stand-in of the loop's type)."""
-    return CompiledBox(no_box(index), NO_MISSION)
+    return CompiledBox(no_box(index), NO_PARTS)
 
 
 class BoxTables(NamedTuple):
     """A box's tabulated parts (`tabulate`).
 
-    Geramifard (2012), Sections 5.3.1 and 5.3.3: π^p and the risk analyser's verdicts, per
-    row of the box's index; on a UAV mission both come from per-state kernels instead.
+    Geramifard (2012), Sections 5.3.1, 5.3.3 and 5.5: π^p and the risk analyser's verdicts or
+    rollouts, per row of the box's index; on a UAV mission the parts are per-state kernels.
 
     Parameters
     ----------
     index : RepresentationKernel
         The index's compiled form (a state's row).
-    planner_actions : ndarray of int64, shape (rows,)
-        π^p(s) per row (−1: a row no planned state has); empty on a mission.
+    tables : PlannerPair
+        π^p per row (arrays of int64; −1: a row no planned state has); empty on a mission.
     safe : ndarray of bool, shape (rows, |A|)
-        safe(s, a) per row and action; empty on a mission.
+        safe(s, a) per row and action; empty on a mission or with rollouts.
+    grid : GridRollouts or None
+        Algorithm 25's rollouts re-indexed by row, when they judge on a grid world.
+    intended : ndarray of int64, shape (rows, |A|)
+        The row T̂ expects each move to reach (−1: no move counted); empty unless T̂ adapts.
     is_mission : bool
-        Whether π^p and safe(s, a) are the mission's kernels (`mission_box`).
+        Whether π^p and safe(s, a) are the mission's kernels (`box_parts`).
     """
 
     index: RepresentationKernel
-    planner_actions: np.ndarray
+    tables: PlannerPair
     safe: np.ndarray
+    grid: GridRollouts | None
+    intended: np.ndarray
     is_mission: bool
 
-    def box(self, kind: int) -> BoxKernel:
-        """A ``kind`` box around these tables (the agent's own fields still to be set)."""
+    def box(self, kind: int, agent: Any) -> BoxKernel:
+        """A ``kind`` box around these tables (the agent's own fields still to be set).
+
+        π^p is a copy of the table of the planner ``agent`` uses now (Algorithm 26's switch
+        overwrites it).
+        """
+        planner_actions = self.tables.conservative
+        if not self.is_mission and _is_aggressive(agent):
+            planner_actions = self.tables.aggressive
         return no_box(self.index)._replace(
-            kind=kind, planner_actions=self.planner_actions, safe=self.safe,
+            kind=kind, planner_actions=planner_actions.copy(), safe=self.safe,
             is_mission=self.is_mission,
         )  # fmt: skip
 
-    def mission(self, agent: Any) -> MissionBox:
-        """``agent``'s `MissionBox` (`mission_box`) on a mission, else the stand-in."""
-        return mission_box(agent) if self.is_mission else NO_MISSION
+    def parts(self, agent: Any) -> BoxParts:
+        """``agent``'s `BoxParts` (`box_parts`), or the stand-in when nothing is called per step."""
+        if self.is_mission or self.grid is not None or agent.adapts_model:
+            return box_parts(agent, self)
+        return NO_PARTS
+
+
+def _is_aggressive(agent: Any) -> bool:
+    """Whether ``agent``'s π^p is a `SwitchingPlanner`'s aggressive planner."""
+    return bool(getattr(agent.planner_, "is_aggressive_", False))
 
 
 def tabulate(agent: Any) -> BoxTables | None:
-    """π^p and safe(s, a) per index row of a set-up box, or None (see `icca_kernel`).
+    """π^p and safe(s, a) (or the rollouts) per index row of a set-up box, or None.
 
-    A planned policy (`PlannedPolicy`) and a `FixedRisk` are tabulated by calling the
-    planner's and the analyser's own methods on every planned state (a `Tabular` index, a
-    static model). On a UAV mission, CBBA (`MissionPlanner`, or a `PlannerPair` of them) and
-    the fuel rule (`FuelRisk`) or Algorithm 25's rollouts (`MissionRollouts`) are called per
-    state instead, with any one-row-per-state index and a static or adaptive model. The
-    agent keeps the result until it replans (`CooperativeAgent.compiled_tables`).
+    On a UAV mission, CBBA (`MissionPlanner`, or a `PlannerPair` of them) and the fuel rule
+    (`FuelRisk`) or Algorithm 25's rollouts (`MissionRollouts`) are called per state, with any
+    one-row-per-state index and a static or adaptive model. Elsewhere a `Tabular` index and a
+    planned policy (`PlannedPolicy`, or a `PlannerPair` of two) that holds while the box
+    learns (a static model, or policies that never replan, ``is_fixed``) are tabulated by
+    calling the planner's own compiled form on every planned state, with a `FixedRisk` under a
+    static model (its own ``is_safe`` tabulated) or Algorithm 25's `GridRollouts` (its tables
+    re-indexed by row). The agent keeps the result until it replans
+    (`CooperativeAgent.compiled_tables`).
     """
     planned, risk = compiled_form(agent.planner_), compiled_form(agent.risk_)
     index = compiled_form(agent.index_)
     if not isinstance(index, RepresentationKernel) or index.kind not in (TABULAR, HASHED_TABULAR):
         return None
-    no_actions, no_table = np.zeros(0, dtype=np.int64), np.zeros((0, 0), dtype=np.bool_)
-    if isinstance(planned, (MissionPlanner, PlannerPair)):
+    no_table, no_moves = np.zeros((0, 0), dtype=np.bool_), np.zeros((0, 0), dtype=np.int64)
+    if _is_mission_planner(planned):
         if not isinstance(risk, (FuelRisk, MissionRollouts)):
             return None
-        return BoxTables(index, no_actions, no_table, True)
-    is_fixed = isinstance(risk, FixedRisk) and not agent.model_.is_adaptive
-    if not (isinstance(planned, PlannedPolicy) and is_fixed and index.kind == TABULAR):
+        return BoxTables(index, NO_PARTS.tables, no_table, None, no_moves, True)
+    policies = _planned_policies(planned)
+    is_static = not agent.model_.is_adaptive
+    if policies is None or index.kind != TABULAR:
         return None
-    rows, num_actions = agent.index_.num_features_, agent.spec_.num_actions
-    planner_actions = np.full(rows, -1, dtype=np.int64)
-    safe = np.zeros((rows, num_actions), dtype=np.bool_)
-    for state, planner_action in zip(planned.states, planned.actions, strict=True):
-        row = agent.state_row(state)
-        planner_actions[row] = planner_action
+    if not (is_static or all(policy.is_fixed for policy in policies)):
+        return None
+    is_fixed_risk = isinstance(risk, FixedRisk) and is_static
+    if not (is_fixed_risk or isinstance(risk, GridRollouts)):
+        return None
+    rows_of = [np.array([agent.state_row(s) for s in p.states], dtype=np.int64) for p in policies]
+    tables = [_table(agent, rows, p.actions) for rows, p in zip(rows_of, policies, strict=True)]
+    pair = fixed_pair(tables[0]) if len(tables) == 1 else planned._replace(
+        conservative=tables[0], aggressive=tables[1]
+    )  # fmt: skip
+    active = pair.aggressive if _is_aggressive(agent) else pair.conservative
+    safe = _safe_table(agent, policies[0].states, rows_of[0], active) if is_fixed_risk else no_table
+    grid = None if is_fixed_risk else _rollouts_by_row(agent, risk)
+    intended = no_moves if is_static else _intended_rows(agent, policies[0].states)
+    return BoxTables(index, pair, safe, grid, intended, False)
+
+
+def _is_mission_planner(planned: Any) -> bool:
+    if isinstance(planned, PlannerPair):
+        return isinstance(planned.conservative, MissionPlanner)
+    return isinstance(planned, MissionPlanner)
+
+
+def _planned_policies(planned: Any) -> list[PlannedPolicy] | None:
+    """The `PlannedPolicy` forms of π^p: one, or a switching planner's two; None otherwise."""
+    if isinstance(planned, PlannedPolicy):
+        return [planned]
+    if isinstance(planned, PlannerPair) and isinstance(planned.conservative, PlannedPolicy):
+        return [planned.conservative, planned.aggressive]
+    return None
+
+
+def _table(agent: Any, rows: np.ndarray, actions: np.ndarray) -> np.ndarray:
+    """π^p per row of the agent's index (−1 where no planned state lies)."""
+    table = np.full(agent.index_.num_features_, -1, dtype=np.int64)
+    table[rows] = actions
+    return table
+
+
+def _safe_table(
+    agent: Any, states: np.ndarray, rows: np.ndarray, planner_actions: np.ndarray
+) -> np.ndarray:
+    """The analyser's own ``is_safe`` per planned state and action, by row."""
+    num_actions = agent.spec_.num_actions
+    safe = np.zeros((agent.index_.num_features_, num_actions), dtype=np.bool_)
+    for state, row in zip(states, rows, strict=True):
         for action in range(num_actions):
             safe[row, action] = agent.risk_.is_safe(
-                state, action, planner_action=int(planner_action)
+                state, action, planner_action=int(planner_actions[row])
             )
-    return BoxTables(index, planner_actions, safe, False)
+    return safe
 
 
-def mission_box(agent: Any) -> MissionBox:
-    """The `MissionBox` of a set-up box on a UAV mission, from its parts' current forms.
+def _rollouts_by_row(agent: Any, rollouts: GridRollouts) -> GridRollouts:
+    """``rollouts`` with T̂'s states renumbered by the agent's index rows.
+
+    CSR row (k·|S| + s)·|A| + a becomes (k·R + row(s))·|A| + a for R rows, each keeping its
+    entries in order (the same draws pick the same successors); π^p is then the box's
+    per-row table. Rows no state of T̂ has are empty (a rollout never reaches them).
+    """
+    row_of = np.array([agent.state_row(s) for s in rollouts.states], dtype=np.int64)
+    num_rows, num_actions = agent.index_.num_features_, rollouts.num_actions
+    num_states = row_of.shape[0]
+    old = np.arange(2 * num_states * num_actions)
+    table, rest = np.divmod(old, num_states * num_actions)
+    state, action = np.divmod(rest, num_actions)
+    new = (table * num_rows + row_of[state]) * num_actions + action
+    lengths = np.diff(rollouts.indptr)
+    sizes = np.zeros(2 * num_rows * num_actions, dtype=np.int64)
+    sizes[new] = lengths
+    order = np.argsort(np.repeat(new, lengths), kind="stable")
+    is_constrained = np.zeros(num_rows, dtype=np.bool_)
+    is_terminal = np.zeros(num_rows, dtype=np.bool_)
+    is_constrained[row_of] = rollouts.is_constrained
+    is_terminal[row_of] = rollouts.is_terminal
+    return rollouts._replace(
+        indptr=np.concatenate(([0], np.cumsum(sizes))), indices=row_of[rollouts.indices[order]],
+        probabilities=rollouts.probabilities[order], is_constrained=is_constrained,
+        is_terminal=is_terminal,
+    )  # fmt: skip
+
+
+def _intended_rows(agent: Any, states: np.ndarray) -> np.ndarray:
+    """The row T̂ expects each move to reach, −1 where T̂ counts no move (Algorithm 26).
+
+    Choice: a grid world's step is one move, unintended iff s' is not the model's nominal
+    successor (`GridWorld.count_unintended`); the table asks the model's ``count_unintended``
+    of that successor whether a move counts at all.
+    """
+    model, num_actions = agent.model_, agent.spec_.num_actions
+    intended = np.full((agent.index_.num_features_, num_actions), -1, dtype=np.int64)
+    for state in states:
+        for action in range(num_actions):
+            successor = model.nominal_next_state(state, action)
+            if model.domain_.count_unintended(state, action, successor)[1] > 0:
+                intended[agent.state_row(state), action] = agent.state_row(successor)
+    return intended
+
+
+def box_parts(agent: Any, tables: BoxTables) -> BoxParts:
+    """The `BoxParts` of a set-up box, from its parts' current forms.
 
     Made for every call of the loop: the model's counts, the planner in use and Algorithm
     26's η̂^p are copies that `CooperativeAgent.load_compiled_form` takes back.
     """
+    is_adaptive = agent.adapts_model  # Algorithm 26
+    parts = NO_PARTS._replace(
+        model=agent.model_.noise_model(), is_adaptive=is_adaptive,
+        replan_threshold=float(agent.replan_threshold) if is_adaptive else 0.0,
+        planned_noise=np.array([agent.planned_noise_]),
+        policy_changes=np.array([getattr(agent, "num_policy_changes_", 0)], dtype=np.int64),
+    )  # fmt: skip
+    if not tables.is_mission:
+        is_aggressive = np.array([_is_aggressive(agent)], dtype=np.bool_)
+        pair = tables.tables._replace(is_aggressive=is_aggressive)
+        grid = NO_PARTS.grid if tables.grid is None else tables.grid._replace(
+            rng=agent.risk_.rng_
+        )  # fmt: skip
+        return parts._replace(
+            tables=pair, has_rollouts=tables.grid is not None, grid=grid,
+            intended=tables.intended if is_adaptive else NO_PARTS.intended,
+        )  # fmt: skip
     planners = compiled_form(agent.planner_)
     if isinstance(planners, MissionPlanner):
         planners = fixed_pair(planners)
     risk = compiled_form(agent.risk_)
-    is_adaptive = agent.adapts_model  # Algorithm 26
     has_rollouts = isinstance(risk, MissionRollouts)
-    return NO_MISSION._replace(
+    return parts._replace(
         planners=planners, has_rollouts=has_rollouts,
-        fuel=NO_MISSION.fuel if has_rollouts else risk,
-        rollouts=risk if has_rollouts else NO_MISSION.rollouts,
-        model=agent.model_.noise_model(), layout=agent.model_.domain_.graph_.layout,
-        is_adaptive=is_adaptive,
-        replan_threshold=float(agent.replan_threshold) if is_adaptive else 0.0,
-        planned_noise=np.array([getattr(agent, "planned_noise_", 0.0)]),
-        policy_changes=np.array([getattr(agent, "num_policy_changes_", 0)], dtype=np.int64),
+        fuel=NO_PARTS.fuel if has_rollouts else risk,
+        rollouts=risk if has_rollouts else NO_PARTS.rollouts,
+        layout=agent.model_.domain_.graph_.layout,
     )  # fmt: skip
 
 
@@ -409,10 +568,10 @@ def icca_kernel(agent: Any) -> CompiledBox | None:
         return None
     half_life = agent.bias_half_life
     fading = (float(agent.bias), 0.0 if half_life is None else float(half_life))
-    box = tables.box(ICCA)._replace(
+    box = tables.box(ICCA, agent)._replace(
         visits=agent.visits_, bias=fading[0], half_life=fading[1], is_fading=half_life is not None
     )
-    return CompiledBox(box, tables.mission(agent))
+    return CompiledBox(box, tables.parts(agent))
 
 
 def cooperative_learner_kernel(agent: Any) -> CompiledBox | None:
@@ -430,35 +589,39 @@ def cooperative_learner_kernel(agent: Any) -> CompiledBox | None:
     if representation.is_adaptive and getattr(representation, "sparsify", False) is not True:
         return None
     veto, trusted = agent.veto_reward, agent.trusted_knownness
-    box = tables.box(COOPERATIVE_LEARNER)._replace(
+    box = tables.box(COOPERATIVE_LEARNER, agent)._replace(
         counts=agent.counts_, num_known=float(agent.num_known_visits),
         veto_reward=0.0 if veto is None else float(veto), has_veto=veto is not None,
         trusted=2.0 if trusted is None else float(trusted), rng=agent.rng_,
     )  # fmt: skip
-    return CompiledBox(box, tables.mission(agent))
+    return CompiledBox(box, tables.parts(agent))
 
 
 @njit(cache=True, inline="always")
-def _planner_action(box: BoxKernel, mission: MissionBox, row: int, obs: np.ndarray) -> int:
+def _planner_action(box: BoxKernel, parts: BoxParts, row: int, obs: np.ndarray) -> int:
     """π^p(s) of the state ``obs`` at ``row``: its table entry, or the CBBA planner in use."""
     if not box.is_mission:
         return box.planner_actions[row]
-    return planned_action(active_planner(mission.planners), obs)
+    return planned_action(active_planner(parts.planners), obs)
 
 
 @njit(cache=True, inline="always")
 def _is_safe(
-    box: BoxKernel, mission: MissionBox, row: int, obs: np.ndarray, action: int, planner_action: int
+    box: BoxKernel, parts: BoxParts, row: int, obs: np.ndarray, action: int, planner_action: int
 ) -> bool:
-    """safe(s, a) (`RiskAnalyzer.is_safe`): π^p(s) is safe; else the table or the mission's rule."""
-    if not box.is_mission:
-        return box.safe[row, action]
+    """safe(s, a) (`RiskAnalyzer.is_safe`): π^p(s) is safe; else the table, rule or rollouts."""
     if action == planner_action:
         return True
-    if not mission.has_rollouts:
-        return fuel_risk(mission.fuel, obs, action) < mission.fuel.risk_tolerance
-    rollouts, noise = mission.rollouts, mission.model.noise[0]
-    planner = active_planner(mission.planners)
+    noise = parts.model.noise[0]
+    if not box.is_mission:
+        if not parts.has_rollouts:
+            return box.safe[row, action]
+        grid = parts.grid
+        risk = grid_failures(grid, row, action, noise, box.planner_actions) / grid.num_rollouts
+        return risk < grid.risk_tolerance
+    if not parts.has_rollouts:
+        return fuel_risk(parts.fuel, obs, action) < parts.fuel.risk_tolerance
+    rollouts, planner = parts.rollouts, active_planner(parts.planners)
     risk = mission_failures(rollouts, planner, obs, action, noise) / rollouts.num_rollouts
     return risk < rollouts.risk_tolerance
 
@@ -478,7 +641,7 @@ def _planner_bias(box: BoxKernel, visits: int) -> float:
 @njit(cache=True, inline="always")
 def cooperative_action(
     box: BoxKernel,
-    mission: MissionBox,
+    parts: BoxParts,
     actor_weights: np.ndarray,
     phi: np.ndarray,
     values: np.ndarray | None,
@@ -500,7 +663,7 @@ def cooperative_action(
     row = encode_into(box.index, obs, quanta, row_buffer)[0]
     if row < 0:
         return -1
-    planner_action = _planner_action(box, mission, row, obs)
+    planner_action = _planner_action(box, parts, row, obs)
     visits = box.visits[row]
     box.visits[row] = visits + 1
     if visits == 0:  # Section 5.3.2: bias ρ toward π^p on the first visit
@@ -510,7 +673,7 @@ def cooperative_action(
         shift_preference_into(actor_weights, phi, values, planner_action, fade)
     q_values_into(actor_weights, phi, values, preferences)
     learner_action = select_action(policy, preferences, legal, rng)  # line 2
-    if _is_safe(box, mission, row, obs, learner_action, planner_action):  # line 4
+    if _is_safe(box, parts, row, obs, learner_action, planner_action):  # line 4
         return learner_action  # line 3
     shift_preference_into(actor_weights, phi, values, learner_action, -box.bias)  # line 6
     return planner_action  # line 5
@@ -519,7 +682,7 @@ def cooperative_action(
 @njit(cache=True, inline="always")
 def cooperative_learner_action(
     box: BoxKernel,
-    mission: MissionBox,
+    parts: BoxParts,
     agent: AgentKernel,
     arrays: LearnerArrays,
     phi: np.ndarray,
@@ -537,14 +700,14 @@ def cooperative_learner_action(
     δ is 0 unless one was, and a non-finite one diverged. ``q``: the learner's Q(s, ·)
     (recomputed after that update); ``row``: the index row of s (``obs``).
     """
-    planner_action = _planner_action(box, mission, row, obs)  # line 1
+    planner_action = _planner_action(box, parts, row, obs)  # line 1
     knownness = _knownness(box, row, planner_action)  # line 2
     consult = knownness >= 1.0 or (knownness > 0.0 and box.rng.random() < knownness)
     if not consult:  # line 3 failed
         box.counts[row, planner_action] += 1  # line 8
         return planner_action, 0.0, False
     learner_action = select_action(agent.policy, q, legal, rng)  # line 4
-    if knownness >= box.trusted or _is_safe(box, mission, row, obs, learner_action, planner_action):
+    if knownness >= box.trusted or _is_safe(box, parts, row, obs, learner_action, planner_action):
         return learner_action, 0.0, False  # line 6
     if not box.has_veto:
         return planner_action, 0.0, False
@@ -557,7 +720,7 @@ def cooperative_learner_action(
 @njit(cache=True, inline="always")
 def box_action(
     box: BoxKernel,
-    mission: MissionBox,
+    parts: BoxParts,
     agent: AgentKernel,
     arrays: LearnerArrays,
     phi: np.ndarray,
@@ -579,7 +742,7 @@ def box_action(
     """
     if box.kind == ICCA:
         action = cooperative_action(
-            box, mission, arrays.actor_weights, phi, values, q, legal, agent.policy, rng, obs,
+            box, parts, arrays.actor_weights, phi, values, q, legal, agent.policy, rng, obs,
             quanta, row_buffer,
         )  # fmt: skip
         return action, 0.0, False
@@ -588,7 +751,7 @@ def box_action(
     if row < 0:
         return -1, 0.0, False
     return cooperative_learner_action(
-        box, mission, agent, arrays, phi, values, q, legal, rng, obs, row, episode
+        box, parts, agent, arrays, phi, values, q, legal, rng, obs, row, episode
     )
 
 
@@ -598,16 +761,17 @@ def for_evaluation(form: CompiledBox, rng: np.random.Generator) -> CompiledBox:
     Algorithm 25's rollouts draw from ``rng`` (the agent's ``eval_rng_``, as
     ``is_safe(..., rng)`` in a policy check), not from the analyser's own generator.
     """
-    mission = form.mission
-    if not mission.has_rollouts:
+    parts = form.parts
+    if not parts.has_rollouts:
         return form
-    return form._replace(mission=mission._replace(rollouts=mission.rollouts._replace(rng=rng)))
+    rollouts, grid = parts.rollouts._replace(rng=rng), parts.grid._replace(rng=rng)
+    return form._replace(parts=parts._replace(rollouts=rollouts, grid=grid))
 
 
 @njit(cache=True, inline="always")
 def greedy_box_action(
     box: BoxKernel,
-    mission: MissionBox,
+    parts: BoxParts,
     chooser: np.ndarray,
     phi: np.ndarray,
     values: np.ndarray | None,
@@ -628,7 +792,7 @@ def greedy_box_action(
     if box.kind == NO_BOX:
         return greedy_action(q, legal)
     row = lookup_row(box.index, obs)
-    planner_action = _planner_action(box, mission, row, obs)
+    planner_action = _planner_action(box, parts, row, obs)
     if box.kind == ICCA:
         if row < 0 or box.visits[row] == 0:
             q[planner_action] += box.bias
@@ -641,31 +805,55 @@ def greedy_box_action(
         learner_action = planner_action if q[planner_action] >= q[best] else best
         if knownness >= box.trusted:
             return learner_action
-    if _is_safe(box, mission, row, obs, learner_action, planner_action):
+    if _is_safe(box, parts, row, obs, learner_action, planner_action):
         return learner_action
     return planner_action
 
 
+@njit(cache=True, inline="always")
+def _moves(
+    box: BoxKernel, parts: BoxParts, obs: np.ndarray, action: int, next_obs: np.ndarray
+) -> tuple[int, int]:
+    """(#unintended, #moves) of a transition as T̂ counts them (``count_unintended``)."""
+    if box.is_mission:
+        before, after = obs.astype(np.int64), next_obs.astype(np.int64)
+        return count_unintended(before, action, after, parts.layout)
+    intended = parts.intended[lookup_row(box.index, obs), action]
+    if intended < 0:
+        return 0, 0
+    return int(lookup_row(box.index, next_obs) != intended), 1
+
+
+@njit(cache=True, inline="always")
+def _switch(box: BoxKernel, parts: BoxParts, noise: float) -> bool:
+    """The planner's switch by η̂ (`switch_by_noise`); a grid table in use is copied in."""
+    if box.is_mission:
+        return switch_by_noise(parts.planners, noise)
+    if not switch_by_noise(parts.tables, noise):
+        return False
+    box.planner_actions[:] = active_planner(parts.tables)
+    return True
+
+
 @njit(cache=True)
 def box_learn(
-    mission: MissionBox, counts: np.ndarray, obs: np.ndarray, action: int, next_obs: np.ndarray
+    box: BoxKernel, parts: BoxParts, obs: np.ndarray, action: int, next_obs: np.ndarray
 ) -> None:
     """Algorithm 26, lines 10-15, after the learner's update (`AdaptiveCooperativeLearner.learn`).
 
     T̂ counts the transition's moves (`observe_moves`); when η̂ moved more than ΔT from η̂^p,
-    η̂^p ← η̂ and the planner switches by η̂ (CBBA itself never replans, `switch_by_noise`);
-    if π^p changed, every count restarts at zero (``counts``, the box's). For a box with
-    ``mission.is_adaptive``.
+    η̂^p ← η̂ and the planner switches by η̂ (CBBA and the tabulated policies never replan,
+    `switch_by_noise`); if π^p changed, every count restarts at zero (the box's ``counts``).
+    For a box with ``parts.is_adaptive``.
     """
-    before, after = obs.astype(np.int64), next_obs.astype(np.int64)
-    unintended, moves = count_unintended(before, action, after, mission.layout)
-    model = mission.model
+    unintended, moves = _moves(box, parts, obs, action, next_obs)
+    model = parts.model
     noise = model.noise[0]
     observe_moves(model, unintended, moves)  # line 10
     if model.noise[0] == noise:  # T̂ unchanged
         return
-    if abs(model.noise[0] - mission.planned_noise[0]) > mission.replan_threshold:  # line 11
-        mission.planned_noise[0] = model.noise[0]  # line 12
-        if switch_by_noise(mission.planners, model.noise[0]):  # lines 13-14
-            counts.fill(0)  # line 15
-            mission.policy_changes[0] += 1
+    if abs(model.noise[0] - parts.planned_noise[0]) > parts.replan_threshold:  # line 11
+        parts.planned_noise[0] = model.noise[0]  # line 12
+        if _switch(box, parts, model.noise[0]):  # lines 13-14
+            box.counts.fill(0)  # line 15
+            parts.policy_changes[0] += 1

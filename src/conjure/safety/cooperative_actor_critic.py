@@ -159,9 +159,10 @@ class CooperativeActorCritic(CooperativeAgent):
 
     compiled_methods = ("act", "learn", "begin_episode", "planner_bias")
     compiled_variant = (
-        "a planner with a table (ModelPlanner) or CBBA (CBBAPlanner), a deterministic risk "
-        "analyser (NominalRiskAnalyzer with ModelPlanner, or FuelRiskAnalyzer), a static model "
-        "and a one-row-per-state index, around a compiled learner on fixed features"
+        "a planner with a table (ModelPlanner, ShortestPathPlanner) or CBBA (CBBAPlanner), a "
+        "deterministic risk analyser (NominalRiskAnalyzer with a table, FuelRiskAnalyzer) or "
+        "Monte-Carlo rollouts, a static model and a one-row-per-state index, around a "
+        "compiled learner on fixed features"
     )
 
     def compiled_form(self) -> CompiledBox | None:

@@ -148,17 +148,21 @@ class CooperativeAgent(Agent):
     def load_compiled_form(self, form: CompiledBox) -> None:
         """Take back what the compiled loop changed outside the agent's own arrays.
 
-        On a UAV mission (`MissionBox`): T̂'s counts, which planner a switching π^p uses,
-        η̂^p and the count of policy changes (Algorithm 26); nothing otherwise.
+        For a box that adapts T̂ (Algorithm 26): T̂'s counts, which planner a switching π^p
+        uses, η̂^p and the count of policy changes; the analyser is told T̂ (and maybe π^p)
+        changed. Nothing otherwise.
         """
-        mission = form.mission
-        if not (form.box.is_mission and self.adapts_model):
+        if not self.adapts_model:
             return
-        self.model_.load_noise_model(mission.model)
-        if mission.planners.is_switching:
-            self.planner_.load_compiled_form(mission.planners)
-        self.planned_noise_ = float(mission.planned_noise[0])
-        self.num_policy_changes_ = int(mission.policy_changes[0])
+        parts = form.parts
+        self.model_.load_noise_model(parts.model)
+        pair = parts.planners if form.box.is_mission else parts.tables
+        if pair.is_switching:
+            self.planner_.load_compiled_form(pair)
+        changes = int(parts.policy_changes[0])
+        self.planned_noise_ = float(parts.planned_noise[0])
+        self.risk_.update(is_policy_changed=changes != self.num_policy_changes_)
+        self.num_policy_changes_ = changes
 
     def compiled_tables(self) -> BoxTables | None:
         """π^p and safe(s, a) per index row for the compiled box (`tabulate`), or None.

@@ -198,10 +198,11 @@ class CooperativeLearner(CooperativeAgent):
 
     compiled_methods = ("act", "learn", "begin_episode", "_is_trusted", "_learn_vetoed")
     compiled_variant = (
-        "a planner with a table (ModelPlanner) or CBBA (CBBAPlanner), a deterministic risk "
-        "analyser (NominalRiskAnalyzer with ModelPlanner, or FuelRiskAnalyzer), a static model "
-        "and a one-row-per-state index, around a compiled SARSA or Q-Learning on fixed "
-        "features or online iFDD with sparsified activation"
+        "a planner with a table (ModelPlanner, ShortestPathPlanner) or CBBA (CBBAPlanner), a "
+        "deterministic risk analyser (NominalRiskAnalyzer with a table, FuelRiskAnalyzer) or "
+        "Monte-Carlo rollouts, a static model and a one-row-per-state index, around a "
+        "compiled SARSA or Q-Learning on fixed features or online iFDD with sparsified "
+        "activation"
     )
 
     def compiled_form(self) -> CompiledBox | None:

@@ -20,8 +20,10 @@ from conjure.safety import _kernels
 
 __all__ = [
     "MAX_ROLLOUT_STEPS",
+    "GridRollouts",
     "MissionRollouts",
     "MonteCarloRiskAnalyzer",
+    "grid_failures",
     "mission_failures",
 ]
 
@@ -84,11 +86,12 @@ class MonteCarloRiskAnalyzer(RiskAnalyzer):
       rollout in five). On UAV 7-2 with 5% failures only the caption's reading lets AM-iCCA
       end above aggressive CBBA (+8.7% against +1.8%; docs/reproduction.md, Figs. 5-9/5-13).
     - Choice: when the model's domain has a `noise_decomposition` (grid worlds), rollouts run
-      in a numba kernel over the two tabular models, drawing the noise with probability η̂ at
-      each step; π^p is tabulated over the model's states and re-tabulated after `update`
-      says π^p changed. On a UAV mission model with CBBA as π^p (a `CBBAPlanner` or a
-      `SwitchingPlanner` of two), rollouts run in `mission_failures`: the mission's own random
-      step and CBBA's cached plans, the kernel the compiled iCCA box calls too. Otherwise each
+      in a numba kernel over the two tabular models (`grid_failures`, which the compiled
+      iCCA box calls too), drawing the noise with probability η̂ at each step; π^p is
+      tabulated over the model's states and re-tabulated after `update` says π^p changed. On
+      a UAV mission model with CBBA as π^p (a `CBBAPlanner` or a `SwitchingPlanner` of two),
+      rollouts run in `mission_failures`: the mission's own random step and CBBA's cached
+      plans, the kernel the compiled iCCA box calls too. Otherwise each
       step calls ``model.sample`` and ``planner.action`` in Python. All sample the same T̂.
 
     Complexity
@@ -154,28 +157,35 @@ class MonteCarloRiskAnalyzer(RiskAnalyzer):
             )
         decomposition = domain.noise_decomposition()
         self.is_compiled_ = decomposition is not None
+        self._grid: GridRollouts | None = None
         if self.is_compiled_:
             calm, windy = decomposition
             stacked = sp.vstack(
                 [calm.state_major_transitions, windy.state_major_transitions], format="csr"
             )
-            self._tables = (stacked.indptr, stacked.indices, stacked.data)
             self._tabular = calm
-            self._is_constrained = np.array([domain.is_constrained(s) for s in calm.states])
-            self._is_terminal = np.asarray(calm.is_terminal, dtype=bool)
+            self._grid = GridRollouts(
+                self.num_rollouts, self.horizon_, 1.0, calm.num_actions,
+                stacked.indptr.astype(np.int64), stacked.indices.astype(np.int64),
+                stacked.data.astype(np.float64),
+                np.array([domain.is_constrained(s) for s in calm.states], dtype=np.bool_),
+                np.asarray(calm.is_terminal, dtype=np.bool_),
+                np.ascontiguousarray(calm.states, dtype=np.float64), self.rng_,
+            )  # fmt: skip
 
     compiled_methods = ("risk", "is_safe")
 
-    def compiled_form(self) -> MissionRollouts | None:
-        """Algorithm 25 on a UAV mission model for the compiled iCCA box, else None.
+    def compiled_form(self) -> MissionRollouts | GridRollouts | None:
+        """Algorithm 25 for the compiled iCCA box: on a UAV mission model or a tabular T̂.
 
-        Only mission models (`mission_failures`, with CBBA as π^p) run in the compiled box;
-        the tabular rollouts on grid worlds stay with the Python box.
+        `MissionRollouts` (`mission_failures`, with CBBA as π^p) or `GridRollouts`
+        (`grid_failures`, π^p a table the box supplies); None for other models.
         """
         check_is_set_up(self, "compiled_form")
-        if self._mission is None:
+        form = self._mission if self._mission is not None else self._grid
+        if form is None:
             return None
-        return self._mission._replace(
+        return form._replace(
             num_rollouts=int(self.num_rollouts), risk_tolerance=float(self.risk_tolerance)
         )
 
@@ -211,21 +221,9 @@ class MonteCarloRiskAnalyzer(RiskAnalyzer):
             self._policy = np.array(
                 [self.planner_.action(s) for s in tabular.states], dtype=np.int64
             )
-        indptr, indices, probabilities = self._tables
-        return _kernels.count_failures(
-            tabular.state_index(state),
-            action,
-            float(self.model_.noise_),
-            self.num_rollouts,
-            self.horizon_,
-            tabular.num_actions,
-            indptr,
-            indices,
-            probabilities,
-            self._policy,
-            self._is_constrained,
-            self._is_terminal,
-            rng,
+        rollouts = self._grid._replace(num_rollouts=int(self.num_rollouts), rng=rng)
+        return grid_failures(
+            rollouts, tabular.state_index(state), action, float(self.model_.noise_), self._policy
         )
 
     def _rollout_fails(self, state: np.ndarray, action: int, rng: np.random.Generator) -> bool:
@@ -239,6 +237,55 @@ class MonteCarloRiskAnalyzer(RiskAnalyzer):
             t += 1
             constrained = model.is_constrained(state)
         return constrained
+
+
+class GridRollouts(NamedTuple):
+    """Algorithm 25 in a tabular T̂ = (1 − η̂)·P_0 + η̂·P_1 as a compiled kernel reads it.
+
+    Geramifard (2012), Algorithm 25 on a model whose domain has a `noise_decomposition`
+    (grid worlds): `grid_failures`. The stacked CSR rows ((k·|S| + s)·|A| + a) are P_k^a(s, ·).
+
+    Parameters
+    ----------
+    num_rollouts, horizon, risk_tolerance, rng
+        As in `MissionRollouts`.
+    num_actions : int
+        |A|.
+    indptr, indices, probabilities : ndarray
+        P_0 stacked over P_1, state-major CSR.
+    is_constrained, is_terminal : ndarray of bool, shape (|S|,)
+        Which states are constrained (pits) and which end an episode.
+    states : ndarray, shape (|S|, dims)
+        The state of each index (the compiled box re-indexes the tables by its own rows).
+    """
+
+    num_rollouts: int
+    horizon: int
+    risk_tolerance: float
+    num_actions: int
+    indptr: np.ndarray
+    indices: np.ndarray
+    probabilities: np.ndarray
+    is_constrained: np.ndarray
+    is_terminal: np.ndarray
+    states: np.ndarray
+    rng: np.random.Generator
+
+
+@njit(cache=True)
+def grid_failures(
+    rollouts: GridRollouts, state: int, action: int, noise: float, policy: np.ndarray
+) -> int:
+    """How many of 𝓜 rollouts from ⟨s, a⟩, then π^p (``policy[s]``), end constrained.
+
+    Algorithm 25, lines 2-8, on T̂ at η̂ = ``noise`` (`_kernels.count_failures`); ``state``
+    indexes the tables, ``policy`` gives π^p per index.
+    """
+    return _kernels.count_failures(
+        state, action, noise, rollouts.num_rollouts, rollouts.horizon, rollouts.num_actions,
+        rollouts.indptr, rollouts.indices, rollouts.probabilities, policy,
+        rollouts.is_constrained, rollouts.is_terminal, rollouts.rng,
+    )  # fmt: skip
 
 
 class MissionRollouts(NamedTuple):
