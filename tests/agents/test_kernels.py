@@ -16,7 +16,7 @@ ONES = np.ones(2)
 
 def empty_traces(num_features=3, num_actions=2, capacity=64):
     return (
-        np.full((num_features, num_actions), -1, dtype=np.int64),
+        np.zeros((num_features, num_actions), dtype=np.int64),  # 1 + slot; 0: no trace
         np.zeros(capacity, dtype=np.int64),
         np.zeros(capacity, dtype=np.int64),
         np.zeros(capacity),
@@ -98,7 +98,7 @@ def test_traces_below_min_trace_are_dropped():
     # Decayed to (0.25, 1): trace (0, 0) falls below 0.3 and its slot is freed.
     _kernels.td_step_traces(weights, other, ONES[:1], 1, 1.0, 0.25, 0.5, False, 0.3, *traces)
     assert trace_table(traces).tolist() == [[0.0, 0.0], [0.0, 1.0], [1.0, 0.0]]
-    assert traces[0][0, 0] == -1 and traces[4][0] == 2
+    assert traces[0][0, 0] == 0 and traces[4][0] == 2
 
 
 def test_actor_add_and_norms():

@@ -139,7 +139,7 @@ def test_traces_grow_with_discovered_features():
     _rollout(domain, agent, 20, seed=0)
     agent._grow(Expansion(first_new=4, parents=np.array([[0, 1]])))
     assert agent.weights_.shape == (5, 2) and agent.trace_slots_.shape == (5, 2)
-    assert np.all(agent.trace_slots_[4] == -1)
+    assert np.all(agent.trace_slots_[4] == 0)  # no trace
 
 
 def test_rbf_sarsa_lambda_matches_dense_accumulating_traces():

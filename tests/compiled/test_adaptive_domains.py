@@ -424,5 +424,5 @@ def test_traces_and_their_slots_grow_between_kernel_calls():
     assert agent.trace_slots_.shape == (n, 36) and agent.weights_.shape == (n, 36)
     live = agent.trace_count_[0]
     slots = agent.trace_slots_[agent.trace_features_[:live], agent.trace_actions_[:live]]
-    assert slots.tolist() == list(range(live))  # every live trace is found from its slot
-    assert (agent.trace_slots_ >= 0).sum() == live
+    assert slots.tolist() == list(range(1, live + 1))  # every live trace: 1 + its slot
+    assert (agent.trace_slots_ > 0).sum() == live

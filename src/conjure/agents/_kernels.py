@@ -244,8 +244,10 @@ def td_step_traces(
     e(i, a) + φ_i(s) (accumulating) for the listed features i; θ ← θ + α δ e. Replacing
     traces apply only when every listed value is 1 (binary φ); a φ(s) with other values
     accumulates. The live traces are kept in three parallel arrays of length ``count[0]``;
-    ``slot_of[f, a]`` is the slot of trace (f, a) or −1. Returns δ, or nan before touching
-    anything if the trace arrays could overflow (the caller grows them and calls again).
+    ``slot_of[f, a]`` is 1 + the slot of trace (f, a), or 0 for none (so a table of zeros,
+    whose pages are mapped only when written, starts empty). Returns δ, or nan before
+    touching anything if the trace arrays could overflow (the caller grows them and calls
+    again).
     """
     if count[0] + indices.shape[0] > trace_value.shape[0]:
         return np.nan
@@ -267,18 +269,18 @@ def td_step_traces(
             trace_feature[kept] = f
             trace_action[kept] = a
             trace_value[kept] = value
-            slot_of[f, a] = kept
             kept += 1
+            slot_of[f, a] = kept
         else:
-            slot_of[f, a] = -1
+            slot_of[f, a] = 0
     for i in range(indices.shape[0]):
         f = indices[i]
         value = _value(values, i)
-        slot = slot_of[f, action]
+        slot = slot_of[f, action] - 1
         if slot < 0:
             slot = kept
             kept += 1
-            slot_of[f, action] = slot
+            slot_of[f, action] = kept
             trace_feature[slot] = f
             trace_action[slot] = action
             trace_value[slot] = value
@@ -297,7 +299,7 @@ def td_step_traces(
 def clear_traces(
     slot_of: np.ndarray, trace_feature: np.ndarray, trace_action: np.ndarray, count: np.ndarray
 ) -> None:
-    """Forget every live sparse trace (at the start of an episode)."""
+    """Forget every live sparse trace (at the start of an episode; see `td_step_traces`)."""
     for i in range(count[0]):
-        slot_of[trace_feature[i], trace_action[i]] = -1
+        slot_of[trace_feature[i], trace_action[i]] = 0
     count[0] = 0

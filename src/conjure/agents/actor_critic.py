@@ -21,7 +21,7 @@ from conjure.core.interfaces import (
 from conjure.core.params import InstanceOf, Interval, Options
 from conjure.core.schedules import StepSizeSchedule
 from conjure.policies import Gibbs, greedy_action
-from conjure.representations.weights import grow_weights, with_room
+from conjure.representations.weights import grow_weights, initial_weights, with_room
 
 __all__ = ["ActorCritic"]
 
@@ -175,7 +175,9 @@ class ActorCritic(LinearTDAgent):
         self.actor_schedule_ = (
             self.schedule_ if self.actor_step_size is None else make_schedule(self.actor_step_size)
         )
-        self.actor_weights_ = np.full((actor.num_features_, spec.num_actions), self.initial_weight)
+        self.actor_weights_ = initial_weights(
+            (actor.num_features_, spec.num_actions), self.initial_weight
+        )
         self._is_log_policy = self.actor_update == "log_policy"
         if self._is_log_policy and not (
             isinstance(self.policy_, Gibbs) and self.policy_.temperature > 0

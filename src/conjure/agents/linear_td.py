@@ -46,7 +46,7 @@ from conjure.core.params import InstanceOf, Interval
 from conjure.core.schedules import ConstantStepSize, StepSizeSchedule
 from conjure.core.seeding import make_rng, rng_from_state, rng_state, split_seed
 from conjure.policies import EpsilonGreedy, greedy_action
-from conjure.representations.weights import grow_weights, with_room
+from conjure.representations.weights import grow_weights, initial_weights, with_room
 
 __all__ = ["STEP_SIZE", "LinearTDAgent", "state_key"]
 
@@ -114,9 +114,8 @@ class LinearTDAgent(Agent):
         self.schedule_ = make_schedule(self.step_size)
         self.rng_ = make_rng(seeds["policy"])
         check_weight_size(self.representation_, spec)
-        self.weights_ = np.full(
-            (self.representation_.num_features_, spec.num_actions),
-            float(self.initial_weight),
+        self.weights_ = initial_weights(
+            (self.representation_.num_features_, spec.num_actions), self.initial_weight
         )
         self.episode_ = 0
         self.num_learning_steps_ = 0

@@ -162,7 +162,7 @@ class SARSA(LinearTDAgent):
 
     def _make_traces(self) -> None:
         n, num_actions = self.weights_.shape
-        self.trace_slots_ = np.full((n, num_actions), -1, dtype=np.int64)
+        self.trace_slots_ = np.zeros((n, num_actions), dtype=np.int64)  # 1 + slot; 0: none
         capacity = 1024
         self.trace_features_ = np.zeros(capacity, dtype=np.int64)
         self.trace_actions_ = np.zeros(capacity, dtype=np.int64)
@@ -220,7 +220,7 @@ class SARSA(LinearTDAgent):
     def _grow(self, expansion: Expansion) -> None:
         super()._grow(expansion)
         if self._has_traces:
-            self.trace_slots_ = append_rows(self.trace_slots_, expansion.num_new, fill=-1)
+            self.trace_slots_ = append_rows(self.trace_slots_, expansion.num_new)
 
     # ------------------------------------------------------------------ persistence
 
@@ -256,5 +256,5 @@ class SARSA(LinearTDAgent):
         self.trace_features_[:count] = features
         self.trace_actions_[:count] = actions
         self.trace_values_[:count] = values
-        self.trace_slots_[features, actions] = np.arange(count)
+        self.trace_slots_[features, actions] = np.arange(1, count + 1)
         self.trace_count_[0] = count

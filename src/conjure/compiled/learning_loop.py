@@ -177,7 +177,7 @@ def _discover(
             parent_sum_row(arrays.actor_weights, parents[f, 0], parents[f, 1], f)
         if has_traces:  # a new feature has no trace yet (SARSA's own growth)
             for a in range(arrays.trace_slots.shape[1]):
-                arrays.trace_slots[f, a] = -1
+                arrays.trace_slots[f, a] = 0
     return added > 0
 
 

@@ -8,7 +8,20 @@ from numba import njit
 from conjure.core.errors import InvalidParameterError
 from conjure.core.interfaces import Expansion
 
-__all__ = ["append_rows", "grow_weights", "parent_sum_row", "with_room"]
+__all__ = ["append_rows", "grow_weights", "initial_weights", "parent_sum_row", "with_room"]
+
+
+def initial_weights(shape: tuple[int, ...], value: float) -> np.ndarray:
+    """θ of ``shape`` with every entry ``value``, float64.
+
+    Zero-initialised θ comes from ``np.zeros``, whose pages the operating system maps only
+    when first written, so a table indexed lazily (`HashedTabular`: rows in order of first
+    visit) costs memory for the rows a run reaches, not for its capacity; ``np.full`` would
+    write, and so map, every page.
+    """
+    if value == 0.0:
+        return np.zeros(shape)
+    return np.full(shape, float(value))
 
 
 def append_rows(array: np.ndarray, num_new: int, fill: float = 0.0) -> np.ndarray:
