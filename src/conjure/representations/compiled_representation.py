@@ -37,6 +37,7 @@ __all__ = [
     "index_row",
     "lookup_row",
     "representation_kernel",
+    "rows_in_use",
     "values_of",
 ]
 
@@ -149,6 +150,12 @@ def lookup_row(rep: RepresentationKernel, state: np.ndarray) -> int:
     if rep.kind == HASHED_TABULAR:
         return lookup_cell(state, rep.dims, rep.vector, rep.hash_table)
     return tabular_feature(state, rep.dims, rep.vector)[0]
+
+
+@njit(cache=True, inline="always")
+def rows_in_use(rep: RepresentationKernel, num_rows: int) -> int:
+    """The rows of a one-row-per-state index's tables in use: the cells stored, or all."""
+    return rep.hash_counts[0] if rep.kind == HASHED_TABULAR else num_rows
 
 
 @njit(cache=True)

@@ -173,7 +173,7 @@ class AdaptiveCooperativeLearner(CooperativeLearner):
             self.planned_noise_ = float(model.noise_)  # line 12: T̂^p ← T̂
             is_policy_changed = self.planner_.update(model)  # line 13
             if is_policy_changed:  # line 14
-                self.counts_[...] = 0  # line 15
+                self.counts_[: self.index_.num_features_in_use_] = 0  # line 15: rows in use
                 self.num_policy_changes_ += 1
         self.risk_.update(is_policy_changed=is_policy_changed)  # T̂ (and maybe π^p) changed
         return delta

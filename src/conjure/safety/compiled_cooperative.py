@@ -61,6 +61,7 @@ from conjure.representations.compiled_representation import (
     encode_into,
     lookup_row,
     representation_kernel,
+    rows_in_use,
 )
 from conjure.safety.fuel_risk import FuelRisk, fuel_risk
 from conjure.safety.monte_carlo_risk import (
@@ -843,8 +844,9 @@ def box_learn(
 
     T̂ counts the transition's moves (`observe_moves`); when η̂ moved more than ΔT from η̂^p,
     η̂^p ← η̂ and the planner switches by η̂ (CBBA and the tabulated policies never replan,
-    `switch_by_noise`); if π^p changed, every count restarts at zero (the box's ``counts``).
-    For a box with ``parts.is_adaptive``.
+    `switch_by_noise`); if π^p changed, every count restarts at zero (the box's ``counts``,
+    the rows in use: untouched rows of a lazily indexed table stay unmapped). For a box with
+    ``parts.is_adaptive``.
     """
     unintended, moves = _moves(box, parts, obs, action, next_obs)
     model = parts.model
@@ -855,5 +857,5 @@ def box_learn(
     if abs(model.noise[0] - parts.planned_noise[0]) > parts.replan_threshold:  # line 11
         parts.planned_noise[0] = model.noise[0]  # line 12
         if _switch(box, parts, model.noise[0]):  # lines 13-14
-            box.counts.fill(0)  # line 15
+            box.counts[: rows_in_use(box.index, box.counts.shape[0])] = 0  # line 15
             parts.policy_changes[0] += 1
