@@ -44,9 +44,11 @@ class HashedTabular(BucketTable, Representation):
     ----------
     capacity : int, default 100_000
         The number of distinct cells (states of a discrete domain) it can index, in [1, inf);
-        θ has this many rows, so it takes capacity × |A| × 8 bytes (28.8 MB for BlocksWorld's
-        36 actions at the default); the index takes capacity × d × 8 bytes for the cells plus
-        8 bytes for each of its 2-4 hash slots per capacity. A new cell beyond the capacity
+        θ has this many rows, so it reserves capacity × |A| × 8 bytes (28.8 MB for
+        BlocksWorld's 36 actions at the default), of which a zero-initialised θ occupies
+        memory only for the rows a run reaches (rows are numbered by first visit); the index
+        takes capacity × d × 8 bytes for the cells (likewise) plus 8 bytes for each of its 2-4
+        hash slots per capacity. A new cell beyond the capacity
         raises `InvalidParameterError` naming it and suggesting a larger one.
     num_buckets : int or list of int, default 20
         As in `Tabular`: equal buckets per continuous dimension over ``[low, high]``, in
