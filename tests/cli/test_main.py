@@ -346,6 +346,9 @@ def test_ctrl_c_stops_a_run_inside_the_compiled_loop_and_says_what_is_saved(tmp_
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
+        # Ctrl-C's default disposition, as in a terminal: a suite started in the background by
+        # a non-interactive shell (`cmd &`) inherits SIGINT ignored, and so would the driver.
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
     )
     try:
         time.sleep(20.0)  # compiled (or loaded from the cache) and deep in 10⁹ steps

@@ -7,8 +7,12 @@ written, and Algorithm 26's count reset clears only the rows in use. Checked wit
 """
 
 import ctypes
+import json
 import mmap
+import os
+import subprocess
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -61,20 +65,43 @@ def _am_icca() -> AdaptiveCooperativeLearner:
     )
 
 
-@pytest.mark.parametrize("compiled", [False, True])
-def test_a_box_maps_only_the_rows_its_run_reached(compiled):
+def _mapped_fractions(agent: AdaptiveCooperativeLearner) -> dict[str, float]:
+    """The resident fraction of θ, the trace slots and the counts after a run of 2,000 steps."""
+    learner = agent.learner_
+    assert agent.num_policy_changes_ >= 1  # the counts were reset
+    assert 0 < agent.index_.num_stored_ < 2_000
+    tables = {"θ": learner.weights_, "trace slots": learner.trace_slots_, "counts": agent.counts_}
+    assert all(table.nbytes > 30 * 2**20 for table in tables.values())  # 37-78 MB each
+    return {name: _resident_fraction(table) for name, table in tables.items()}
+
+
+def _run(compiled: bool) -> dict[str, float]:
     domain = UAVMission(scenario="uav-7-2", traverse_failure=0.05)
     agent = _am_icca().setup(domain.domain_spec, 1)
     stepper = for_combination(domain, agent, seed=1) if compiled else None
     (stepper or LearningLoop(domain, agent, seed=1)).advance(2_000)
-    learner = agent.learner_
-    assert agent.num_policy_changes_ >= 1  # the counts were reset
-    assert 0 < agent.index_.num_stored_ < 2_000
-    tables = {
-        "θ": learner.weights_,
-        "trace slots": learner.trace_slots_,
-        "counts": agent.counts_,
-    }
-    for name, table in tables.items():  # 37-78 MB each at capacity 200,000
-        assert table.nbytes > 30 * 2**20
-        assert 0 < _resident_fraction(table) < 0.1, name  # the rows written, not the rest
+    return _mapped_fractions(agent)
+
+
+def test_the_python_box_maps_only_the_rows_its_run_reached():
+    # In a fresh interpreter: a long-lived process's allocator may serve np.zeros from reused
+    # heap memory, which calloc clears (and so maps) page by page.
+    code = "import json, test_lazy_tables as t; print(json.dumps(t._run(compiled=False)))"
+    here = Path(__file__).resolve()
+    paths = [str(here.parent), str(here.parents[2] / "src"), os.environ.get("PYTHONPATH", "")]
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(p for p in paths if p)}
+    done = subprocess.run(
+        [sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True
+    )
+    fractions = json.loads(done.stdout.strip().splitlines()[-1])
+    for name, fraction in fractions.items():
+        assert 0 < fraction < 0.1, name  # the rows written, not the rest
+
+
+def test_the_compiled_box_maps_only_the_rows_its_run_reached():
+    fresh = np.zeros((200_000, 49))
+    if _resident_fraction(fresh) > 0.1:
+        pytest.skip("this process's allocator serves large zeros from reused heap memory")
+    del fresh
+    for name, fraction in _run(compiled=True).items():
+        assert 0 < fraction < 0.1, name  # the rows written, not the rest
