@@ -151,7 +151,8 @@ class AdaptiveCooperativeLearner(CooperativeLearner):
         """Algorithm 26's box for the compiled loop, or None.
 
         Algorithm 24's box (`cooperative_learner_kernel`) whose `box_learn` counts T̂'s moves
-        and switches π^p.
+        and switches π^p. Defined here, not inherited, because the kernel stands for this
+        class's own ``learn`` (`conjure.core.compiled_form`).
         """
         check_is_set_up(self, "compiled_form")
         return cooperative_learner_kernel(self)

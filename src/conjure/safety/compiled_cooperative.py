@@ -539,9 +539,8 @@ def box_parts(agent: Any, tables: BoxTables) -> BoxParts:
             rng=agent.risk_.rng_
         )  # fmt: skip
         return parts._replace(
-            tables=pair, has_rollouts=tables.grid is not None, grid=grid,
-            intended=tables.intended if is_adaptive else NO_PARTS.intended,
-        )  # fmt: skip
+            tables=pair, has_rollouts=tables.grid is not None, grid=grid, intended=tables.intended
+        )
     planners = compiled_form(agent.planner_)
     if isinstance(planners, MissionPlanner):
         planners = fixed_pair(planners)
@@ -613,15 +612,15 @@ def _is_safe(
     """safe(s, a) (`RiskAnalyzer.is_safe`): π^p(s) is safe; else the table, rule or rollouts."""
     if action == planner_action:
         return True
+    if not parts.has_rollouts:  # the table, or the fuel rule on a mission
+        if not box.is_mission:
+            return box.safe[row, action]
+        return fuel_risk(parts.fuel, obs, action) < parts.fuel.risk_tolerance
     noise = parts.model.noise[0]
     if not box.is_mission:
-        if not parts.has_rollouts:
-            return box.safe[row, action]
         grid = parts.grid
         risk = grid_failures(grid, row, action, noise, box.planner_actions) / grid.num_rollouts
         return risk < grid.risk_tolerance
-    if not parts.has_rollouts:
-        return fuel_risk(parts.fuel, obs, action) < parts.fuel.risk_tolerance
     rollouts, planner = parts.rollouts, active_planner(parts.planners)
     risk = mission_failures(rollouts, planner, obs, action, noise) / rollouts.num_rollouts
     return risk < rollouts.risk_tolerance
