@@ -823,34 +823,53 @@ def _cover(k, found, sets):
     feature is taken if none of its initial features is covered yet. A feature's size is
     the number of bits of its row of ``sets`` (its initial set), so the cover reads no
     per-feature table.
+
+    Choice: instead of sorting the m − k discovered features, each pass takes the first
+    feature of that order among those still disjoint from the cover (the largest key), which
+    is the feature the sorted walk would take next: a feature the walk skipped meets the
+    cover, and still does once the cover grew. Each pass keeps only the disjoint candidates,
+    so the cost is O(m · picks) (picks ≤ k) rather than a sort's O(m log m) with indirection.
     """
     m = found.shape[0]
-    key = np.empty(m - k, dtype=np.int64)
+    words = sets.shape[1]
+    candidates = np.empty(m - k, dtype=np.int64)  # rows of `found`, then their keys
+    keys = np.empty(m - k, dtype=np.int64)
     for r in range(k, m):  # largest first, then the latest discovered (ids are unique)
         size = 0
-        for w in range(sets.shape[1]):
+        for w in range(words):
             bits = sets[r, w]
             while bits:
                 bits &= bits - np.uint64(1)
                 size += 1
-        key[r - k] = -((size << 40) + found[r])
-    order = np.argsort(key)
-    words = sets.shape[1]
+        candidates[r - k] = r
+        keys[r - k] = (size << 40) + found[r]
     covered = np.zeros(words, dtype=np.uint64)
     out = np.empty(k, dtype=np.int64)
     count = 0
-    for r in range(m - k):
-        row = k + order[r]
-        free = True
-        for w in range(words):
-            if sets[row, w] & covered[w]:
-                free = False
-                break
-        if free:
+    alive = m - k
+    while alive > 0:
+        best = -1
+        kept = 0
+        for c in range(alive):  # drop the candidates that meet the cover; find the largest
+            row = candidates[c]
+            free = True
             for w in range(words):
-                covered[w] |= sets[row, w]
-            out[count] = found[row]
-            count += 1
+                if sets[row, w] & covered[w]:
+                    free = False
+                    break
+            if free:
+                candidates[kept], keys[kept] = row, keys[c]
+                if best < 0 or keys[kept] > keys[best]:
+                    best = kept
+                kept += 1
+        alive = kept
+        if best < 0:
+            break
+        row = candidates[best]
+        for w in range(words):
+            covered[w] |= sets[row, w]
+        out[count] = found[row]
+        count += 1
     for i in range(k):  # what is left is covered by the initial features themselves
         if not covered[i // 64] & (np.uint64(1) << np.uint64(i % 64)):
             out[count] = found[i]
