@@ -83,25 +83,20 @@ def _run(compiled: bool) -> dict[str, float]:
     return _mapped_fractions(agent)
 
 
-def test_the_python_box_maps_only_the_rows_its_run_reached():
-    # In a fresh interpreter: a long-lived process's allocator may serve np.zeros from reused
-    # heap memory, which calloc clears (and so maps) page by page.
-    code = "import json, test_lazy_tables as t; print(json.dumps(t._run(compiled=False)))"
+def _fractions_in_fresh_process(compiled: bool) -> dict[str, float]:
+    """`_run` in a fresh interpreter: a long-lived process's allocator may serve np.zeros from
+    reused heap memory, which calloc clears (and so maps) page by page."""
+    code = f"import json, test_lazy_tables as t; print(json.dumps(t._run(compiled={compiled})))"
     here = Path(__file__).resolve()
     paths = [str(here.parent), str(here.parents[2] / "src"), os.environ.get("PYTHONPATH", "")]
     env = {**os.environ, "PYTHONPATH": os.pathsep.join(p for p in paths if p)}
     done = subprocess.run(
         [sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True
     )
-    fractions = json.loads(done.stdout.strip().splitlines()[-1])
-    for name, fraction in fractions.items():
-        assert 0 < fraction < 0.1, name  # the rows written, not the rest
+    return json.loads(done.stdout.strip().splitlines()[-1])
 
 
-def test_the_compiled_box_maps_only_the_rows_its_run_reached():
-    fresh = np.zeros((200_000, 49))
-    if _resident_fraction(fresh) > 0.1:
-        pytest.skip("this process's allocator serves large zeros from reused heap memory")
-    del fresh
-    for name, fraction in _run(compiled=True).items():
+@pytest.mark.parametrize("compiled", [False, True], ids=["python", "compiled"])
+def test_a_box_maps_only_the_rows_its_run_reached(compiled):
+    for name, fraction in _fractions_in_fresh_process(compiled).items():
         assert 0 < fraction < 0.1, name  # the rows written, not the rest

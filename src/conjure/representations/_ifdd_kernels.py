@@ -832,8 +832,8 @@ def _cover(k, found, sets):
     """
     m = found.shape[0]
     words = sets.shape[1]
-    candidates = np.empty(m - k, dtype=np.int64)  # rows of `found`, then their keys
-    keys = np.empty(m - k, dtype=np.int64)
+    candidates = np.empty(m - k, dtype=np.int64)  # rows of `found` still disjoint
+    keys = np.empty(m - k, dtype=np.int64)  # their keys: size, then id
     for r in range(k, m):  # largest first, then the latest discovered (ids are unique)
         size = 0
         for w in range(words):

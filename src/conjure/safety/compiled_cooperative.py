@@ -814,10 +814,13 @@ def greedy_box_action(
 def _moves(
     box: BoxKernel, parts: BoxParts, obs: np.ndarray, action: int, next_obs: np.ndarray
 ) -> tuple[int, int]:
-    """(#unintended, #moves) of a transition as T̂ counts them (``count_unintended``)."""
+    """(#unintended, #moves) of a transition as T̂ counts them (``count_unintended``).
+
+    On a mission the kernel reads the float observations in place: they hold the state's
+    integers, and the kernel only compares them (no int copy per step).
+    """
     if box.is_mission:
-        before, after = obs.astype(np.int64), next_obs.astype(np.int64)
-        return count_unintended(before, action, after, parts.layout)
+        return count_unintended(obs, action, next_obs, parts.layout)
     intended = parts.intended[lookup_row(box.index, obs), action]
     if intended < 0:
         return 0, 0
