@@ -1,6 +1,7 @@
 """Learning steps per second: the compiled path vs the Python path vs a hand-written numba loop.
 
-Usage: ``python benchmarks/compiled_loop.py [--steps N] [--repeats R] [--no-compile-times]``
+Usage: ``python benchmarks/compiled_loop.py [--steps N] [--repeats R] [--no-compile-times]
+[--limit-loop PATH]``
 
 Workload (issue 11): SARSA + tile coding (8 tilings of 10x10) with ε-greedy (ε = 0.1) and a
 constant step size on the inverted pendulum, measured three ways side by side, interleaved
@@ -14,6 +15,10 @@ repeat by repeat with the RBF workload below (the machine is shared; the median 
   preallocated buffers and no library code: the limit the compiled path is compared against.
   It is given the compiled path's seeds and the same number of steps, and the run ends by
   saying whether the two left θ bit for bit equal (``tests/test_benchmarks.py`` checks it).
+- ``limit_loop.py`` (with ``--limit-loop PATH``): an outside reference, one plain numba
+  function ``loop(n, rng)`` doing comparable arithmetic (issue 22's yardstick), loaded from
+  PATH and timed in this process, interleaved with the others. Its step size decays and its
+  force noise differs, so it is a cost reference only (no θ comparison).
 
 Second workload: SARSA + Gaussian RBF (3x3 centers plus a bias, real-valued φ) with the same
 policy and step size on the pendulum, ``python`` and ``compiled`` paths side by side (the
@@ -27,6 +32,7 @@ process).
 from __future__ import annotations
 
 import argparse
+import importlib.util
 import math
 import os
 import statistics
@@ -247,12 +253,26 @@ def hand_written(seed: int = 0, cap: int = CAP) -> tuple[Callable[[int], int], n
     return advance, weights
 
 
-def runners(num_steps: int) -> tuple[dict, Callable[[], bool]]:
+def limit_loop(path: str) -> Callable[[int], float]:
+    """``loop(n, rng)`` of the file at ``path``, as an advance taking a step count."""
+    spec = importlib.util.spec_from_file_location("limit_loop", path)
+    if spec is None or spec.loader is None:
+        raise SystemExit(f"--limit-loop {path!r}: not a Python file")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    rng = np.random.default_rng(0)
+    return lambda num_steps: module.loop(num_steps, rng)
+
+
+def runners(num_steps: int, limit_path: str | None = None) -> tuple[dict, Callable[[], bool]]:
     """Every measured path, keyed by (workload, path), and whether the tile paths' θ agree."""
     tiles, agent = _paths("tiles", num_steps)
     rbf, _ = _paths("rbf", num_steps)
     advance, weights = hand_written(0)
-    paths = {**tiles, ("tiles", "hand-written"): (advance, num_steps), **rbf}
+    paths = {**tiles, ("tiles", "hand-written"): (advance, num_steps)}
+    if limit_path is not None:
+        paths["tiles", "limit_loop.py"] = (limit_loop(limit_path), num_steps)
+    paths.update(rbf)
     return paths, lambda: np.array_equal(agent.weights_, weights)
 
 
@@ -294,8 +314,9 @@ def main() -> None:
     parser.add_argument("--steps", type=int, default=2_000_000)
     parser.add_argument("--repeats", type=int, default=5)
     parser.add_argument("--no-compile-times", action="store_true")
+    parser.add_argument("--limit-loop", metavar="PATH", help="an outside reference loop file")
     args = parser.parse_args()
-    table, is_same_work = runners(args.steps)
+    table, is_same_work = runners(args.steps, args.limit_loop)
     for advance, _ in table.values():
         advance(2_000)  # warm-up: compilation or cache loading
     rates: dict[str, list[float]] = {name: [] for name in table}
@@ -317,6 +338,9 @@ def main() -> None:
             if kind == workload:
                 out.add_row(path, f"{rate:,.0f}", f"{1e6 / rate:.3f}", f"{reference / rate:.2f}")
         console.print(out)
+    if args.limit_loop is not None:
+        ratio = medians["tiles", "limit_loop.py"] / medians["tiles", "compiled"]
+        console.print(f"compiled path / limit_loop.py, µs per step: {ratio:.2f}x")
     # Equal step counts (warm-up included): the same arithmetic gives the same θ bit for bit.
     same = "yes" if is_same_work() else "NO: the reference does other work"
     console.print(f"hand-written θ == compiled θ after the same steps: {same}")
