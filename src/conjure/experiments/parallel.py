@@ -51,7 +51,7 @@ from rich.progress import (
 from rich.table import Table
 
 from conjure.core.errors import ResultsWriteError, RunsInterruptedError
-from conjure.experiments.claims import Claims
+from conjure.experiments.claims import Claims, Owner
 from conjure.experiments.config import ExperimentConfig, dump_yaml, parse_config, resolve_run
 from conjure.experiments.executors import NOT_CLAIMED, Executor, LocalExecutor, TaskFailure
 from conjure.experiments.loop import COMPILE_WORTH_STEPS
@@ -329,13 +329,7 @@ class _Batch:
             if not held:
                 return
             if not said_held:
-                owners = claims.holders([identifier for identifier, _ in held])
-                who = ", ".join(f"{owner} holds {n}" for owner, n in owners.items())
-                bar.console.print(
-                    f"{len(held)} run(s) are held by another driver ({who or 'ending'}); "
-                    "waiting for them (this driver runs any whose owner stops)."
-                )
-                said_held = True
+                said_held = _say_held(claims.holders([i for i, _ in held]), bar.console)
             self.waiting = self._wait_for_others(held, claims, bar, task)
 
     def _run_wave(
@@ -433,6 +427,23 @@ class _Batch:
             f"safe in {self.out_dir}. Free space (or raise the file-size limit) and rerun the "
             "same command: it resumes."
         )
+
+
+def _say_held(owners: Mapping[Owner, int], console: Console) -> bool:
+    """Print how many runs other drivers hold, from one look at the claims; whether it did.
+
+    Nothing is printed when no run is held any more (their owners finished them meanwhile).
+    """
+    total = sum(owners.values())
+    if not total:
+        return False
+    who = ", ".join(f"{owner} holds {n}" for owner, n in owners.items())
+    drivers = "another driver" if len(owners) == 1 else f"{len(owners)} other drivers"
+    console.print(
+        f"{total} run(s) are held by {drivers} ({who}); waiting for them (this driver runs "
+        "any whose owner stops)."
+    )
+    return True
 
 
 def prepare_executor(
