@@ -29,7 +29,7 @@ import numpy as np
 import pandas as pd
 from scipy import stats
 
-from conjure.core.errors import InvalidParameterError, ResultsWriteError
+from conjure.core.errors import InvalidParameterError, write_failure
 from conjure.experiments.metric_ranges import metric_range
 from conjure.experiments.numbers import format_interval, format_number
 from conjure.experiments.options import out_dir_option
@@ -396,10 +396,8 @@ def report_command(results_dir: Path, metric: str | None, out_dir: Path | None) 
     try:
         path = write_report(results_dir, metric=metric, out_dir=out_dir)
     except OSError as exc:
-        raise ResultsWriteError(
-            f"Could not write {exc.filename or out_dir or results_dir}: {exc.strerror or exc}; "
-            f"the runs in {Path(results_dir) / RUNS_DIR} are untouched. Free space and rerun."
-        ) from None
+        kept = f"the runs in {Path(results_dir) / RUNS_DIR} are untouched."
+        raise write_failure(exc, kept) from None
     present = pd.read_parquet(Path(results_dir) / RESULTS_FILE, columns=["run_id"])
     count, missing = completeness(Path(results_dir), present)
     if missing is not None:
