@@ -35,7 +35,6 @@ from conjure.experiments.numbers import format_interval, format_number
 from conjure.experiments.options import out_dir_option
 from conjure.experiments.results import (
     ERRORS_DIR,
-    GROUP_COLUMNS,
     RESULTS_FILE,
     RUNS_DIR,
     SELECTED_DIR,
@@ -164,10 +163,15 @@ def _missing_lines(results_dir: Path, results: pd.DataFrame) -> list[str]:
         return []
     lines = [f"**Incomplete: {count}** (the sweep is running or was cut; rerun it to resume)."]
     lines += ["", "Methods with missing runs:", ""]
-    for row in missing.to_dict("records"):
-        method = " ".join(str(row[k]) for k in GROUP_COLUMNS if row.get(k))
-        lines.append(f"- {method}: {row['missing']} of {row['planned']} missing")
+    lines += [f"- {_incomplete(row)}" for row in missing.to_dict("records")]
     return [*lines, ""]
+
+
+def _incomplete(row: dict[str, Any]) -> str:
+    """``"long sarsa [step_size=0.1]: 2 of 4 missing"``: a method setting that misses runs."""
+    method = " ".join(str(row[k]) for k in ("domain_label", "label") if row.get(k))
+    setting = f" [{row['setting']}]" if row.get("setting") else ""
+    return f"{method}{setting}: {row['missing']} of {row['planned']} missing"
 
 
 def _markdown_table(frame: pd.DataFrame) -> str:
@@ -401,8 +405,6 @@ def report_command(results_dir: Path, metric: str | None, out_dir: Path | None) 
     present = pd.read_parquet(Path(results_dir) / RESULTS_FILE, columns=["run_id"])
     count, missing = completeness(Path(results_dir), present)
     if missing is not None:
-        methods = ", ".join(
-            f"{row['label']} ({row['missing']} missing)" for row in missing.to_dict("records")
-        )
+        methods = "; ".join(_incomplete(row) for row in missing.to_dict("records"))
         click.echo(f"Incomplete: {count}; runs missing for {methods}.")
     click.echo(f"Wrote {path} and {Path(results_dir) / RESULTS_FILE}")
