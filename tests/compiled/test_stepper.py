@@ -1,5 +1,7 @@
 """Same seed, same curve: the compiled stepper against the Python `LearningLoop`."""
 
+import time
+
 import numpy as np
 import pytest
 
@@ -402,16 +404,47 @@ def test_one_compilation_serves_every_binary_combination_and_one_every_rbf_one()
     assert len(last) == 2 and last[1] == "none" and last[0].startswith("UniTuple")
 
 
+@pytest.mark.parametrize("limit", [("MAX_KERNEL_STEPS", 7), ("CHUNK_SECONDS", 0.0)])
 @pytest.mark.parametrize(
     "name", ["pendulum-rbf-actor-critic", "gridworld-rbf-sarsa-lambda-accumulating"]
 )
-def test_kernel_calls_in_bounded_chunks_change_nothing(name, monkeypatch):
-    # Ctrl-C is seen between kernel calls only, so `advance` calls the kernel for at most
-    # MAX_KERNEL_STEPS steps at a time (issue 20); the split must not show in the results.
+def test_kernel_calls_in_bounded_chunks_change_nothing(name, limit, monkeypatch):
+    # Ctrl-C is seen between kernel calls only, so `advance` splits its steps into calls of
+    # about CHUNK_SECONDS (issue 20); the split (here 7 steps, or one step, a call) must not
+    # show in the results.
     reference, reference_agent, reference_episodes = _compiled_path(name, 5)
-    monkeypatch.setattr(stepper_module, "MAX_KERNEL_STEPS", 7)
+    monkeypatch.setattr(stepper_module, *limit)
     stepper, agent, episodes = _compiled_path(name, 5)
     assert episodes == reference_episodes
     np.testing.assert_array_equal(agent.weights_, reference_agent.weights_)
     assert stepper.num_episodes == reference.num_episodes
     assert agent.rng_.bit_generator.state == reference_agent.rng_.bit_generator.state
+
+
+def test_kernel_calls_last_about_chunk_seconds_however_slow_a_step_is(monkeypatch):
+    # Issue 20 audit: calls of 2**18 steps made Ctrl-C wait for minutes when one step took
+    # long (a Monte-Carlo risk analyser of 10**6 rollouts); calls are now sized in time.
+    monkeypatch.setattr(stepper_module, "CHUNK_SECONDS", 0.05)
+    domain, agent = _build("cartpole-gymnasium-tiles-sarsa-lambda", 2)
+    step = domain.step
+
+    def slow_step(action):
+        time.sleep(0.01)
+        return step(action)
+
+    domain.step = slow_step
+    stepper = for_combination(domain, agent, seed=2)
+    stepper.advance(1)  # compiled (or loaded from the cache) outside the timed calls
+    calls, call = [], stepper._call
+
+    def timed_call(num_steps, *args):
+        started = time.perf_counter()
+        out = call(num_steps, *args)
+        calls.append((num_steps, time.perf_counter() - started))
+        return out
+
+    monkeypatch.setattr(stepper, "_call", timed_call)
+    stepper.advance(60)
+    sizes = [size for size, _ in calls]
+    assert sum(sizes) == 60 and sizes[0] <= 2 and max(sizes) <= 10, sizes
+    assert max(seconds for _, seconds in calls) < 0.5, calls

@@ -19,7 +19,7 @@ import numpy as np
 import pytest
 from test_loop import FakeAgent, FakeWalk
 
-from conjure.experiments import registry
+from conjure.experiments import registry, results
 from conjure.experiments.run import run_resolved
 
 
@@ -179,3 +179,21 @@ def isolated_fakes(monkeypatch):
     layers = {**registry.LAYERS, "agent": registry.AGENTS, "domain": registry.DOMAINS}
     monkeypatch.setattr(registry, "LAYERS", layers)
     register_fakes()
+
+
+def fail_writes(monkeypatch: pytest.MonkeyPatch, name: str, code: int) -> None:
+    """Make every atomic write of a file called ``name`` fail as the disk would (``code``).
+
+    Like a full disk (or a file-size limit) the failure comes from the write itself, which
+    names no file.
+    """
+    real_open = open
+
+    def failing_open(file: Any, mode: str = "r", *args: Any, **kwargs: Any) -> Any:
+        handle = real_open(file, mode, *args, **kwargs)
+        if Path(file).name.startswith(f".{name}.tmp-"):
+            handle.close()
+            raise OSError(code, os.strerror(code))
+        return handle
+
+    monkeypatch.setattr(results, "open", failing_open, raising=False)

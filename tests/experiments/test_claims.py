@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import errno
+import io
 import json
 import os
 import socket
@@ -11,18 +13,22 @@ import textwrap
 from pathlib import Path
 
 import pytest
+from rich.console import Console
 
-from conjure.experiments.claims import CLAIMS_DIR, Claims, Owner
+from conjure.experiments.claims import CLAIMS_DIR, Claims, Owner, process_start
+from conjure.experiments.parallel import _say_held
 from conjure.experiments.results import RUNS_DIR
 
 ROOT = Path(__file__).resolve().parents[2]
 
 
-def plant(out: Path, identifier: str, host: str, pid: int, age_s: float = 0.0) -> Path:
-    """A claim of another driver, last renewed ``age_s`` seconds ago."""
+def plant(
+    out: Path, identifier: str, host: str, pid: int, age_s: float = 0.0, **started: str
+) -> Path:
+    """A claim of another driver renewed ``age_s`` seconds ago (``started=...``: its start)."""
     path = out / CLAIMS_DIR / f"{identifier}.claim"
     path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(json.dumps({"host": host, "pid": pid, "token": "theirs"}))
+    path.write_text(json.dumps({"host": host, "pid": pid, "token": "theirs", **started}))
     if age_s:
         stamp = path.stat().st_mtime - age_s
         os.utime(path, (stamp, stamp))
@@ -37,7 +43,8 @@ def dead_pid() -> int:
 
 def test_a_claim_is_held_by_one_driver_until_released(tmp_path):
     with Claims(tmp_path) as first, Claims(tmp_path) as second:
-        second.owner = Owner(first.owner.host, os.getppid(), "another driver")  # alive
+        parent = os.getppid()  # alive
+        second.owner = Owner(first.owner.host, parent, "another driver", process_start(parent))
         assert first.take("r1") and first.take("r1")  # idempotent for its owner
         assert not second.take("r1")
         assert second.holders(["r1", "r2"]) == {first.owner: 1}
@@ -62,6 +69,57 @@ def test_claims_of_dead_or_silent_owners_are_taken_over(tmp_path):
             Owner(host, os.getppid(), "theirs"): 1,
             Owner("elsewhere", 1, "theirs"): 1,
         }
+
+
+@pytest.mark.skipif(process_start(1) is None, reason="no process start in /proc")
+def test_a_claim_whose_process_id_was_reused_is_taken_over(tmp_path):
+    # Issue 20 audit: a claim naming this host and pid 1 (its driver gone with a container
+    # restart, the id reused) made a resume wait forever.
+    host = socket.gethostname()
+    boot, _, ticks = process_start(1).rpartition(":")
+    with Claims(tmp_path) as claims:
+        plant(tmp_path, "reused", host, 1, started=f"{boot}:{int(ticks) + 1}")
+        plant(tmp_path, "other boot", host, 1, started=f"another-boot:{ticks}")
+        plant(tmp_path, "same", host, 1, started=process_start(1))
+        assert claims.take("reused") and claims.take("other boot")
+        assert not claims.take("same")
+
+
+def test_a_claim_naming_no_start_lives_on_its_lease_on_this_host_too(tmp_path):
+    host = socket.gethostname()
+    with Claims(tmp_path, lease_seconds=60) as claims:
+        plant(tmp_path, "silent", host, 1, age_s=120)  # written without a start, not renewed
+        plant(tmp_path, "renewed", host, 1, age_s=10)
+        assert claims.take("silent") and not claims.take("renewed")
+
+
+def test_a_claim_that_cannot_be_written_is_not_left_empty(tmp_path, monkeypatch):
+    def no_space(*args, **kwargs):
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    with Claims(tmp_path) as claims:
+        monkeypatch.setattr(json, "dump", no_space)
+        with pytest.raises(OSError) as caught:
+            claims.take("r")
+    assert caught.value.filename == str(tmp_path / CLAIMS_DIR / "r.claim")
+    assert not list((tmp_path / CLAIMS_DIR).iterdir())
+
+
+def test_the_held_runs_line_counts_from_one_look_at_the_claims(tmp_path):
+    # Issue 20 audit: "4 run(s) are held by another driver (vm:16833 holds 2)", or "(ending)".
+    host, parent = socket.gethostname(), os.getppid()
+    for identifier in ("a", "b", "c"):
+        plant(tmp_path, identifier, host, parent, started=process_start(parent))
+    output = io.StringIO()
+    with Claims(tmp_path) as claims:
+        (tmp_path / CLAIMS_DIR / "c.claim").unlink()  # finished meanwhile
+        console = Console(file=output, width=200)
+        assert _say_held(claims.holders(["a", "b", "c"]), console)
+        assert not _say_held(claims.holders(["c"]), console)  # none held: nothing to say
+    assert output.getvalue().splitlines() == [
+        f"2 run(s) are held by another driver ({host}:{parent} holds 2); waiting for them "
+        "(this driver runs any whose owner stops)."
+    ]
 
 
 def test_a_claim_being_written_is_not_stolen(tmp_path):

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import errno
+import functools
 import io
 import json
 import os
@@ -15,12 +16,12 @@ import pandas as pd
 import pytest
 from click.testing import CliRunner
 from rich.console import Console
-from sweep_fakes import isolated_fakes, run_with_fakes
+from sweep_fakes import fail_writes, isolated_fakes, run_with_fakes
 from test_loop import FakeAgent, FakeWalk
 
 from conjure.cli.main import main
 from conjure.core.errors import ResultsWriteError, RunsInterruptedError
-from conjure.experiments import parallel, registry
+from conjure.experiments import claims, parallel, registry
 from conjure.experiments.config import resolve_run
 from conjure.experiments.executors import LocalExecutor
 from conjure.experiments.parallel import execute_runs, run_experiment
@@ -272,6 +273,35 @@ def test_the_command_line_exits_with_status_2_on_a_full_disk(fakes, tmp_path, mo
     last = result.output.strip().splitlines()[-1]
     assert last.startswith("Error: Could not write results.parquet: No space left on device")
     assert "Traceback" not in result.output
+
+
+@pytest.mark.parametrize("code", [errno.ENOSPC, errno.EFBIG])
+@pytest.mark.parametrize("name", ["config.resolved.yaml", "planned.csv", "claim"])
+def test_a_write_failure_before_the_first_run_is_one_line_with_status_2(
+    fakes, tmp_path, monkeypatch, name, code
+):
+    # Issue 20 audit: these writes gave two tracebacks and status 1, and left an empty claim.
+    settings, out = fake_config(), tmp_path / "out"
+    if name == "claim":
+        name = f"claims/{run_id(resolve_run(settings, 'slow', 0))}.claim"  # the first run's
+        monkeypatch.setattr(claims.json, "dump", functools.partial(full, code))
+    else:
+        fail_writes(monkeypatch, name, code)
+    config = tmp_path / "fake.yaml"
+    config.write_text(json.dumps(settings))
+    result = CliRunner().invoke(main, ["run", str(config), "--out", str(out), "--max-workers", "1"])
+    assert result.exit_code == 2, result.output
+    assert "Traceback" not in result.output
+    (line,) = [text for text in result.output.splitlines() if text.startswith("Error:")]
+    cause = f"{os.strerror(code)} (errno {code})"
+    assert line.startswith(f"Error: Could not write {out / name}: {cause};"), line
+    assert "rerun the same command" in line
+    assert not [*out.glob("runs/*"), *out.glob("errors/*"), *out.glob("claims/*")]
+
+
+def full(code: int, *args: object) -> None:
+    """A write that fails with ``code`` (28: disk full, 27: file-size limit)."""
+    raise OSError(code, os.strerror(code))
 
 
 def test_ctrl_c_inside_a_run_stops_the_batch_and_is_not_a_failure(fakes, tmp_path):

@@ -2,14 +2,18 @@
 
 from __future__ import annotations
 
+import errno
+import os
 import re
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
 import pytest
 from click.testing import CliRunner
-from sweep_fakes import fake_sweep, isolated_fakes, run_with_fakes
+from sweep_fakes import fail_writes, fake_sweep, isolated_fakes, run_with_fakes
 
+from conjure.cli.main import main
 from conjure.core.errors import InvalidParameterError
 from conjure.reporting.report import iqm, iqm_interval, report_command, stratified_bootstrap
 from conjure.sweeps.sweep import run_sweep
@@ -119,15 +123,39 @@ def test_report_of_a_cut_sweep_says_which_runs_are_missing(tmp_path):
     # Issue 20: a report of a folder whose sweep was cut read as complete.
     run_sweep(fake_sweep(), tmp_path, max_workers=1, run_fn=run_with_fakes, progress=False)
     results = pd.read_parquet(tmp_path / "results.parquet")
-    cut = results[(results["label"] == "b") & (results["domain_label"] == "long")]["run_id"]
+    long_b = (results["label"] == "b") & (results["domain_label"] == "long")
+    one_a = (results["setting"] == "step_size=0.1") & (results["domain_label"] == "short")
+    cut = results[long_b | (one_a & (results["seed"] == 0))]["run_id"]
     for identifier in cut.unique():
         (tmp_path / "runs" / f"{identifier}.json").unlink()
     result = CliRunner().invoke(report_command, [str(tmp_path)])
     assert result.exit_code == 0, result.output
-    assert "Incomplete: 10 of 12 runs present; runs missing for b (2 missing)." in result.output
+    # The terminal names each incomplete setting, as report.md does (issue 20 audit).
+    assert (
+        "Incomplete: 9 of 12 runs present; runs missing for short a [step_size=0.1]: 1 of 2 "
+        "missing; long b: 2 of 2 missing." in " ".join(result.output.split())
+    )
     text = (tmp_path / "report.md").read_text()
-    assert "**Incomplete: 10 of 12 runs present**" in text
-    assert "- long b: 2 of 2 missing" in text
+    assert "**Incomplete: 9 of 12 runs present**" in text
+    assert "- short a [step_size=0.1]: 1 of 2 missing\n- long b: 2 of 2 missing" in text
+
+
+@pytest.mark.parametrize("code", [errno.ENOSPC, errno.EFBIG])
+@pytest.mark.parametrize(
+    "name", ["results.parquet", "report.md", "figures/learning_curve_return_long.png"]
+)
+def test_report_that_cannot_be_written_says_so_in_one_line(tmp_path, monkeypatch, name, code):
+    # Issue 20: a report on a full disk (or past a file-size limit) printed tracebacks.
+    run_sweep(fake_sweep(), tmp_path, max_workers=1, run_fn=run_with_fakes, progress=False)
+    fail_writes(monkeypatch, Path(name).name, code)
+    result = CliRunner().invoke(main, ["report", str(tmp_path)])
+    assert result.exit_code == 2 and "Traceback" not in result.output, result.output
+    assert result.output.strip() == (
+        f"Error: Could not write {tmp_path / name}: {os.strerror(code)} (errno {code}); the "
+        f"runs in {tmp_path / 'runs'} are untouched. Free space (or raise the file-size limit) and "
+        "rerun the same command: it resumes."
+    )
+    assert len(list((tmp_path / "runs").glob("*.json"))) == 12
 
 
 def test_report_says_nothing_of_completeness_when_every_run_is_there(tmp_path):

@@ -27,9 +27,13 @@ Notes
   ``trace_slots_``) is passed with as many rows as the representation can hold features (a
   buffer that `append_rows` keeps using) and set to its first n_t rows after every call, as
   the Python learner's `grow_weights` / ``append_rows`` would leave it.
-- Choice: ``advance`` calls the kernel for at most `MAX_KERNEL_STEPS` steps at a time (the
-  kernel's pausable episodes make the split invisible in the results), so Ctrl-C, which
-  Python only sees between compiled calls, stops a run within about a second.
+- Choice: ``advance`` calls the kernel in chunks sized in time, not in steps (`next_chunk`):
+  the first call of a stepper takes one step, each next one as many as the last call's rate
+  fits in `CHUNK_SECONDS`, at most twice the last chunk and `MAX_KERNEL_STEPS`. Ctrl-C, which
+  Python only sees between compiled calls, therefore stops a run within about a second of the
+  step in progress ending, however slow a step is (a Monte-Carlo risk analyser of 10⁶
+  rollouts), while fast loops reach long chunks after a few calls. The kernel's pausable
+  episodes make the split invisible in the results: same seed, same numbers.
 - Compilation: one loop, `conjure.compiled.learning_loop.learning_loop`, serves every
   combination (the compiled forms have fixed field types), compiled once per machine and
   cached on disk, with one more compilation for real-valued φ (`RBF`: its form carries the
@@ -65,11 +69,13 @@ __all__ = [
     "compile_seconds",
     "for_combination",
     "is_warm",
+    "next_chunk",
     "warm_up",
 ]
 
-#: Steps per kernel call at most: a fraction of a second on the fast combinations, a few
-#: seconds on the slowest (online iFDD on the UAV missions, about 10⁵ steps/s).
+#: Seconds one kernel call aims at (`next_chunk`): Ctrl-C waits for the call in progress.
+CHUNK_SECONDS = 0.5
+#: Steps per kernel call at most (a fraction of a second on the fastest combinations).
 MAX_KERNEL_STEPS = 2**18
 #: The first call's seconds (compile or cache load) of each compilation, by `_kernel_name`.
 _COMPILE_SECONDS: dict[str, float] = {}
@@ -149,6 +155,7 @@ class CompiledStepper:
         self._started = False
         self._obs = np.zeros(domain.domain_spec.num_dims)
         self._state = lp.new_loop_state(domain.domain_spec.num_actions)
+        self._chunk = 1  # steps of the next kernel call (`next_chunk`)
 
     @property
     def is_mid_episode(self) -> bool:
@@ -213,9 +220,11 @@ class CompiledStepper:
         try:
             while done < num_steps and ended < max_episodes:
                 before = int(state.episode[0])
+                started = time.perf_counter()
                 status, steps, fails, delta, ep_float, ep_int = self._call(
-                    min(num_steps - done, MAX_KERNEL_STEPS), domain_form, max_episodes - ended
+                    min(num_steps - done, self._chunk), domain_form, max_episodes - ended
                 )
+                self._chunk = next_chunk(self._chunk, steps, time.perf_counter() - started)
                 ended += ep_float.shape[0]
                 # learning episodes begun (greedy episodes begin none: counted as they end)
                 self.num_episodes += (
@@ -290,6 +299,25 @@ class CompiledStepper:
             agent.load_compiled_arrays(arrays, rows_in_use)
             if agent is not self.agent:  # a box: what its kernels changed (Algorithm 26)
                 self.agent.load_compiled_form(box)
+
+
+def next_chunk(chunk: int, steps: int, seconds: float) -> int:
+    """Steps of the next kernel call after one of ``steps`` steps took ``seconds``.
+
+    As many as that rate fits in `CHUNK_SECONDS`, at most twice ``chunk`` and
+    `MAX_KERNEL_STEPS`, at least one; ``chunk`` again after a call that took no step.
+
+    Examples
+    --------
+    >>> next_chunk(1, 1, 1e-4), next_chunk(64, 64, 0.01), next_chunk(64, 64, 2.0)
+    (2, 128, 16)
+    >>> next_chunk(1, 1, 30.0), next_chunk(8, 0, 0.0), next_chunk(MAX_KERNEL_STEPS, 5, 1e-6)
+    (1, 8, 262144)
+    """
+    if steps == 0:
+        return chunk
+    fits = int(steps * CHUNK_SECONDS / max(seconds, 1e-9))
+    return max(1, min(2 * chunk, MAX_KERNEL_STEPS, fits))
 
 
 def _kernel_name(selection: Selection) -> str:

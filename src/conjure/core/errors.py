@@ -52,3 +52,19 @@ class ResultsWriteError(ConjureError, OSError):
     """A result file could not be written (disk full, file-size limit); exit status 2."""
 
     exit_status = 2
+
+
+def write_failure(exc: OSError, kept: str) -> ResultsWriteError:
+    """One line for a failed write: the file, the cause and its errno, then what is ``kept``.
+
+    Examples
+    --------
+    >>> import errno
+    >>> cause = OSError(errno.EFBIG, "File too large", "out/planned.csv")
+    >>> print(write_failure(cause, "no run has started."))
+    Could not write out/planned.csv: File too large (errno 27); no run has started. Free space (or raise the file-size limit) and rerun the same command: it resumes.
+    """  # noqa: E501
+    return ResultsWriteError(
+        f"Could not write {exc.filename}: {exc.strerror or exc} (errno {exc.errno}); {kept} "
+        "Free space (or raise the file-size limit) and rerun the same command: it resumes."
+    )

@@ -1,25 +1,31 @@
 """Run claims: drivers sharing one results folder split its runs instead of repeating them.
 
 Before a driver starts a run it takes the run's claim, ``OUT/claims/<run_id>.claim``, a file
-created atomically (``O_CREAT | O_EXCL``) that names its owner: host, process id and a token
-unique to the driver. A claim is *live* while its owner is: on the owner's own host, while
-that process exists; from another host (a shared file system), while the owner keeps renewing
-it (a heartbeat thread touches every claim it holds, so its modification time stays within
-the lease). A run whose claim is held by a live owner is left to that owner; a claim whose
-owner died or whose lease expired is taken over. The result file, not the claim, says that a
-run is finished: a claim is released when its run's result or error file is written, and
-every claim a driver holds when it stops.
+created atomically (``O_CREAT | O_EXCL``) that names its owner: host, process id, the
+process's start (`process_start`) and a token unique to the driver. A claim is *live* while
+its owner is: on the owner's own host, while a process with that id *and that start* exists
+(a process that merely reuses the id, after a reboot or a container restart, is not the
+owner); from another host (a shared file system), or when the start cannot be compared, while
+the owner keeps renewing it (a heartbeat thread touches every claim it holds, so its
+modification time stays within the lease). A run whose claim is held by a live owner is left
+to that owner; a claim whose owner died or whose lease expired is taken over. The result
+file, not the claim, says that a run is finished: a claim is released when its run's result
+or error file is written, and every claim a driver holds when it stops.
 
 Notes
 -----
 - Choice: a takeover first renames the dead owner's claim to a name unique to the taker
   (``os.rename`` succeeds for one process only), then creates its own claim with
   ``O_EXCL``; two drivers that find the same dead claim therefore never both run the run.
-- Choice: the lease is 10 minutes, renewed every 2; only owners on other hosts depend on it.
+- Choice: the lease is 10 minutes, renewed every 2; owners on this host depend on it only
+  where ``/proc`` gives no process start (not Linux) or the claim names none.
+- Choice: a claim that cannot be written (disk full) is removed, never left empty, and the
+  `OSError` names the claim file.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import os
 import socket
@@ -30,7 +36,7 @@ from collections import Counter
 from dataclasses import dataclass
 from pathlib import Path
 
-__all__ = ["CLAIMS_DIR", "Claims", "Owner", "process_exists"]
+__all__ = ["CLAIMS_DIR", "Claims", "Owner", "process_exists", "process_start"]
 
 CLAIMS_DIR = "claims"
 LEASE_SECONDS = 600.0
@@ -40,11 +46,15 @@ _WRITING_SECONDS = 10.0
 
 @dataclass(frozen=True)
 class Owner:
-    """Who holds a claim: a driver process on a host, with a token unique to that driver."""
+    """Who holds a claim: a driver process on a host, with a token unique to that driver.
+
+    ``started`` is the process's start (`process_start`), ``None`` where it is unknown.
+    """
 
     host: str
     pid: int
     token: str
+    started: str | None = None
 
     def __str__(self) -> str:
         return f"{self.host}:{self.pid}"
@@ -64,7 +74,8 @@ class Claims:
     def __init__(self, out_dir: str | Path, lease_seconds: float = LEASE_SECONDS):
         self.folder = Path(out_dir) / CLAIMS_DIR
         self.lease_seconds = lease_seconds
-        self.owner = Owner(socket.gethostname(), os.getpid(), uuid.uuid4().hex)
+        pid = os.getpid()
+        self.owner = Owner(socket.gethostname(), pid, uuid.uuid4().hex, process_start(pid))
         self._held: set[str] = set()
         self._lock = threading.Lock()
         self._stop = threading.Event()
@@ -130,15 +141,24 @@ class Claims:
         return True
 
     def _create(self, path: Path) -> bool:
-        """Create ``path`` naming this driver, atomically; ``False`` if it exists."""
+        """Create ``path`` naming this driver, atomically; ``False`` if it exists.
+
+        A claim that cannot be written is removed and the `OSError` names ``path``.
+        """
         try:
             handle = os.open(path, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o644)
         except FileExistsError:
             return False
-        with os.fdopen(handle, "w") as stream:
-            json.dump(
-                {"host": self.owner.host, "pid": self.owner.pid, "token": self.owner.token}, stream
-            )
+        except OSError as exc:
+            exc.filename = str(path)
+            raise
+        try:
+            with os.fdopen(handle, "w") as stream:
+                json.dump(dataclasses.asdict(self.owner), stream)
+        except OSError as exc:
+            path.unlink(missing_ok=True)
+            exc.filename = str(path)
+            raise
         return True
 
     @staticmethod
@@ -146,17 +166,30 @@ class Claims:
         """The owner named in ``path``; ``None`` if it is gone or half written."""
         try:
             fields = json.loads(path.read_text())
-            return Owner(str(fields["host"]), int(fields["pid"]), str(fields["token"]))
+            started = fields.get("started")
+            return Owner(
+                str(fields["host"]),
+                int(fields["pid"]),
+                str(fields["token"]),
+                None if started is None else str(started),
+            )
         except (OSError, ValueError, KeyError, TypeError):
             return None
 
     def _is_live(self, path: Path, holder: Owner | None) -> bool:
         """Whether ``holder`` still runs (its own host), or renewed ``path`` within the lease.
 
-        An unreadable claim (its owner is still writing it) is live for a few seconds.
+        On this host a process with the holder's id and start is the holder; one with its id
+        but another start reused the id of a holder that died. Where either start is unknown,
+        the lease decides (after checking that the id exists). An unreadable claim (its owner
+        is still writing it) is live for a few seconds.
         """
         if holder is not None and holder.host == self.owner.host:
-            return process_exists(holder.pid)
+            if not process_exists(holder.pid):
+                return False
+            started = process_start(holder.pid)
+            if holder.started is not None and started is not None:
+                return started == holder.started
         try:
             age = time.time() - path.stat().st_mtime
         except FileNotFoundError:
@@ -173,6 +206,21 @@ class Claims:
                     os.utime(self._path(identifier))
                 except FileNotFoundError:
                     continue
+
+
+def process_start(pid: int) -> str | None:
+    """When process ``pid`` started: the boot's id and the start in clock ticks since boot.
+
+    Two processes that ever had the same id on a machine differ in it. ``None`` where
+    ``/proc`` does not tell (not Linux) or the process is gone.
+    """
+    try:
+        stat = Path(f"/proc/{pid}/stat").read_text()
+        boot = Path("/proc/sys/kernel/random/boot_id").read_text().strip()
+    except OSError:
+        return None
+    # Fields after the command name (which may hold spaces), from field 3; starttime is 22.
+    return f"{boot}:{stat.rpartition(')')[2].split()[19]}"
 
 
 def process_exists(pid: int) -> bool:

@@ -50,8 +50,8 @@ from rich.progress import (
 )
 from rich.table import Table
 
-from conjure.core.errors import ResultsWriteError, RunsInterruptedError
-from conjure.experiments.claims import Claims
+from conjure.core.errors import RunsInterruptedError, write_failure
+from conjure.experiments.claims import Claims, Owner
 from conjure.experiments.config import ExperimentConfig, dump_yaml, parse_config, resolve_run
 from conjure.experiments.executors import NOT_CLAIMED, Executor, LocalExecutor, TaskFailure
 from conjure.experiments.loop import COMPILE_WORTH_STEPS
@@ -206,11 +206,20 @@ def pending_runs(
 ) -> list[dict[str, Any]]:
     """Write the resolved config into ``out_dir`` and return the runs not finished there yet.
 
-    A rerun of the same command therefore resumes: finished runs are never run again.
+    A rerun of the same command therefore resumes: finished runs are never run again. A
+    config that cannot be written raises `ResultsWriteError` (before any run starts).
     """
-    out_dir.mkdir(parents=True, exist_ok=True)
-    write_atomic(out_dir / RESOLVED_FILE, dump_yaml(dict(resolved)))
-    return [spec for spec in runs if not is_run_done(out_dir, spec)]
+    pending = [spec for spec in runs if not is_run_done(out_dir, spec)]
+    try:
+        write_atomic(out_dir / RESOLVED_FILE, dump_yaml(dict(resolved)))
+    except OSError as exc:
+        raise write_failure(exc, _nothing_started(out_dir, len(runs) - len(pending))) from None
+    return pending
+
+
+def _nothing_started(out_dir: Path, num_finished: int) -> str:
+    """What a write failure before the first run keeps."""
+    return f"no run has started ({num_finished} finished before are safe in {out_dir})."
 
 
 def execute_runs(
@@ -268,6 +277,9 @@ def execute_runs(
     try:
         with Claims(out_dir) as claims, _progress(console, progress, report) as bar:
             batch.run(executor, claims, bar, description)
+    except OSError:
+        if batch.claim_error is None:
+            raise
     except KeyboardInterrupt:
         raise RunsInterruptedError(
             f"Interrupted: {batch.num_saved()} of {len(by_id)} runs are saved in {out_dir}; "
@@ -305,6 +317,7 @@ class _Batch:
     live driver holds is waited for (polled every `_POLL_SECONDS`) and counted as reused
     when its result appears, or run here if its owner dies. A result that cannot be written
     is counted, not fatal: the other runs go on (`raise_write_errors` reports it at the end).
+    A claim that cannot be written stops the batch (no further run can start safely).
     """
 
     def __init__(
@@ -318,6 +331,7 @@ class _Batch:
         self.waiting = list(todo)
         self.retries: dict[str, list[str]] = {}
         self.write_errors: list[OSError] = []
+        self.claim_error: OSError | None = None
         self.counts = {"done": 0, "failed": 0, "remaining": len(todo)}
 
     def run(self, executor: Executor, claims: Claims, bar: Progress, description: str) -> None:
@@ -329,13 +343,7 @@ class _Batch:
             if not held:
                 return
             if not said_held:
-                owners = claims.holders([identifier for identifier, _ in held])
-                who = ", ".join(f"{owner} holds {n}" for owner, n in owners.items())
-                bar.console.print(
-                    f"{len(held)} run(s) are held by another driver ({who or 'ending'}); "
-                    "waiting for them (this driver runs any whose owner stops)."
-                )
-                said_held = True
+                said_held = _say_held(claims.holders([i for i, _ in held]), bar.console)
             self.waiting = self._wait_for_others(held, claims, bar, task)
 
     def _run_wave(
@@ -346,7 +354,12 @@ class _Batch:
 
         def claim(index: int) -> bool:
             identifier, spec = wave[index]
-            return claims.take(identifier) and not is_run_done(self.out_dir, spec)
+            try:
+                taken = claims.take(identifier)
+            except OSError as exc:
+                self.claim_error = exc
+                raise
+            return taken and not is_run_done(self.out_dir, spec)
 
         def on_retry(index: int, cause: str) -> None:
             identifier, spec = wave[index]
@@ -382,7 +395,6 @@ class _Batch:
         try:
             message = _record(self.out_dir, spec, outcome)
         except OSError as exc:
-            exc.filename = exc.filename or str(run_path(self.out_dir, identifier))
             self.write_errors.append(exc)
             self.counts["failed"] += 1
             return
@@ -422,17 +434,34 @@ class _Batch:
         return sum(run_path(self.out_dir, i).is_file() for i in self.report.run_ids)
 
     def raise_write_errors(self) -> None:
-        """Report results that could not be written, in one line."""
-        if not self.write_errors:
+        """Report results (or a claim) that could not be written, in one line."""
+        errors = [*self.write_errors, *([self.claim_error] if self.claim_error else [])]
+        if not errors:
             return
-        first = self.write_errors[0]
-        raise ResultsWriteError(
-            f"Could not write {first.filename}: {first.strerror or first} (errno {first.errno}); "
-            f"{len(self.write_errors)} finished run(s) could not be saved, "
-            f"{self.counts['done']} saved this time and {self.report.num_skipped} before are "
-            f"safe in {self.out_dir}. Free space (or raise the file-size limit) and rerun the "
-            "same command: it resumes."
+        lost = f"{len(self.write_errors)} finished run(s) could not be saved, "
+        stopped = "no further run could start, " if self.claim_error else ""
+        raise write_failure(
+            errors[0],
+            f"{lost if self.write_errors else ''}{stopped}{self.counts['done']} saved this "
+            f"time and {self.report.num_skipped} before are safe in {self.out_dir}.",
         )
+
+
+def _say_held(owners: Mapping[Owner, int], console: Console) -> bool:
+    """Print how many runs other drivers hold, from one look at the claims; whether it did.
+
+    Nothing is printed when no run is held any more (their owners finished them meanwhile).
+    """
+    total = sum(owners.values())
+    if not total:
+        return False
+    who = ", ".join(f"{owner} holds {n}" for owner, n in owners.items())
+    drivers = "another driver" if len(owners) == 1 else f"{len(owners)} other drivers"
+    console.print(
+        f"{total} run(s) are held by {drivers} ({who}); waiting for them (this driver runs "
+        "any whose owner stops)."
+    )
+    return True
 
 
 def prepare_executor(
@@ -485,7 +514,11 @@ def run_batch(
     written raises `ResultsWriteError` (the run files stay).
     """
     console = console or Console()
-    write_planned_runs(out_dir, runs)
+    try:
+        write_planned_runs(out_dir, runs)
+    except OSError as exc:
+        done = sum(is_run_done(out_dir, spec) for spec in runs)
+        raise write_failure(exc, _nothing_started(out_dir, done)) from None
     report = execute_runs(
         runs,
         out_dir,
@@ -501,11 +534,8 @@ def run_batch(
         write_run_ids(out_dir, report.run_ids)
         write_results(out_dir, results, summary)
     except OSError as exc:
-        raise ResultsWriteError(
-            f"Could not write {exc.filename or out_dir}: {exc.strerror or exc}; the "
-            f"{len(results.groupby('run_id')) if not results.empty else 0} finished run(s) are "
-            f"safe in {out_dir / 'runs'}; free space and rerun the same command."
-        ) from None
+        saved = results["run_id"].nunique() if not results.empty else 0
+        raise write_failure(exc, f"the {saved} finished run(s) are safe in {out_dir}.") from None
     outcome = ExperimentResult(
         out_dir, results, summary, report.errors, report.num_skipped, metric, runs
     )

@@ -131,7 +131,8 @@ def write_atomic(path: str | Path, data: str | bytes) -> Path:
     """Write ``data`` to ``path`` via a fsynced temporary file and ``os.replace``.
 
     The temporary name is unique per host, process and call, so concurrent writers (several
-    drivers, or nodes sharing a file system) never collide; the last complete write wins.
+    drivers, or nodes sharing a file system) never collide; the last complete write wins. An
+    `OSError` of the write (disk full, file-size limit) names ``path``, not the temporary.
     """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -144,6 +145,9 @@ def write_atomic(path: str | Path, data: str | bytes) -> Path:
             handle.flush()
             os.fsync(handle.fileno())
         os.replace(temp, path)
+    except OSError as exc:
+        exc.filename = str(path)
+        raise
     finally:
         temp.unlink(missing_ok=True)
     _fsync_dir(path.parent)

@@ -28,6 +28,7 @@ Notes
 
 from __future__ import annotations
 
+import io
 import math
 import re
 from pathlib import Path
@@ -49,6 +50,7 @@ from conjure.experiments.results import (
     read_resolved,
     results_name,
     t_confidence,
+    write_atomic,
 )
 
 __all__ = [
@@ -176,10 +178,9 @@ def plot_learning_curves(
         ``path``.
     """
     figure = learning_curve_figure(results_frame, metric, title)
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    figure.savefig(path, format="png", bbox_inches="tight")
-    return path
+    image = io.BytesIO()
+    figure.savefig(image, format="png", bbox_inches="tight")
+    return write_atomic(path, image.getvalue())
 
 
 def _check_plottable(results_frame: pd.DataFrame, metric: str) -> None:

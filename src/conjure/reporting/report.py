@@ -29,13 +29,12 @@ import numpy as np
 import pandas as pd
 from scipy import stats
 
-from conjure.core.errors import InvalidParameterError, ResultsWriteError
+from conjure.core.errors import InvalidParameterError, write_failure
 from conjure.experiments.metric_ranges import metric_range
 from conjure.experiments.numbers import format_interval, format_number
 from conjure.experiments.options import out_dir_option
 from conjure.experiments.results import (
     ERRORS_DIR,
-    GROUP_COLUMNS,
     RESULTS_FILE,
     RUNS_DIR,
     SELECTED_DIR,
@@ -164,10 +163,15 @@ def _missing_lines(results_dir: Path, results: pd.DataFrame) -> list[str]:
         return []
     lines = [f"**Incomplete: {count}** (the sweep is running or was cut; rerun it to resume)."]
     lines += ["", "Methods with missing runs:", ""]
-    for row in missing.to_dict("records"):
-        method = " ".join(str(row[k]) for k in GROUP_COLUMNS if row.get(k))
-        lines.append(f"- {method}: {row['missing']} of {row['planned']} missing")
+    lines += [f"- {_incomplete(row)}" for row in missing.to_dict("records")]
     return [*lines, ""]
+
+
+def _incomplete(row: dict[str, Any]) -> str:
+    """``"long sarsa [step_size=0.1]: 2 of 4 missing"``: a method setting that misses runs."""
+    method = " ".join(str(row[k]) for k in ("domain_label", "label") if row.get(k))
+    setting = f" [{row['setting']}]" if row.get("setting") else ""
+    return f"{method}{setting}: {row['missing']} of {row['planned']} missing"
 
 
 def _markdown_table(frame: pd.DataFrame) -> str:
@@ -396,15 +400,11 @@ def report_command(results_dir: Path, metric: str | None, out_dir: Path | None) 
     try:
         path = write_report(results_dir, metric=metric, out_dir=out_dir)
     except OSError as exc:
-        raise ResultsWriteError(
-            f"Could not write {exc.filename or out_dir or results_dir}: {exc.strerror or exc}; "
-            f"the runs in {Path(results_dir) / RUNS_DIR} are untouched. Free space and rerun."
-        ) from None
+        kept = f"the runs in {Path(results_dir) / RUNS_DIR} are untouched."
+        raise write_failure(exc, kept) from None
     present = pd.read_parquet(Path(results_dir) / RESULTS_FILE, columns=["run_id"])
     count, missing = completeness(Path(results_dir), present)
     if missing is not None:
-        methods = ", ".join(
-            f"{row['label']} ({row['missing']} missing)" for row in missing.to_dict("records")
-        )
+        methods = "; ".join(_incomplete(row) for row in missing.to_dict("records"))
         click.echo(f"Incomplete: {count}; runs missing for {methods}.")
     click.echo(f"Wrote {path} and {Path(results_dir) / RESULTS_FILE}")

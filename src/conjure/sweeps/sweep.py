@@ -48,7 +48,7 @@ from typing import TYPE_CHECKING, Annotated, Any, Literal
 import click
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
 
-from conjure.core.errors import InvalidParameterError
+from conjure.core.errors import InvalidParameterError, write_failure
 from conjure.core.params import did_you_mean
 from conjure.experiments.config import (
     ComponentConfig,
@@ -555,7 +555,10 @@ def run_sweep(
         best = select_best(
             outcome.results, metric=sweep.metric, criterion=choice.criterion, mode=choice.mode
         )
-        write_atomic(out_dir / "selection.csv", best.to_csv(index=False))
+        try:
+            write_atomic(out_dir / "selection.csv", best.to_csv(index=False))
+        except OSError as exc:
+            raise write_failure(exc, f"the search's runs are safe in {out_dir}.") from None
         if progress:
             console.print(
                 f"Best setting per method by {choice.criterion} of {sweep.metric} "
