@@ -38,6 +38,7 @@ from conjure.domains._uav_kernels import (
 
 __all__ = [
     "DomainKernel",
+    "callback_domain",
     "callback_error",
     "callback_kernel",
     "domain_kernel",
@@ -146,7 +147,7 @@ def domain_kernel(
         copy(state, np.int64),
         copy(fstate, np.float64),
         np.zeros(num_actions, dtype=np.int8),
-        np.empty(num_uniforms),
+        np.zeros(num_uniforms),  # scratch: each step overwrites what it draws
         num_units,
         BLOCKS <= kind <= UAV_MISSION,
     )
@@ -175,6 +176,11 @@ def callback_kernel(domain: Any) -> DomainKernel:
         _CALLBACK_KEYS[domain] = key
         _CALLBACK_DOMAINS[key] = domain
     return domain_kernel(CALLBACK, domain.domain_spec.num_actions, state=np.array([key]))
+
+
+def callback_domain(form: DomainKernel) -> Any:
+    """The domain a `CALLBACK` form calls back."""
+    return _CALLBACK_DOMAINS[int(form.state[0])]
 
 
 def callback_error(form: DomainKernel) -> BaseException | None:
