@@ -21,7 +21,7 @@ from conjure.core.interfaces import (
 from conjure.core.params import InstanceOf, Interval, Options
 from conjure.core.schedules import StepSizeSchedule
 from conjure.policies import Gibbs, greedy_action
-from conjure.representations.weights import grow_weights, initial_weights, with_room
+from conjure.representations.weights import initial_weights, with_room
 
 __all__ = ["ActorCritic"]
 
@@ -222,8 +222,10 @@ class ActorCritic(LinearTDAgent):
         )
 
     def compiled_arrays(self, rows: int = 0) -> forms.LearnerArrays:
-        """θ and the actor's ω, each with room for ``rows`` features."""
+        """θ and the actor's ω, each with room for ``rows`` features (ω if it shares them)."""
         arrays = super().compiled_arrays(rows)
+        if not self._is_shared:  # ω has the actor's own features: rows are θ's
+            return arrays._replace(actor_weights=self.actor_weights_)
         return arrays._replace(actor_weights=with_room(self.actor_weights_, rows))
 
     def compiled_row_traces(self) -> forms.RowTracePair:
@@ -243,7 +245,8 @@ class ActorCritic(LinearTDAgent):
     ) -> None:
         rows = self.weights_.shape[0] if num_features is None else num_features
         super().load_compiled_arrays(arrays, rows)
-        self.actor_weights_ = arrays.actor_weights[:rows]
+        if self._is_shared:  # else ω, never grown, is the learner's own
+            self.actor_weights_ = arrays.actor_weights[:rows]
 
     def begin_episode(self) -> None:
         """Count a new episode and clear the eligibility traces."""
@@ -378,14 +381,15 @@ class ActorCritic(LinearTDAgent):
         """ψ(s), from the act cache when possible."""
         return self._features(state, self._encode_actor)
 
+    def _grown_arrays(self) -> tuple[bool, bool]:
+        return self._is_shared, False  # ω grows when the actor shares the critic's features
+
     def _grow(self, expansion: Expansion) -> None:
         """Grow θ, and ω too when the actor shares the critic's (adaptive) features."""
         super()._grow(expansion)
         if self._has_traces:
             self.critic_traces_.grow(expansion)
-        if self._is_shared:
-            self.actor_weights_ = grow_weights(self.actor_weights_, expansion)
-            if self._has_traces:
+            if self._is_shared:
                 self.actor_traces_.grow(expansion)
 
     def state_arrays(self) -> dict[str, np.ndarray]:

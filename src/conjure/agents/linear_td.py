@@ -46,7 +46,7 @@ from conjure.core.params import InstanceOf, Interval
 from conjure.core.schedules import ConstantStepSize, StepSizeSchedule
 from conjure.core.seeding import make_rng, rng_from_state, rng_state, split_seed
 from conjure.policies import EpsilonGreedy, greedy_action
-from conjure.representations.weights import grow_weights, initial_weights, with_room
+from conjure.representations.weights import expansion_parents, initial_weights, with_room
 
 __all__ = ["STEP_SIZE", "LinearTDAgent", "state_key"]
 
@@ -248,9 +248,21 @@ class LinearTDAgent(Agent):
                 self._grow(expansion)
 
     def _grow(self, expansion: Expansion) -> None:
-        """Add rows for new features, θ_f = θ_g + θ_h (Section 4.1.1), and drop stale caches."""
-        self.weights_ = grow_weights(self.weights_, expansion)
-        self.forget_cache()
+        """Add rows for new features, θ_f = θ_g + θ_h (Section 4.1.1), and drop stale caches.
+
+        Through the arrays the compiled loop uses and its growth kernel
+        (`conjure.agents.compiled_agent.grow_learner_rows`), so the rule exists once.
+        """
+        first = self.weights_.shape[0]
+        parents = expansion_parents(expansion, first)
+        rows = first + parents.shape[0]
+        arrays = self.compiled_arrays(rows)
+        forms.grow_learner_rows(arrays, first, parents, *self._grown_arrays())
+        self.load_compiled_arrays(arrays, rows)
+
+    def _grown_arrays(self) -> tuple[bool, bool]:
+        """Whether a new feature also gets the actor's ω row and SARSA(λ)'s trace slots."""
+        return False, False
 
     def _step_size(self, schedule: StepSizeSchedule, phi: SparseFeatures) -> float:
         """α_t of ``schedule`` for this episode and φ(s) (k_t = |φ(s)|₁ only if it is used)."""
