@@ -24,7 +24,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 from gymnasium.utils.env_checker import check_env
-from numba import njit
+from numba import njit, typeof
 from numba.experimental.structref import StructRefProxy
 
 from conjure.core.compiled_form import compiled_form
@@ -386,7 +386,7 @@ def _same(a: Any, b: Any) -> bool:
         a, b = np.asarray(a), np.asarray(b)
         return a.shape == b.shape and a.dtype == b.dtype and np.array_equal(a, b, equal_nan=True)
     if isinstance(a, StructRefProxy) and isinstance(b, StructRefProxy):
-        return a._type == b._type and _same(_structref_fields(a), _structref_fields(b))
+        return typeof(a) == typeof(b) and _same(_structref_fields(a), _structref_fields(b))
     if isinstance(a, np.random.Generator) and isinstance(b, np.random.Generator):
         return _same(a.bit_generator.state, b.bit_generator.state)
     return bool(a == b) and type(a) is type(b)
@@ -394,7 +394,7 @@ def _same(a: Any, b: Any) -> bool:
 
 def _structref_fields(value: StructRefProxy) -> tuple:
     """The fields of a numba structref, in its type's order (read by one compiled getter)."""
-    return _field_reader(value._type)(value)
+    return _field_reader(typeof(value))(value)
 
 
 @functools.cache
