@@ -1,4 +1,15 @@
-"""Actor-Critic, Geramifard (2012), Algorithm 12 (after Bhatnagar et al. 2007)."""
+"""Actor-Critic, Geramifard (2012), Algorithm 12 (after Bhatnagar et al. 2007).
+
+Choice: ``learn`` stays a Python composition of the update kernels rather than a call of
+the compiled loop's `conjure.agents.compiled_agent.td_learn` (with its
+`_learn_with_row_traces`): the compiled kernel serves only an actor that shares the critic's
+features (one φ), while this class also runs an actor on its own features (ψ ≠ φ), and a
+policy or schedule without a compiled form (`conjure.agents.linear_td`'s Notes). The
+arithmetic is shared: without traces δ and θ's step are `_kernels.td_step` and ω's step
+`_kernels.add` or `add_log_policy_gradient` on both paths; with traces both paths step and
+apply them through `RowTraces`' kernels (`step_row_traces`, `apply_row_traces`). The
+differential tests (``tests/compiled``) hold both to the same θ and ω bit for bit.
+"""
 
 from __future__ import annotations
 

@@ -18,6 +18,17 @@ Notes
   episode's α, whatever the learner's traces (a fresh episode's trace is φ(s, a), cleared at
   its end); it counts no learning step. ``learn`` marks the weights changed, so the Q(s', ·)
   cached by ``act`` is recomputed for the next real update.
+- Choice: ``learn`` composes the update kernels itself instead of calling the compiled
+  loop's `conjure.agents.compiled_agent.td_learn` and `bootstrap`. Those read an
+  `AgentKernel`, which exists only when the policy and every schedule have a compiled form,
+  so a learner with a user's Python schedule or policy would need this path anyway; and a
+  call would box θ, the traces and the kernels' named tuples for a single update, on the
+  path whose per-step cost `run_episode` reports. What the two share is the arithmetic: θ's
+  update is `_kernels.td_step` / `td_step_traces` on both paths, α_t comes from
+  `conjure.core.schedules`' rate functions on both (``value`` here, the schedule's compiled
+  form there), and new features' rows from `compiled_agent.grow_learner_rows`. Only the
+  orchestration (which φ, which target, when to grow) is written twice; the differential
+  tests (``tests/compiled``) hold both to the same θ bit for bit.
 """
 
 from __future__ import annotations
