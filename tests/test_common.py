@@ -8,7 +8,7 @@ from conjure.agents import SARSA, ActorCritic, QLearning
 from conjure.domains import BlocksWorld, GridWorld, UAVMission
 from conjure.experiments.registry import LAYERS
 from conjure.models.approximate_model import ApproximateModel
-from conjure.planners import ModelPlanner, ShortestPathPlanner, SwitchingPlanner
+from conjure.planners import CBBAPlanner, ModelPlanner, ShortestPathPlanner, SwitchingPlanner
 from conjure.representations import (
     RBF,
     HashedTabular,
@@ -87,6 +87,20 @@ VARIANTS = [
         model=grid_model(initial_noise=0.4, prior_weight=10.0, is_adaptive=True),
         num_known_visits=2,
         trusted_knownness=0.5,
+    ),
+    # compilable switches and AM-iCCA, so that the compiled-form check runs on them
+    SwitchingPlanner(
+        conservative=ShortestPathPlanner(), aggressive=ShortestPathPlanner(goal=(3, 4))
+    ),
+    SwitchingPlanner(conservative=CBBAPlanner(), aggressive=CBBAPlanner(variant="aggressive")),
+    AdaptiveCooperativeLearner(
+        learner=SARSA(representation=Tabular()),
+        planner=SwitchingPlanner(
+            conservative=ShortestPathPlanner(), aggressive=ShortestPathPlanner(goal=(3, 4))
+        ),
+        risk=MonteCarloRiskAnalyzer(),
+        model=grid_model(initial_noise=0.4, prior_weight=10.0, is_adaptive=True),
+        num_known_visits=2,
     ),
 ]
 

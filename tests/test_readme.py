@@ -37,3 +37,33 @@ def test_extras_are_installed_from_the_checkout_and_sb3_with_cpu_torch_first():
         "python -m pip install torch --index-url https://download.pytorch.org/whl/cpu",
         'python -m pip install -e ".[sb3]"',
     ]
+
+
+def test_every_package_folder_is_in_the_architecture_map():
+    root = Path(__file__).resolve().parents[1] / "src" / "conjure"
+    table = README[README.index("## What is here") :].split("\n\n")[1]
+    rows = {line.split("|")[1].strip().split(" ")[0].strip("`") for line in table.splitlines()}
+    folders = {
+        path.relative_to(root).as_posix()
+        for path in root.rglob("*")
+        if path.is_dir() and "__pycache__" not in path.parts
+    }
+    assert folders - rows == set(), "folders missing from the README's table"
+
+
+def test_the_layer_order_is_the_import_linter_contracts():
+    import tomllib
+
+    root = Path(__file__).resolve().parents[1]
+    contracts = tomllib.loads((root / "pyproject.toml").read_text())["tool"]["importlinter"]
+    layers = next(c["layers"] for c in contracts["contracts"] if c["type"] == "layers")
+    bullet = re.search(r"Layers import only the layers below them \((.*?)\)", README, re.S)
+    order = [
+        {name.strip().strip("`") for name in step.split("|")}
+        for step in " ".join(bullet.group(1).split()).split(",")[0].split("→")
+    ]
+    expected = [
+        {name.strip().removeprefix("conjure.") for name in layer.split("|")}
+        for layer in reversed(layers)
+    ]
+    assert order == expected

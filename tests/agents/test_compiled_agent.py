@@ -10,6 +10,7 @@ from conjure.core.schedules import ConstantStepSize, EpisodicDecay, FeatureNorma
 from conjure.domains import ChainMDP
 from conjure.policies import Gibbs
 from conjure.representations import Tabular
+from conjure.testing.checks import _rollout
 
 
 @pytest.mark.parametrize(
@@ -76,3 +77,49 @@ def test_td_learn_updates_as_learn(name):
     np.testing.assert_array_equal(arrays.weights, python.weights_)
     actor = getattr(python, "actor_weights_", python.weights_)
     np.testing.assert_array_equal(arrays.actor_weights, actor)
+
+
+@pytest.mark.parametrize(
+    ("name", "flags"),
+    [("sarsa", (False, False)), ("sarsa-lambda", (False, True)), ("actor-critic", (True, False))],
+)
+def test_python_growth_is_the_loops_growth_kernel(name, flags, monkeypatch):
+    from conjure.agents import compiled_agent
+    from conjure.core import Expansion
+
+    calls = []
+    kernel = compiled_agent.grow_learner_rows
+
+    def recording(arrays, first, parents, *grown):
+        calls.append((first, parents.tolist(), grown))
+        kernel(arrays, first, parents, *grown)
+
+    monkeypatch.setattr(compiled_agent, "grow_learner_rows", recording)
+    domain = ChainMDP(num_states=4, num_actions=2)
+    agent = AGENTS[name]().setup(domain.domain_spec, seed=0)
+    _rollout(domain, agent, 30, seed=0)
+    theta = agent.weights_.copy()
+    omega = agent.actor_weights_.copy() if name == "actor-critic" else None
+    agent._grow(Expansion(first_new=4, parents=np.array([[0, 1], [4, -1]])))
+    assert calls == [(4, [[0, 1], [4, -1]], flags)]
+    assert np.array_equal(agent.weights_[4], theta[0] + theta[1])  # θ_f = θ_g + θ_h
+    assert np.array_equal(agent.weights_[5], theta[0] + theta[1])  # a parent of −1 adds 0
+    if omega is not None:
+        assert np.array_equal(agent.actor_weights_[4], omega[0] + omega[1])
+    if flags[1]:
+        assert np.all(agent.trace_slots_[4:] == 0)
+
+
+def test_an_actor_with_its_own_features_keeps_its_rows_when_the_critic_grows():
+    from conjure.core import Expansion
+    from conjure.representations import RBF
+
+    domain = ChainMDP(num_states=4, num_actions=2)
+    agent = ActorCritic(representation=Tabular(), actor_representation=RBF()).setup(
+        domain.domain_spec, seed=0
+    )
+    _rollout(domain, agent, 30, seed=0)
+    omega = agent.actor_weights_.copy()
+    agent._grow(Expansion(first_new=4, parents=np.array([[0, 1]])))
+    assert agent.weights_.shape[0] == 5
+    assert np.array_equal(agent.actor_weights_, omega)

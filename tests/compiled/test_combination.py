@@ -56,13 +56,13 @@ def test_pendulum_form_holds_its_noise_and_state():
     domain = InvertedPendulum(force_noise=5.0)
     domain.reset(seed=0)
     form = domain.compiled_form()
-    assert form.params.tolist() == [5.0, 0.0] and form.fstate.tolist() == [0.0, 0.0]
+    assert form.pendulum == (5.0, 0.0) and form.fstate.tolist() == [0.0, 0.0]
 
 
 def test_gridworld_move_table_matches_the_domain():
     domain = GridWorld.gridworld_1()
     form = domain.compiled_form()
-    start = int(form.params[1])
+    start = form.grid.start_cell
     cells = form.cells
     assert (cells[start, domain_forms.C_ROW], cells[start, domain_forms.C_COL]) == domain.start_
     for cell in (0, start, form.table.shape[0] - 1):
@@ -123,7 +123,7 @@ def test_forms_are_contiguous_and_typed():
     rep = compiled_form(agent.representation_)
     assert rep.rbf is None  # binary φ: the loop reads no values
     domain = InvertedPendulum().compiled_form()
-    for array in (domain.params, domain.fstate, rep.dims, rep.layout, rep.hash_table):
+    for array in (domain.fstate, rep.dims, rep.layout, rep.hash_table):
         assert array.flags.c_contiguous and array.dtype in (np.int64, np.float64)
 
 
@@ -141,14 +141,14 @@ def test_mission_forms_read_the_domains_tables():
     rescue = RescueMission(max_fuel=7)
     form = rescue.compiled_form()
     assert form.kind == domain_forms.RESCUE
-    start = form.params[domain_forms.RESCUE_START :].tolist()
+    start = form.mission.start.tolist()
     assert start == rescue.reset(seed=0)[0].tolist() and start[1] == start[3] == 7.0
     assert form.table[:, :3].tolist() == rescue.neighbours_.tolist()
     assert form.table[0, 3] == 2 and form.cells[2, domain_forms.RESCUE_PEOPLE] == 3.0
     uav = UAVMission(traverse_failure=0.25)
     form = uav.compiled_form()
-    assert form.params[0] == 0.25
-    assert form.params[domain_forms.UAV_START :].tolist() == uav.reset()[0].tolist()
+    assert form.mission.traverse_failure == 0.25
+    assert form.mission.start.tolist() == uav.reset()[0].tolist()
     assert form.table[1:].tolist() == uav._adjacency.tolist()  # 7 nodes: the layout row is 7 wide
 
 

@@ -121,3 +121,15 @@ def test_check_state_before_setup_raises_not_set_up_naming_the_class():
 
     with pytest.raises(NotSetUpError, match="Probe"):
         Probe().encode(np.zeros(2))
+
+
+def test_the_agent_interface_declares_its_persistence_and_compiled_state_contracts():
+    from conjure.agents import SARSA
+    from conjure.core.interfaces import Agent
+
+    contract = ("state_metadata", "state_arrays", "load_state")
+    compiled = ("compiled_arrays", "load_compiled_arrays")
+    for name in (*contract, *compiled):
+        method = vars(Agent)[name]
+        assert method.__doc__ and len(method.__doc__.split()) > 10, name
+        assert getattr(SARSA, name) is not method, f"SARSA does not implement {name}"

@@ -9,7 +9,7 @@ from gymnasium.utils.env_checker import check_env
 import conjure.domains  # noqa: F401  (registers the Gymnasium ids)
 from conjure.core.errors import InvalidParameterError
 from conjure.domains import BlocksWorld
-from conjure.domains._blocks_kernels import blocks_reset, blocks_step
+from conjure.domains._blocks_kernels import BlocksConstants, blocks_reset, blocks_step
 from conjure.domains.blocksworld import blocks_world_state_action_count
 from conjure.testing.checks import check_pickle_round_trip, check_seeded_rollout
 
@@ -174,7 +174,7 @@ def test_step_replays_the_compiled_kernel():
     # follow the same trajectory from the same seed (one uniform per move).
     domain = BlocksWorld()
     observation, _ = domain.reset(seed=3)
-    dparams = np.array([6, 0.3, -0.001, 1.0])
+    constants = BlocksConstants(6, 0.3, -0.001, 1.0)
     dstate = np.empty(36 + 12, dtype=np.int64)
     obs = np.empty(36)
     blocks_reset(6, dstate, obs)
@@ -183,7 +183,7 @@ def test_step_replays_the_compiled_kernel():
     for _ in range(300):
         action = int(choices.choice(domain.legal_actions(observation)))
         observation, reward, terminated, _, _ = domain.step(action)
-        assert blocks_step(dparams, dstate, action, obs, rng) == (reward, terminated)
+        assert blocks_step(constants, dstate, action, obs, rng) == (reward, terminated)
         np.testing.assert_array_equal(obs, observation)
         if terminated:
             break

@@ -85,3 +85,23 @@ def test_a_form_shares_the_grids_tables_and_copies_its_state():
     assert first.table is second.table and first.cells is second.cells
     first.state[0] = 5  # the loop's copy: the domain keeps its cell until it is loaded back
     assert domain.compiled_form().state[0] != 5
+
+
+def test_a_form_names_its_domains_constants():
+    from conjure.domains.compiled_domain import DomainKernel
+
+    assert "params" not in DomainKernel._fields  # no positional slots
+    form = PersistentSurveillance(num_uavs=2, max_fuel=7, crash_penalty=3.0).compiled_form()
+    assert (form.pst.num_uavs, form.pst.max_fuel, form.pst.crash_penalty) == (2, 7, 3.0)
+    form = BlocksWorld(num_blocks=4, drop_probability=0.3).compiled_form()
+    assert (form.blocks.num_blocks, form.blocks.drop) == (4, 0.3)
+    assert ChainMDP(num_states=5, slip=0.3).compiled_form().chain.slip == 0.3
+
+
+def test_persistent_surveillance_has_one_start_state():
+    from conjure.domains._uav_kernels import pst_start
+
+    domain = PersistentSurveillance(num_uavs=2, max_fuel=7)
+    state = np.full(8, -1, dtype=np.int64)
+    pst_start(domain.compiled_form().pst, state)
+    assert state.tolist() == domain.reset(seed=0)[0].tolist() == [7, 0, 1, 1] * 2

@@ -7,7 +7,8 @@ from conjure.core import Representation
 from conjure.core.params import Interval
 from conjure.core.schedules import ConstantStepSize, EpisodicDecay, FeatureNormalizedDecay
 from conjure.policies import EpsilonGreedy
-from conjure.representations import Tabular
+from conjure.representations import OnlineIFDD, Tabular
+from conjure.safety import MonteCarloRiskAnalyzer
 from conjure.testing import applicable_checks, check_component, checks
 from conjure.testing.checks import check_compiled_form_covers_params
 
@@ -155,3 +156,53 @@ def test_compiled_form_check_names_a_parameter_the_form_drops():
 )
 def test_schedules_carry_every_parameter_into_their_compiled_form(schedule):
     check_compiled_form_covers_params(schedule)
+
+
+class _ForgetfulIFDD(OnlineIFDD):
+    """iFDD with a parameter its compiled form (a structref of tables) does not carry."""
+
+    parameter_constraints = {
+        "base": OnlineIFDD.parameter_constraints["base"],
+        "discovery_threshold": OnlineIFDD.parameter_constraints["discovery_threshold"],
+        "greed": Interval(float, 0, 1),
+    }
+
+    def __init__(self, *, base=None, discovery_threshold: float = 1.0, greed: float = 0.5):
+        base = Tabular(num_buckets=3) if base is None else base
+        super().__init__(base=base, discovery_threshold=discovery_threshold)
+        self.greed = greed
+
+
+class _ForgetfulRisk(MonteCarloRiskAnalyzer):
+    """Algorithm 25 with a parameter its compiled form (which holds a Generator) drops."""
+
+    parameter_constraints = {
+        "num_rollouts": MonteCarloRiskAnalyzer.parameter_constraints["num_rollouts"],
+        "greed": Interval(float, 0, 1),
+    }
+
+    def __init__(self, *, num_rollouts: int = 5, greed: float = 0.5):
+        super().__init__(num_rollouts=num_rollouts)
+        self.greed = greed
+
+
+@pytest.mark.parametrize("component", [_ForgetfulIFDD(), _ForgetfulRisk()], ids=repr)
+def test_compiled_form_check_sees_into_structrefs_and_generators(component):
+    with pytest.raises(AssertionError, match=r"greed=1\.0"):
+        check_compiled_form_covers_params(component)
+
+
+def test_compiled_forms_of_one_configuration_are_the_same():
+    from conjure.domains import GymnasiumDomain, PersistentSurveillance
+    from conjure.testing.checks import _form_content as form
+    from conjure.testing.checks import _same
+
+    components = [
+        OnlineIFDD(base=Tabular()),  # a structref of tables
+        MonteCarloRiskAnalyzer(),  # a Generator
+        PersistentSurveillance(),  # scratch uniforms
+        GymnasiumDomain(env_id="CartPole-v1"),  # a callback key per domain object
+    ]
+    for component in components:
+        assert _same(form(component), form(component)), component
+    assert not _same(form(GymnasiumDomain(env_id="CartPole-v1")), form(PersistentSurveillance()))

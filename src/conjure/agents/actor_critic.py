@@ -1,4 +1,15 @@
-"""Actor-Critic, Geramifard (2012), Algorithm 12 (after Bhatnagar et al. 2007)."""
+"""Actor-Critic, Geramifard (2012), Algorithm 12 (after Bhatnagar et al. 2007).
+
+Choice: ``learn`` stays a Python composition of the update kernels rather than a call of
+the compiled loop's `conjure.agents.compiled_agent.td_learn` (with its
+`_learn_with_row_traces`): the compiled kernel serves only an actor that shares the critic's
+features (one φ), while this class also runs an actor on its own features (ψ ≠ φ), and a
+policy or schedule without a compiled form (`conjure.agents.linear_td`'s Notes). The
+arithmetic is shared: without traces δ and θ's step are `_kernels.td_step` and ω's step
+`_kernels.add` or `add_log_policy_gradient` on both paths; with traces both paths step and
+apply them through `RowTraces`' kernels (`step_row_traces`, `apply_row_traces`). The
+differential tests (``tests/compiled``) hold both to the same θ and ω bit for bit.
+"""
 
 from __future__ import annotations
 
@@ -21,7 +32,7 @@ from conjure.core.interfaces import (
 from conjure.core.params import InstanceOf, Interval, Options
 from conjure.core.schedules import StepSizeSchedule
 from conjure.policies import Gibbs, greedy_action
-from conjure.representations.weights import grow_weights, initial_weights, with_room
+from conjure.representations.weights import initial_weights, with_room
 
 __all__ = ["ActorCritic"]
 
@@ -222,8 +233,10 @@ class ActorCritic(LinearTDAgent):
         )
 
     def compiled_arrays(self, rows: int = 0) -> forms.LearnerArrays:
-        """θ and the actor's ω, each with room for ``rows`` features."""
+        """θ and the actor's ω, each with room for ``rows`` features (ω if it shares them)."""
         arrays = super().compiled_arrays(rows)
+        if not self._is_shared:  # ω has the actor's own features: rows are θ's
+            return arrays._replace(actor_weights=self.actor_weights_)
         return arrays._replace(actor_weights=with_room(self.actor_weights_, rows))
 
     def compiled_row_traces(self) -> forms.RowTracePair:
@@ -243,7 +256,8 @@ class ActorCritic(LinearTDAgent):
     ) -> None:
         rows = self.weights_.shape[0] if num_features is None else num_features
         super().load_compiled_arrays(arrays, rows)
-        self.actor_weights_ = arrays.actor_weights[:rows]
+        if self._is_shared:  # else ω, never grown, is the learner's own
+            self.actor_weights_ = arrays.actor_weights[:rows]
 
     def begin_episode(self) -> None:
         """Count a new episode and clear the eligibility traces."""
@@ -378,14 +392,15 @@ class ActorCritic(LinearTDAgent):
         """ψ(s), from the act cache when possible."""
         return self._features(state, self._encode_actor)
 
+    def _grown_arrays(self) -> tuple[bool, bool]:
+        return self._is_shared, False  # ω grows when the actor shares the critic's features
+
     def _grow(self, expansion: Expansion) -> None:
         """Grow θ, and ω too when the actor shares the critic's (adaptive) features."""
         super()._grow(expansion)
         if self._has_traces:
             self.critic_traces_.grow(expansion)
-        if self._is_shared:
-            self.actor_weights_ = grow_weights(self.actor_weights_, expansion)
-            if self._has_traces:
+            if self._is_shared:
                 self.actor_traces_.grow(expansion)
 
     def state_arrays(self) -> dict[str, np.ndarray]:

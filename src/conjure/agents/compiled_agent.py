@@ -4,7 +4,8 @@
 `LearnerArrays` its θ, ω and sparse traces. The kernels here are the learners' ``learn``
 (`td_learn`: α_t, δ and the updates of Algorithms 10-12 through `td_step` or
 `td_step_traces`, then the actor's; Actor-Critic's traces through `RowTraces`' kernels),
-its target (`bootstrap`) and ``begin_episode``'s trace clearing, over the same kernels the
+its target (`bootstrap`), ``begin_episode``'s trace clearing and the rows of new features
+(`grow_learner_rows`, which the Python ``_grow`` calls too), over the same kernels the
 Python learners call; `q_values_into` is Q(s, ·) = θᵀφ(s).
 """
 
@@ -40,6 +41,7 @@ from conjure.core.schedules import (
     feature_normalized_rate,
 )
 from conjure.policies.compiled_policy import PolicyKernel
+from conjure.representations.weights import parent_sum_row
 
 __all__ = [
     "ACCUMULATING",
@@ -56,6 +58,7 @@ __all__ = [
     "bootstrap",
     "clear_learner_traces",
     "end_of_episode_traces",
+    "grow_learner_rows",
     "imagined_learn",
     "q_values_into",
     "row_trace_pair",
@@ -331,6 +334,33 @@ def traces_fit(
             and actor.count[0] + num_active <= actor.rows.shape[0]
         )
     return arrays.trace_count[0] + num_active <= arrays.trace_values.shape[0]
+
+
+@njit(cache=True)
+def grow_learner_rows(
+    arrays: LearnerArrays,
+    first: int,
+    parents: np.ndarray,
+    is_actor_growing: bool,
+    has_trace_slots: bool,
+) -> None:
+    """Rows ``first + i`` for the features an adaptive representation added (Section 4.1.1).
+
+    The learners' one growth rule, called by their Python ``_grow`` and by the compiled loop
+    after a discovery: θ_f = θ_g + θ_h for the i-th new feature f with parents
+    ``parents[i]`` (`parent_sum_row`, −1 adding nothing); the actor's ω_f likewise when
+    it shares the critic's features (``is_actor_growing``); SARSA(λ)'s trace slots of f
+    empty (``has_trace_slots``: a new feature has no trace yet). The arrays must already
+    have the rows (`conjure.representations.weights.with_room`).
+    """
+    for i in range(parents.shape[0]):
+        f, g, h = first + i, parents[i, 0], parents[i, 1]
+        parent_sum_row(arrays.weights, g, h, f)
+        if is_actor_growing:
+            parent_sum_row(arrays.actor_weights, g, h, f)
+        if has_trace_slots:
+            for a in range(arrays.trace_slots.shape[1]):
+                arrays.trace_slots[f, a] = 0
 
 
 @njit(cache=True, inline="always")

@@ -18,6 +18,17 @@ Notes
   episode's α, whatever the learner's traces (a fresh episode's trace is φ(s, a), cleared at
   its end); it counts no learning step. ``learn`` marks the weights changed, so the Q(s', ·)
   cached by ``act`` is recomputed for the next real update.
+- Choice: ``learn`` composes the update kernels itself instead of calling the compiled
+  loop's `conjure.agents.compiled_agent.td_learn` and `bootstrap`. Those read an
+  `AgentKernel`, which exists only when the policy and every schedule have a compiled form,
+  so a learner with a user's Python schedule or policy would need this path anyway; and a
+  call would box θ, the traces and the kernels' named tuples for a single update, on the
+  path whose per-step cost `run_episode` reports. What the two share is the arithmetic: θ's
+  update is `_kernels.td_step` / `td_step_traces` on both paths, α_t comes from
+  `conjure.core.schedules`' rate functions on both (``value`` here, the schedule's compiled
+  form there), and new features' rows from `compiled_agent.grow_learner_rows`. Only the
+  orchestration (which φ, which target, when to grow) is written twice; the differential
+  tests (``tests/compiled``) hold both to the same θ bit for bit.
 """
 
 from __future__ import annotations
@@ -46,7 +57,7 @@ from conjure.core.params import InstanceOf, Interval
 from conjure.core.schedules import ConstantStepSize, StepSizeSchedule
 from conjure.core.seeding import make_rng, rng_from_state, rng_state, split_seed
 from conjure.policies import EpsilonGreedy, greedy_action
-from conjure.representations.weights import grow_weights, initial_weights, with_room
+from conjure.representations.weights import expansion_parents, initial_weights, with_room
 
 __all__ = ["STEP_SIZE", "LinearTDAgent", "state_key"]
 
@@ -248,9 +259,21 @@ class LinearTDAgent(Agent):
                 self._grow(expansion)
 
     def _grow(self, expansion: Expansion) -> None:
-        """Add rows for new features, θ_f = θ_g + θ_h (Section 4.1.1), and drop stale caches."""
-        self.weights_ = grow_weights(self.weights_, expansion)
-        self.forget_cache()
+        """Add rows for new features, θ_f = θ_g + θ_h (Section 4.1.1), and drop stale caches.
+
+        Through the arrays the compiled loop uses and its growth kernel
+        (`conjure.agents.compiled_agent.grow_learner_rows`), so the rule exists once.
+        """
+        first = self.weights_.shape[0]
+        parents = expansion_parents(expansion, first)
+        rows = first + parents.shape[0]
+        arrays = self.compiled_arrays(rows)
+        forms.grow_learner_rows(arrays, first, parents, *self._grown_arrays())
+        self.load_compiled_arrays(arrays, rows)
+
+    def _grown_arrays(self) -> tuple[bool, bool]:
+        """Whether a new feature also gets the actor's ω row and SARSA(λ)'s trace slots."""
+        return False, False
 
     def _step_size(self, schedule: StepSizeSchedule, phi: SparseFeatures) -> float:
         """α_t of ``schedule`` for this episode and φ(s) (k_t = |φ(s)|₁ only if it is used)."""

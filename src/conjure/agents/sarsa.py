@@ -9,7 +9,6 @@ from conjure.agents import compiled_agent as forms
 from conjure.agents.linear_td import LinearTDAgent
 from conjure.core.interfaces import (
     DomainSpec,
-    Expansion,
     Policy,
     Representation,
     SparseFeatures,
@@ -17,7 +16,7 @@ from conjure.core.interfaces import (
 )
 from conjure.core.params import Interval, Options
 from conjure.core.schedules import StepSizeSchedule
-from conjure.representations.weights import append_rows, with_room
+from conjure.representations.weights import with_room
 
 __all__ = ["SARSA"]
 
@@ -217,10 +216,8 @@ class SARSA(LinearTDAgent):
         if self._has_traces and transition.terminated and not transition.is_imagined:
             self._clear_traces()
 
-    def _grow(self, expansion: Expansion) -> None:
-        super()._grow(expansion)
-        if self._has_traces:
-            self.trace_slots_ = append_rows(self.trace_slots_, expansion.num_new)
+    def _grown_arrays(self) -> tuple[bool, bool]:
+        return False, self._has_traces  # a new feature's trace slots start empty
 
     # ------------------------------------------------------------------ persistence
 

@@ -8,11 +8,10 @@ arithmetic: every step calls the components' own kernels through their compiled 
 - the domain (`conjure.domains.compiled_domain`): `reset_into`, `step_into`, `legal_into`;
 - the representation (`conjure.representations.compiled_representation`): `encode_into`
   and `values_of` for φ(s), and with online iFDD (`conjure.representations.compiled_ifdd`)
-  `sparsify` (Algorithm 19), `room_for`, `discover_from` and `parent_sum_row` for new
-  features' weights (Section 4.1.1);
+  `sparsify` (Algorithm 19), `room_for` and `discover_from`;
 - the learner (`conjure.agents.compiled_agent`): `q_values_into`, `bootstrap`, `td_learn`,
-  `clear_learner_traces`, and the policy's `select_action` (and `gibbs_policy` for the
-  log-policy actor).
+  `clear_learner_traces`, `grow_learner_rows` for new features' rows (Section 4.1.1), and
+  the policy's `select_action` (and `gibbs_policy` for the log-policy actor).
 
 Per step: a = π(s) was chosen; s', r = step(a); unless terminal, φ(s') and a' = π(s') over the
 legal actions of s'; Q⁺(s, a); δ and the updates; with iFDD, discovery on φ(s) with δ and the
@@ -47,14 +46,17 @@ import numpy as np
 from numba import njit
 
 from conjure.agents.compiled_agent import (
+    ACCUMULATING,
     ACTOR_CRITIC,
     NO_TRACES,
+    REPLACING,
     AgentKernel,
     LearnerArrays,
     RowTracePair,
     bootstrap,
     clear_learner_traces,
     end_of_episode_traces,
+    grow_learner_rows,
     q_values_into,
     td_learn,
     traces_fit,
@@ -74,7 +76,6 @@ from conjure.representations.compiled_representation import (
     encode_into,
     values_of,
 )
-from conjure.representations.weights import parent_sum_row
 from conjure.safety.compiled_cooperative import (
     NO_BOX,
     BoxKernel,
@@ -164,20 +165,17 @@ def _discover(
     delta: float,
     room: int,
     is_actor_critic: bool,
-    has_traces: bool,
+    has_trace_slots: bool,
 ) -> bool:
-    """Algorithm 20/21 on φ(s) with δ; new features start at θ_g + θ_h (Section 4.1.1).
+    """Algorithm 20/21 on φ(s) with δ, then the learner's rows for the new features.
 
-    Returns whether features were added (φ of every state must then be encoded again).
+    The rows come from the learners' own growth kernel (`grow_learner_rows`: θ_f = θ_g + θ_h,
+    Section 4.1.1). Returns whether features were added (φ of every state must then be
+    encoded again).
     """
     first, added, parents = discover_from(rep, phi, delta, room)
-    for f in range(first, first + added):
-        parent_sum_row(arrays.weights, parents[f, 0], parents[f, 1], f)
-        if is_actor_critic:
-            parent_sum_row(arrays.actor_weights, parents[f, 0], parents[f, 1], f)
-        if has_traces:  # a new feature has no trace yet (SARSA's own growth)
-            for a in range(arrays.trace_slots.shape[1]):
-                arrays.trace_slots[f, a] = 0
+    grow_learner_rows(arrays, first, parents[first : first + added], is_actor_critic,
+                      has_trace_slots)  # fmt: skip
     return added > 0
 
 
@@ -223,6 +221,7 @@ def learning_loop(
     num_actions = arrays.actor_weights.shape[1]  # θ has one column for a V critic
     has_traces = agent.traces != NO_TRACES
     is_tracing = learn and has_traces
+    has_trace_slots = agent.traces == REPLACING or agent.traces == ACCUMULATING  # SARSA(λ)'s
     is_actor_critic = agent.kind == ACTOR_CRITIC
     is_log_policy = learn and agent.is_log_policy  # keeps π(s, ·) as drawn (`drawn`)
     is_box = learn and box.kind != NO_BOX  # a learning box (greedy acting: `greedy_box_action`)
@@ -300,7 +299,7 @@ def learning_loop(
                     break
                 if is_growing_box and imagined:  # the vetoed update's discovery on φ(s)
                     room = room_for(rep, phi)
-                    if _discover(rep, arrays, phi, vetoed, room, is_actor_critic, has_traces):
+                    if _discover(rep, arrays, phi, vetoed, room, is_actor_critic, has_trace_slots):
                         phi = sparsify(rep, encode_into(base, obs, quanta, phi_buffer))
             else:
                 q_values_into(chooser, phi, values, q)
@@ -355,7 +354,7 @@ def learning_loop(
                 if is_growing_box and imagined:  # the vetoed update's discovery on φ(s')
                     next_room = room_for(rep, next_phi)
                     if _discover(rep, arrays, next_phi, vetoed, next_room, is_actor_critic,
-                                 has_traces):  # fmt: skip
+                                 has_trace_slots):  # fmt: skip
                         # φ(s'), Q(s', ·) and φ(s) with the new features (the Python learner
                         # encodes again after growing)
                         next_phi = sparsify(rep, encode_into(base, next_obs, quanta, next_buffer))
@@ -379,7 +378,9 @@ def learning_loop(
                 status = DIVERGED
                 phase = NEEDS_RESET
                 break
-            grew = is_ifdd and _discover(rep, arrays, phi, delta, room, is_actor_critic, has_traces)
+            grew = is_ifdd and _discover(
+                rep, arrays, phi, delta, room, is_actor_critic, has_trace_slots
+            )
             if is_adaptive_box:  # Algorithm 26: T̂ learns from the move, π^p may switch
                 box_learn(box, parts, obs, action, next_obs)
             if terminated:

@@ -456,6 +456,10 @@ class Agent(Configurable):
     evaluation; it never knows which algorithm it drives. Online learners update in ``learn``;
     batch learners (Algorithms 13-16) store the transitions there and fit on them in
     ``before_policy_check`` (or every N samples).
+
+    Two contracts complete it: persistence (``state_metadata``, ``state_arrays``,
+    ``load_state``, behind ``save`` and ``restore``) and, for an agent with a compiled form,
+    the compiled state (``compiled_arrays``, ``load_compiled_arrays``).
     """
 
     def setup(self, spec: DomainSpec, seed: int | np.random.SeedSequence) -> Agent:
@@ -495,4 +499,52 @@ class Agent(Configurable):
     @classmethod
     def restore(cls, path: str | Path) -> Agent:
         """Load an agent written by `save`, ready to continue exactly where it stopped."""
+        raise NotImplementedError
+
+    # The persistence contract: `save` and `restore` delegate to
+    # `conjure.agents.persistence` (``save_agent``, ``restore_agent``), which call these.
+
+    def state_metadata(self) -> dict[str, Any]:
+        """The agent's scalar state for `save`, as JSON values.
+
+        Counters (episodes, learning steps) and generator states
+        (`conjure.core.seeding.rng_state`); never arrays, never pickled objects.
+        """
+        raise NotImplementedError
+
+    def state_arrays(self) -> dict[str, np.ndarray]:
+        """The agent's own arrays for `save`, by name (weights, live traces, samples).
+
+        The representation's arrays are saved apart (its ``state_arrays``); names are the
+        keys `load_state` reads back.
+        """
+        raise NotImplementedError
+
+    def load_state(self, saved: Any) -> None:
+        """Restore what `state_metadata` and `state_arrays` saved, on a freshly set-up agent.
+
+        ``saved`` is a `conjure.agents.persistence.SavedAgent`; read every array through
+        ``saved.array`` (or ``saved.indices``), which checks its shape, dtype and finiteness,
+        so a damaged save raises `InvalidParameterError` naming the file.
+        """
+        raise NotImplementedError
+
+    # The compiled-state contract, for agents with a ``compiled_form``
+    # (`conjure.core.compiled_form`): the compiled loop (`conjure.compiled.stepper`) takes
+    # the arrays, updates them in place and hands them back.
+
+    def compiled_arrays(self, rows: int = 0) -> Any:
+        """The arrays the compiled loop updates in place, with room for ``rows`` features.
+
+        A `conjure.agents.compiled_agent.LearnerArrays` (θ, ω and SARSA(λ)'s traces): the
+        agent's own arrays, or buffers they lead, so nothing is copied per call.
+        """
+        raise NotImplementedError
+
+    def load_compiled_arrays(self, arrays: Any, num_features: int | None = None) -> None:
+        """Take back the arrays `compiled_arrays` handed out after the loop ran.
+
+        The first ``num_features`` rows (default: as many as now) stay in use; caches derived
+        from the weights are dropped.
+        """
         raise NotImplementedError

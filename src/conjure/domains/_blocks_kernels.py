@@ -9,10 +9,14 @@ validated by the domain.
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 from numba import njit
 
 __all__ = [
+    "NO_BLOCKS",
+    "BlocksConstants",
     "blocks_fill_legal_mask",
     "blocks_legal_actions",
     "blocks_masked_transition",
@@ -88,8 +92,20 @@ def legal_moves_into(on: np.ndarray, above: np.ndarray, num_blocks: int, out: np
 
 
 # The domain's state, shared by `BlocksWorld` and the compiled loop: ``dstate`` (int64) =
-# [On vector (n²), on (n), above (n)], ``dparams`` = [n, drop probability, step reward,
-# goal reward].
+# [On vector (n²), on (n), above (n)]; its constants are a `BlocksConstants`.
+
+
+class BlocksConstants(NamedTuple):
+    """BlocksWorld's constants as its kernels read them by name (`BlocksWorld` and the loop)."""
+
+    num_blocks: int
+    drop: float
+    step_reward: float
+    goal_reward: float
+
+
+#: The `BlocksConstants` of a compiled form that is not BlocksWorld's.
+NO_BLOCKS = BlocksConstants(0, 0.0, 0.0, 0.0)
 
 
 @njit(cache=True)
@@ -108,19 +124,19 @@ def blocks_reset(num_blocks: int, dstate: np.ndarray, obs: np.ndarray) -> None:
 
 @njit(cache=True)
 def blocks_transition(
-    dparams: np.ndarray, dstate: np.ndarray, action: int, obs: np.ndarray, uniform: float
+    constants: BlocksConstants, dstate: np.ndarray, action: int, obs: np.ndarray, uniform: float
 ) -> tuple[float, bool]:
     """Apply the legal move ``action`` given its one uniform draw; (reward, terminated).
 
     The block drops onto the table when ``uniform`` < the drop probability. ``dstate`` and
     ``obs`` are updated in place.
     """
-    n = int(dparams[0])
+    n = constants.num_blocks
     nn = n * n
     block = action // n
     target = action % n
     source = dstate[nn + block]
-    if uniform < dparams[1]:
+    if uniform < constants.drop:
         target = block  # dropped: lands on the table
     if source != block:
         dstate[nn + n + source] = -1
@@ -136,15 +152,19 @@ def blocks_transition(
         if not terminated:
             break
         terminated = dstate[nn + i] == i - 1
-    return (dparams[3] if terminated else dparams[2]), terminated
+    return (constants.goal_reward if terminated else constants.step_reward), terminated
 
 
 @njit(cache=True)
 def blocks_step(
-    dparams: np.ndarray, dstate: np.ndarray, action: int, obs: np.ndarray, rng: np.random.Generator
+    constants: BlocksConstants,
+    dstate: np.ndarray,
+    action: int,
+    obs: np.ndarray,
+    rng: np.random.Generator,
 ) -> tuple[float, bool]:
     """`blocks_transition` with its one uniform drawn from ``rng`` (the compiled loop's step)."""
-    return blocks_transition(dparams, dstate, action, obs, rng.random())
+    return blocks_transition(constants, dstate, action, obs, rng.random())
 
 
 @njit(cache=True)
@@ -162,7 +182,7 @@ def blocks_fill_legal_mask(dstate: np.ndarray, num_blocks: int, mask: np.ndarray
 
 @njit(cache=True)
 def blocks_masked_transition(
-    dparams: np.ndarray,
+    constants: BlocksConstants,
     dstate: np.ndarray,
     action: int,
     obs: np.ndarray,
@@ -170,6 +190,6 @@ def blocks_masked_transition(
     mask: np.ndarray,
 ) -> tuple[float, bool]:
     """`blocks_transition`, then the new state's legal mask into ``mask`` (`BlocksWorld.step`)."""
-    reward, terminated = blocks_transition(dparams, dstate, action, obs, uniform)
-    blocks_fill_legal_mask(dstate, int(dparams[0]), mask)
+    reward, terminated = blocks_transition(constants, dstate, action, obs, uniform)
+    blocks_fill_legal_mask(dstate, constants.num_blocks, mask)
     return reward, terminated

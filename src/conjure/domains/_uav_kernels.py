@@ -7,16 +7,20 @@ random number still comes from the domain's generator.
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 from numba import njit
 
 from conjure.domains._mission_kernels import state_from_observation
 
 __all__ = [
+    "PSTConstants",
     "actions_of_mask",
     "pst_fill_legal_mask",
     "pst_legal_actions",
     "pst_num_crashed",
+    "pst_start",
     "pst_step",
     "rescue_fill_legal_mask",
     "rescue_is_failed",
@@ -122,28 +126,53 @@ def pst_num_crashed(state: np.ndarray, num_uavs: int) -> int:
     return num_crashed
 
 
+class PSTConstants(NamedTuple):
+    """Persistent Surveillance's constants as `pst_step` and `pst_start` read them by name.
+
+    Built once by the domain (`PersistentSurveillance`), passed by its ``step`` and by the
+    compiled loop (`conjure.domains.compiled_domain.DomainKernel.pst`).
+    """
+
+    num_uavs: int
+    num_targets: int
+    max_fuel: int
+    failure_probability: float
+    surveillance_reward: float
+    fuel_penalty: float
+    crash_penalty: float
+    crash_penalty_per_uav: bool
+    is_relay_actuator_checked: bool
+
+
+#: The `PSTConstants` of a compiled form that is not Persistent Surveillance's.
+NO_PST = PSTConstants(0, 0, 0, 0.0, 0.0, 0.0, 0.0, False, False)
+
+
+@njit(cache=True)
+def pst_start(constants: PSTConstants, state: np.ndarray) -> None:
+    """s₀ into ``state``: every UAV at BASE with full fuel and working parts (RLPy's PST)."""
+    for i in range(constants.num_uavs):
+        state[4 * i + FUEL] = constants.max_fuel
+        state[4 * i + LOCATION] = BASE
+        state[4 * i + ACTUATOR] = 1
+        state[4 * i + SENSOR] = 1
+
+
 @njit(cache=True)
 def pst_step(
-    state: np.ndarray,
-    action: int,
-    uniforms: np.ndarray,
-    num_uavs: int,
-    num_targets: int,
-    max_fuel: int,
-    failure_probability: float,
-    surveillance_reward: float,
-    fuel_penalty: float,
-    crash_penalty: float,
-    crash_penalty_per_uav: bool,
-    is_relay_actuator_checked: bool,
-    mask: np.ndarray,
+    state: np.ndarray, action: int, uniforms: np.ndarray, constants: PSTConstants, mask: np.ndarray
 ) -> tuple[np.ndarray, float, bool]:
     """Advance the int state in place; return (float observation, reward, terminated).
 
     ``uniforms`` holds 2n draws: actuator failures for UAVs 0..n−1, then sensor failures.
     The legal mask of the new state is written into ``mask``.
     """
-    n = num_uavs
+    n = constants.num_uavs
+    num_targets, max_fuel = constants.num_targets, constants.max_fuel
+    failure_probability = constants.failure_probability
+    surveillance_reward, fuel_penalty = constants.surveillance_reward, constants.fuel_penalty
+    crash_penalty, crash_penalty_per_uav = constants.crash_penalty, constants.crash_penalty_per_uav
+    is_relay_actuator_checked = constants.is_relay_actuator_checked
     # Reward from the pre-step state: a relay at COMMS and healthy sensors at SURVEIL.
     has_relay = False
     num_seeing = 0

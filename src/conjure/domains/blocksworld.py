@@ -12,6 +12,7 @@ from conjure.core.errors import InvalidParameterError
 from conjure.core.interfaces import Domain, DomainSpec
 from conjure.core.params import Constraint, Interval
 from conjure.domains._blocks_kernels import (
+    BlocksConstants,
     blocks_fill_legal_mask,
     blocks_legal_actions,
     blocks_masked_transition,
@@ -164,7 +165,7 @@ class BlocksWorld(ActionMasking, Domain):
         self._drop = float(self.drop_probability)
         self._step_reward = float(self.step_reward)
         self._goal_reward = float(self.goal_reward)
-        self._dparams = np.array([n, self._drop, self._step_reward, self._goal_reward])
+        self._constants = BlocksConstants(n, self._drop, self._step_reward, self._goal_reward)
         dims = n * n
         low = np.zeros(dims, dtype=np.float64)
         high = np.ones(dims, dtype=np.float64)
@@ -198,12 +199,14 @@ class BlocksWorld(ActionMasking, Domain):
     def compiled_form(self) -> DomainKernel:
         """BlocksWorld for the compiled loop (`blocks_step`).
 
-        params (n, drop probability, step reward, goal reward); state the On(·,·) indicators,
-        then each block's support and the block above each block.
+        `BlocksConstants` (n, drop probability, step reward, goal reward), as ``step`` uses
+        them; state the On(·,·) indicators, then each block's support and the block above
+        each block.
         """
         n = self._n
-        params = np.array([float(n), self._drop, self._step_reward, self._goal_reward])
-        return domain_kernel(BLOCKS, n * n, params=params, state=self._dstate, num_units=n)
+        return domain_kernel(
+            BLOCKS, n * n, constants=self._constants, state=self._dstate, num_units=n
+        )
 
     def load_compiled_form(self, form: DomainKernel) -> None:
         """Take the state back from the compiled loop."""
@@ -244,6 +247,6 @@ class BlocksWorld(ActionMasking, Domain):
                 a, "both blocks must be clear and a block on the table cannot move to the table"
             )
         reward, terminated = blocks_masked_transition(
-            self._dparams, self._dstate, a, self._obs, self.np_random.random(), self._mask
+            self._constants, self._dstate, a, self._obs, self.np_random.random(), self._mask
         )
         return self._obs.copy(), reward, terminated, False, self._with_mask({})

@@ -10,7 +10,7 @@ from gymnasium import spaces
 from conjure.core.interfaces import Domain, DomainSpec
 from conjure.core.params import Constraint, Interval, Options
 from conjure.domains._kernels import chain_move
-from conjure.domains.compiled_domain import CHAIN, DomainKernel, domain_kernel
+from conjure.domains.compiled_domain import CHAIN, ChainConstants, DomainKernel, domain_kernel
 
 if TYPE_CHECKING:  # the model and SciPy load when `model` is first called
     from conjure.models.tabular_model import TabularModel
@@ -136,9 +136,11 @@ class ChainMDP(Domain):
     compiled_methods = ("step", "reset")
 
     def compiled_form(self) -> DomainKernel:
-        """The chain for the compiled loop: params (n, step reward, slip), the state."""
-        params = np.array([float(self.num_states), self._step_reward, self._slip])
-        return domain_kernel(CHAIN, int(self.num_actions), params=params, state=[self._state])
+        """The chain for the compiled loop: `ChainConstants` (n, step reward, slip), the state."""
+        constants = ChainConstants(
+            int(self.num_states), float(self._step_reward), float(self._slip)
+        )
+        return domain_kernel(CHAIN, int(self.num_actions), constants=constants, state=[self._state])
 
     def load_compiled_form(self, form: DomainKernel) -> None:
         """Take the state back from the compiled loop."""

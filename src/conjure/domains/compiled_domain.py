@@ -10,9 +10,10 @@ with no kernel of its own (`conjure.domains.gymnasium_adapter.GymnasiumDomain`: 
 environment) can still run in the loop as a `CALLBACK` domain: the loop calls its own Python
 ``reset`` and ``step`` back (numba's object mode) and keeps everything else compiled.
 
-Choice: one named tuple type serves every domain (unused fields are empty arrays), so the loop
-compiles once for all of them; the per-domain layout of ``params``, ``table`` and ``cells`` is
-written beside each domain's ``compiled_form``.
+Choice: one named tuple type serves every domain (unused fields are empty arrays and the
+stand-in constants of the other domains), so the loop compiles once for all of them. Each
+domain's constants are its own named tuple (`PendulumConstants` ... `PSTConstants`), read by
+name; the layout of ``table`` and ``cells`` is written beside each domain's ``compiled_form``.
 """
 
 from __future__ import annotations
@@ -25,19 +26,32 @@ from typing import Any, NamedTuple
 import numpy as np
 from numba import njit, objmode
 
-from conjure.domains._blocks_kernels import blocks_reset, blocks_step, legal_moves_into
+from conjure.domains._blocks_kernels import (
+    NO_BLOCKS,
+    BlocksConstants,
+    blocks_reset,
+    blocks_step,
+    legal_moves_into,
+)
 from conjure.domains._kernels import chain_move, gridworld_move, pendulum_start, pendulum_transition
 from conjure.domains._mission_kernels import legal_actions, mission_step
 from conjure.domains._uav_kernels import (
-    BASE,
+    NO_PST,
+    PSTConstants,
     pst_fill_legal_mask,
+    pst_start,
     pst_step,
     rescue_fill_legal_mask,
     rescue_step,
 )
 
 __all__ = [
+    "ChainConstants",
     "DomainKernel",
+    "GridConstants",
+    "MissionConstants",
+    "PendulumConstants",
+    "callback_domain",
     "callback_error",
     "callback_kernel",
     "domain_kernel",
@@ -52,13 +66,94 @@ PENDULUM, GRIDWORLD, CHAIN, BLOCKS, PERSISTENT_SURVEILLANCE, RESCUE, UAV_MISSION
 CALLBACK = 7
 #: Grid world: ``cells`` columns; ``table`` is `gridworld_move`'s.
 C_REWARD, C_TERMINAL, C_PIT, C_NOISY, C_ROW, C_COL = range(6)
-#: Rescue Mission: where s₀ starts in ``params`` (after horizon, fuel and failure penalties);
-#: ``cells[:, :n]`` the one-edge-away table, then the people and success probability per node.
-RESCUE_START, RESCUE_PEOPLE, RESCUE_SUCCESS = 3, 8, 9
-#: UAV mission: s₀ starts in ``params`` after the traverse failure probability.
-UAV_START = 1
-#: Persistent Surveillance's start state of one UAV: full fuel (from ``params``), BASE, healthy.
-_PST_START = (0, BASE, 1, 1)
+#: Rescue Mission: ``cells[:, :n]`` the one-edge-away table, then the people and success
+#: probability per node.
+RESCUE_PEOPLE, RESCUE_SUCCESS = 8, 9
+
+
+class PendulumConstants(NamedTuple):
+    """The pendulum's constants (Section 3.3.1), read by name by the loop's kernels.
+
+    Parameters
+    ----------
+    force_noise : float
+        Half-width of the uniform noise added to the force, in N.
+    start_noise : float
+        Half-width x of the uniform start distribution of θ and θ̇.
+    """
+
+    force_noise: float
+    start_noise: float
+
+
+class GridConstants(NamedTuple):
+    """A grid world's constants (Section 5.1), read by name by the loop's kernels.
+
+    Parameters
+    ----------
+    noise : float
+        η, the probability that the action is replaced by a random feasible move.
+    start_cell : int
+        The start cell's row in ``table`` and ``cells``.
+    """
+
+    noise: float
+    start_cell: int
+
+
+class ChainConstants(NamedTuple):
+    """The test chain's constants (Section 2.1, Equation 2.5), read by name by the loop.
+
+    Parameters
+    ----------
+    num_states : int
+        n; state n − 1 is terminal.
+    step_reward : float
+        The reward of a move right.
+    slip : float
+        The probability that a move fails.
+    """
+
+    num_states: int
+    step_reward: float
+    slip: float
+
+
+class MissionConstants(NamedTuple):
+    """Rescue Mission's or a UAV mission's constants (Sections 4.1.4, 5.3.5), by name.
+
+    Parameters
+    ----------
+    start : ndarray of int64
+        s₀.
+    horizon : int
+        Rescue: the episode's last step.
+    fuel_penalty, failure_penalty : float
+        Rescue: the penalties of a step's fuel and of a failure.
+    traverse_failure : float
+        A UAV mission: the probability that a UAV trying to traverse an edge stays put.
+    """
+
+    start: np.ndarray
+    horizon: int
+    fuel_penalty: float
+    failure_penalty: float
+    traverse_failure: float
+
+
+_NO_PENDULUM = PendulumConstants(0.0, 0.0)
+_NO_GRID = GridConstants(0.0, 0)
+_NO_CHAIN = ChainConstants(0, 0.0, 0.0)
+_NO_MISSION = MissionConstants(np.zeros(0, dtype=np.int64), 0, 0.0, 0.0, 0.0)
+#: Where `domain_kernel` puts each kind of constants.
+_CONSTANT_FIELDS = {
+    PendulumConstants: "pendulum",
+    GridConstants: "grid",
+    ChainConstants: "chain",
+    BlocksConstants: "blocks",
+    PSTConstants: "pst",
+    MissionConstants: "mission",
+}
 
 _chain_move = njit(cache=True, inline="always")(chain_move)
 _gridworld_move = njit(cache=True, inline="always")(gridworld_move)
@@ -76,9 +171,13 @@ class DomainKernel(NamedTuple):
     ----------
     kind : int
         Which domain (`PENDULUM` ... `UAV_MISSION`).
-    params, table, cells : ndarray
-        The domain's constants (float64 1-D, int64 2-D, float64 2-D; layouts beside each
-        domain's ``compiled_form``).
+    pendulum, grid, chain, blocks, pst, mission : named tuples
+        The constants of the domain of ``kind`` by name (`PendulumConstants`,
+        `GridConstants`, `ChainConstants`, `BlocksConstants`, `PSTConstants`,
+        `MissionConstants`); stand-ins for the other domains.
+    table, cells : ndarray
+        The domain's tables (int64 2-D, float64 2-D; layouts beside each domain's
+        ``compiled_form``).
     state, fstate : ndarray
         A copy of the domain's internal state, int64 or float64, updated in place.
     mask : ndarray of int8
@@ -92,7 +191,12 @@ class DomainKernel(NamedTuple):
     """
 
     kind: int
-    params: np.ndarray
+    pendulum: PendulumConstants
+    grid: GridConstants
+    chain: ChainConstants
+    blocks: BlocksConstants
+    pst: PSTConstants
+    mission: MissionConstants
     table: np.ndarray
     cells: np.ndarray
     state: np.ndarray
@@ -107,7 +211,7 @@ def domain_kernel(
     kind: int,
     num_actions: int,
     *,
-    params: np.ndarray | None = None,
+    constants: Any = None,
     table: np.ndarray | None = None,
     cells: np.ndarray | None = None,
     state: np.ndarray | None = None,
@@ -115,7 +219,7 @@ def domain_kernel(
     num_units: int = 0,
     num_uniforms: int = 0,
 ) -> DomainKernel:
-    """A `DomainKernel` of the given arrays, empty ones for the rest.
+    """A `DomainKernel` of the given constants and arrays, stand-ins and empty ones for the rest.
 
     The state is copied (the loop updates the copy, `load_compiled_form` takes it back); a
     constant table is used as it is when it already has the loop's type (C-contiguous,
@@ -138,17 +242,23 @@ def domain_kernel(
     def copy(value: np.ndarray | None, dtype: type) -> np.ndarray:
         return np.zeros(0, dtype=dtype) if value is None else np.array(value, dtype=dtype)
 
+    fields = {
+        "pendulum": _NO_PENDULUM, "grid": _NO_GRID, "chain": _NO_CHAIN, "blocks": NO_BLOCKS,
+        "pst": NO_PST, "mission": _NO_MISSION,
+    }  # fmt: skip
+    if constants is not None:
+        fields[_CONSTANT_FIELDS[type(constants)]] = constants
     return DomainKernel(
         kind,
-        constant(params, np.float64, 1),
-        constant(table, np.int64, 2),
-        constant(cells, np.float64, 2),
-        copy(state, np.int64),
-        copy(fstate, np.float64),
-        np.zeros(num_actions, dtype=np.int8),
-        np.empty(num_uniforms),
-        num_units,
-        BLOCKS <= kind <= UAV_MISSION,
+        **fields,
+        table=constant(table, np.int64, 2),
+        cells=constant(cells, np.float64, 2),
+        state=copy(state, np.int64),
+        fstate=copy(fstate, np.float64),
+        mask=np.zeros(num_actions, dtype=np.int8),
+        uniforms=np.zeros(num_uniforms),  # scratch: each step overwrites what it draws
+        num_units=num_units,
+        has_action_constraints=BLOCKS <= kind <= UAV_MISSION,
     )
 
 
@@ -175,6 +285,11 @@ def callback_kernel(domain: Any) -> DomainKernel:
         _CALLBACK_KEYS[domain] = key
         _CALLBACK_DOMAINS[key] = domain
     return domain_kernel(CALLBACK, domain.domain_spec.num_actions, state=np.array([key]))
+
+
+def callback_domain(form: DomainKernel) -> Any:
+    """The domain a `CALLBACK` form calls back."""
+    return _CALLBACK_DOMAINS[int(form.state[0])]
 
 
 def callback_error(form: DomainKernel) -> BaseException | None:
@@ -226,14 +341,14 @@ def reset_into(domain: DomainKernel, obs: np.ndarray, rng: np.random.Generator) 
 
     False only when a `CALLBACK` domain's ``reset`` raised (`callback_error` has it).
     """
-    kind, params, state, fstate = domain.kind, domain.params, domain.state, domain.fstate
+    kind, state, fstate = domain.kind, domain.state, domain.fstate
     if kind == CALLBACK:
         return _callback_reset(state[0], obs)
     if kind == PENDULUM:
-        fstate[0], fstate[1] = _pendulum_start(params[1], rng)
+        fstate[0], fstate[1] = _pendulum_start(domain.pendulum.start_noise, rng)
         obs[0], obs[1] = fstate[0], fstate[1]
     elif kind == GRIDWORLD:
-        cell = int(params[1])
+        cell = domain.grid.start_cell
         state[0] = cell
         obs[0], obs[1] = domain.cells[cell, C_ROW], domain.cells[cell, C_COL]
     elif kind == CHAIN:
@@ -243,14 +358,9 @@ def reset_into(domain: DomainKernel, obs: np.ndarray, rng: np.random.Generator) 
         blocks_reset(domain.num_units, state, obs)
     else:
         if kind == PERSISTENT_SURVEILLANCE:
-            for i in range(domain.num_units):
-                for j in range(4):
-                    state[4 * i + j] = _PST_START[j]
-                state[4 * i] = int(params[2])
-        else:  # the missions: s₀ is packed after their scalars
-            start = RESCUE_START if kind == RESCUE else UAV_START
-            for i in range(state.shape[0]):
-                state[i] = int(params[start + i])
+            pst_start(domain.pst, state)  # `PersistentSurveillance.reset`'s own kernel
+        else:
+            _copy(state, domain.mission.start)
         for i in range(state.shape[0]):
             obs[i] = state[i]
     return True
@@ -269,13 +379,13 @@ def step_into(
     """
     kind = domain.kind
     if kind == PENDULUM:
-        return _pendulum(domain.params, domain.fstate, action, obs, rng)
+        return _pendulum(domain.pendulum, domain.fstate, action, obs, rng)
     if kind == GRIDWORLD:
-        return _gridworld(domain.params, domain.table, domain.cells, domain.state, action, obs, rng)
+        return _gridworld(domain.grid, domain.table, domain.cells, domain.state, action, obs, rng)
     if kind == CHAIN:
-        return _chain(domain.params, domain.state, action, obs, rng)
+        return _chain(domain.chain, domain.state, action, obs, rng)
     if kind == BLOCKS:
-        reward, terminated = blocks_step(domain.params, domain.state, action, obs, rng)
+        reward, terminated = blocks_step(domain.blocks, domain.state, action, obs, rng)
         return reward, terminated, 0.0
     if kind == RESCUE:
         return _rescue(domain, action, obs, rng)
@@ -288,10 +398,14 @@ def step_into(
 
 @njit(cache=True, inline="always")
 def _pendulum(
-    params: np.ndarray, fstate: np.ndarray, action: int, obs: np.ndarray, rng: np.random.Generator
+    constants: PendulumConstants,
+    fstate: np.ndarray,
+    action: int,
+    obs: np.ndarray,
+    rng: np.random.Generator,
 ) -> tuple[float, bool, float]:
     theta, theta_dot, shown, reward, terminated = _pendulum_transition(
-        fstate[0], fstate[1], action, params[0], rng
+        fstate[0], fstate[1], action, constants.force_noise, rng
     )
     fstate[0], fstate[1] = theta, theta_dot
     obs[0], obs[1] = shown, theta_dot
@@ -300,7 +414,7 @@ def _pendulum(
 
 @njit(cache=True, inline="always")
 def _gridworld(
-    params: np.ndarray,
+    constants: GridConstants,
     table: np.ndarray,
     cells: np.ndarray,
     state: np.ndarray,
@@ -308,7 +422,7 @@ def _gridworld(
     obs: np.ndarray,
     rng: np.random.Generator,
 ) -> tuple[float, bool, float]:
-    cell = _gridworld_move(table, params[0], state[0], action, rng)
+    cell = _gridworld_move(table, constants.noise, state[0], action, rng)
     state[0] = cell
     obs[0], obs[1] = cells[cell, C_ROW], cells[cell, C_COL]
     return cells[cell, C_REWARD], cells[cell, C_TERMINAL] > 0.0, cells[cell, C_PIT]
@@ -316,10 +430,16 @@ def _gridworld(
 
 @njit(cache=True, inline="always")
 def _chain(
-    params: np.ndarray, state: np.ndarray, action: int, obs: np.ndarray, rng: np.random.Generator
+    constants: ChainConstants,
+    state: np.ndarray,
+    action: int,
+    obs: np.ndarray,
+    rng: np.random.Generator,
 ) -> tuple[float, bool, float]:
-    last = int(params[0]) - 1
-    next_state, reward = _chain_move(last, params[1], params[2], state[0], action, rng)
+    last = constants.num_states - 1
+    next_state, reward = _chain_move(
+        last, constants.step_reward, constants.slip, state[0], action, rng
+    )
     state[0] = next_state
     obs[0] = next_state
     return reward, next_state == last, 0.0
@@ -330,13 +450,13 @@ def _rescue(
     domain: DomainKernel, action: int, obs: np.ndarray, rng: np.random.Generator
 ) -> tuple[float, bool, float]:
     """One uniform per step, as `RescueMission.step`."""
-    params, table, cells = domain.params, domain.table, domain.cells
+    constants, table, cells = domain.mission, domain.table, domain.cells
     u = rng.random()
     nodes = cells.shape[0]
     next_obs, reward, terminated, failed = rescue_step(
         domain.state, action, u, table[:, :3], table[:, 3], cells[:, :nodes],
-        cells[:, RESCUE_PEOPLE], cells[:, RESCUE_SUCCESS], int(params[0]), params[1],
-        params[2], domain.mask,
+        cells[:, RESCUE_PEOPLE], cells[:, RESCUE_SUCCESS], constants.horizon,
+        constants.fuel_penalty, constants.failure_penalty, domain.mask,
     )  # fmt: skip
     _copy(obs, next_obs)
     return reward, terminated, 1.0 if failed else 0.0
@@ -349,7 +469,7 @@ def _uav_mission(
     """2n uniforms per step, as `UAVMission.step`."""
     state = domain.state
     next_state, reward, terminated, cost = mission_step(
-        state, action, domain.table[0], domain.cells, domain.params[0], rng
+        state, action, domain.table[0], domain.cells, domain.mission.traverse_failure, rng
     )
     _copy(state, next_state)
     _copy(obs, next_state)
@@ -361,14 +481,10 @@ def _persistent_surveillance(
     domain: DomainKernel, action: int, obs: np.ndarray, rng: np.random.Generator
 ) -> tuple[float, bool, float]:
     """2n uniforms per step (``np_random.random(2n)``), as `PersistentSurveillance.step`."""
-    params, uniforms = domain.params, domain.uniforms
+    uniforms = domain.uniforms
     for i in range(uniforms.shape[0]):
         uniforms[i] = rng.random()
-    next_obs, reward, terminated = pst_step(
-        domain.state, action, uniforms, int(params[0]), int(params[1]), int(params[2]),
-        params[3], params[4], params[5], params[6], params[7] != 0.0, params[8] != 0.0,
-        domain.mask,
-    )  # fmt: skip
+    next_obs, reward, terminated = pst_step(domain.state, action, uniforms, domain.pst, domain.mask)
     _copy(obs, next_obs)
     return reward, terminated, 1.0 if terminated else 0.0
 

@@ -14,7 +14,7 @@ from conjure.core.errors import InvalidParameterError
 from conjure.core.interfaces import DomainSpec
 from conjure.core.params import Constraint, InstanceOf, Interval, Options, did_you_mean
 from conjure.domains._kernels import GW_COUNT, GW_MOVES, GW_NOISY, gridworld_move
-from conjure.domains.compiled_domain import GRIDWORLD, DomainKernel, domain_kernel
+from conjure.domains.compiled_domain import GRIDWORLD, DomainKernel, GridConstants, domain_kernel
 
 if TYPE_CHECKING:  # the model and SciPy load when `model` is first called
     from conjure.models.tabular_model import TabularModel
@@ -391,14 +391,13 @@ class GridWorld(NoisyDomain):
     def compiled_form(self) -> DomainKernel:
         """The grid for the compiled loop (layout in `conjure.domains.compiled_domain`).
 
-        params (η, start cell); table `gridworld_move`'s; cells[c] reward, terminal, pit,
-        noisy, row, column; state the cell.
+        `GridConstants` (η, start cell); table `gridworld_move`'s; cells[c] reward, terminal,
+        pit, noisy, row, column; state the cell.
         """
-        params = np.array([self._noise, float(self._start_cell)])
         return domain_kernel(
             GRIDWORLD,
             len(MOVES),
-            params=params,
+            constants=GridConstants(float(self._noise), int(self._start_cell)),
             table=self._move_array,
             cells=self._cell_table,
             state=[self._cell],

@@ -11,7 +11,12 @@ from conjure.core.errors import InvalidParameterError
 from conjure.core.interfaces import Domain, DomainSpec
 from conjure.core.params import Constraint, Interval
 from conjure.domains._kernels import HALF_PI, MAX_ANGULAR_RATE, pendulum_start, pendulum_transition
-from conjure.domains.compiled_domain import PENDULUM, DomainKernel, domain_kernel
+from conjure.domains.compiled_domain import (
+    PENDULUM,
+    DomainKernel,
+    PendulumConstants,
+    domain_kernel,
+)
 
 __all__ = ["InvertedPendulum"]
 
@@ -133,11 +138,11 @@ class InvertedPendulum(Domain):
     compiled_methods = ("step", "reset")
 
     def compiled_form(self) -> DomainKernel:
-        """The pendulum for the compiled loop: params (force noise, start noise), (θ, θ̇)."""
+        """The pendulum for the compiled loop: `PendulumConstants`, (θ, θ̇)."""
         return domain_kernel(
             PENDULUM,
             3,
-            params=np.array([self._force_noise, float(self.start_noise)]),
+            constants=PendulumConstants(self._force_noise, float(self.start_noise)),
             fstate=np.array([self._theta, self._theta_dot]),
         )
 

@@ -11,11 +11,12 @@ from conjure.core.errors import InvalidParameterError
 from conjure.core.interfaces import Domain, DomainSpec
 from conjure.core.params import Constraint, InstanceOf, Interval
 from conjure.domains._uav_kernels import (
-    BASE,
     NUM_LOCATIONS,
+    PSTConstants,
     pst_fill_legal_mask,
     pst_legal_actions,
     pst_num_crashed,
+    pst_start,
     pst_step,
 )
 from conjure.domains.action_masking import ActionMasking
@@ -207,7 +208,7 @@ class PersistentSurveillance(ActionMasking, Domain):
         n = int(self.num_uavs)
         self._n = n
         self._num_actions = 3**n
-        self._args = (
+        self._constants = PSTConstants(
             n,
             int(self.num_targets),
             int(self.max_fuel),
@@ -236,8 +237,8 @@ class PersistentSurveillance(ActionMasking, Domain):
         self._set_action_space()
 
     def _set_start(self) -> None:
-        start = np.array([self.max_fuel, BASE, 1, 1], dtype=np.int64)
-        self._state = np.tile(start, self._n)
+        self._state = np.empty(4 * self._n, dtype=np.int64)
+        pst_start(self._constants, self._state)  # the compiled loop's reset too
         pst_fill_legal_mask(self._state, self._n, self._mask)
 
     def state_action_count(self) -> int:
@@ -247,12 +248,11 @@ class PersistentSurveillance(ActionMasking, Domain):
     compiled_methods = ("step", "reset", "legal_actions")
 
     def compiled_form(self) -> DomainKernel:
-        """The mission for the compiled loop: params `pst_step`'s scalars, state the UAVs'."""
-        params = np.array([float(x) for x in self._args])
+        """The mission for the compiled loop: `pst_step`'s `PSTConstants`, the UAVs' state."""
         return domain_kernel(
             PERSISTENT_SURVEILLANCE,
             self._num_actions,
-            params=params,
+            constants=self._constants,
             state=self._state,
             num_units=self._n,
             num_uniforms=2 * self._n,
@@ -294,7 +294,7 @@ class PersistentSurveillance(ActionMasking, Domain):
         if not self._mask[a]:
             return self._reject(a, "see PersistentSurveillance's notes on legal actions")
         uniforms = self.np_random.random(2 * self._n)
-        obs, reward, terminated = pst_step(self._state, a, uniforms, *self._args, self._mask)
+        obs, reward, terminated = pst_step(self._state, a, uniforms, self._constants, self._mask)
         info = {"cost": 1.0 if terminated else 0.0}
         return obs, reward, terminated, False, self._with_mask(info)
 

@@ -19,7 +19,7 @@ from conjure.domains._uav_kernels import (
     rescue_step,
 )
 from conjure.domains.action_masking import ActionMasking
-from conjure.domains.compiled_domain import RESCUE, DomainKernel, domain_kernel
+from conjure.domains.compiled_domain import RESCUE, DomainKernel, MissionConstants, domain_kernel
 
 __all__ = ["RescueMission", "rescue_mission_state_action_count"]
 
@@ -240,15 +240,17 @@ class RescueMission(ActionMasking, Domain):
     def compiled_form(self) -> DomainKernel:
         """The mission for the compiled loop (`rescue_step`).
 
-        params (horizon, fuel penalty, failure penalty, s₀); table the neighbours and degree
-        of each node; cells the one-edge-away table, the people and the success probability.
+        `MissionConstants` (s₀, horizon, fuel penalty, failure penalty); table the neighbours
+        and degree of each node; cells the one-edge-away table, the people and the success
+        probability.
         """
         horizon, fuel_penalty, failure_penalty = self._scalars
-        start = self._start_state()
+        start = np.asarray(self._start_state(), dtype=np.int64)
+        constants = MissionConstants(start, int(horizon), fuel_penalty, failure_penalty, 0.0)
         return domain_kernel(
             RESCUE,
             NUM_ACTIONS,
-            params=np.array([float(horizon), fuel_penalty, failure_penalty, *start]),
+            constants=constants,
             table=np.column_stack([self.neighbours_, self._degrees]),
             cells=np.column_stack([self._is_near, self._people, self._success]),
             state=self._state,

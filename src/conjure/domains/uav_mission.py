@@ -36,7 +36,12 @@ from conjure.domains._mission_kernels import (
     state_from_observation,
 )
 from conjure.domains.action_masking import ActionMasking
-from conjure.domains.compiled_domain import UAV_MISSION, DomainKernel, domain_kernel
+from conjure.domains.compiled_domain import (
+    UAV_MISSION,
+    DomainKernel,
+    MissionConstants,
+    domain_kernel,
+)
 from conjure.domains.mission_graph import (
     MissionGraph,
     uav_7_2,
@@ -258,18 +263,19 @@ class UAVMission(ActionMasking, NoisyDomain):
     def compiled_form(self) -> DomainKernel:
         """The mission for the compiled loop (`mission_step`).
 
-        params (traverse failure, s₀); table[0] the state layout, table[1:] the adjacency;
-        cells the node table.
+        `MissionConstants` (s₀, traverse failure); table[0] the state layout, table[1:] the
+        adjacency; cells the node table.
         """
         layout, adjacency = self._layout, self._adjacency
         nodes = adjacency.shape[0]
+        start = np.asarray(self.graph_.initial_state(), dtype=np.int64)
         table = np.zeros((nodes + 1, max(nodes, layout.shape[0])), dtype=np.int64)
         table[0, : layout.shape[0]] = layout
         table[1:, :nodes] = adjacency
         return domain_kernel(
             UAV_MISSION,
             int(self.domain_spec.num_actions),
-            params=np.array([self._eta, *self.graph_.initial_state()]),
+            constants=MissionConstants(start, 0, 0.0, 0.0, float(self._eta)),
             table=table,
             cells=self._tables[3],
             state=self._state,

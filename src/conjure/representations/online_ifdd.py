@@ -276,7 +276,7 @@ class OnlineIFDD(Representation):
         # the parent index, derived from feat_parents (filled lazily by the kernel)
         index = {
             "links": np.zeros((capacity, _k.NUM_L), dtype=np.int64),
-            "children": np.empty((4 * capacity + 8, 2), dtype=np.int64),
+            "children": np.zeros((4 * capacity + 8, 2), dtype=np.int64),  # used: children_used
             "pair_table": np.full((1 << int(2 * capacity - 1).bit_length(), 3), -1, dtype=np.int64),
         }
         for name in ("linked", "children_used", "search_capacity"):  # for the new index

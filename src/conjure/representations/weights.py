@@ -8,7 +8,14 @@ from numba import njit
 from conjure.core.errors import InvalidParameterError
 from conjure.core.interfaces import Expansion
 
-__all__ = ["append_rows", "grow_weights", "initial_weights", "parent_sum_row", "with_room"]
+__all__ = [
+    "append_rows",
+    "expansion_parents",
+    "grow_weights",
+    "initial_weights",
+    "parent_sum_row",
+    "with_room",
+]
 
 
 def initial_weights(shape: tuple[int, ...], value: float) -> np.ndarray:
@@ -129,22 +136,10 @@ def grow_weights(weights: np.ndarray, expansion: Expansion | None) -> np.ndarray
     if expansion is None:
         return weights
     num_rows = weights.shape[0]
-    if expansion.first_new != num_rows:
-        raise InvalidParameterError(
-            f"grow_weights: the expansion numbers its new features from "
-            f"{expansion.first_new}, but the weights have {num_rows} rows; were the weights "
-            f"grown after every discover() call?"
-        )
-    num_new = expansion.num_new
+    parents = expansion_parents(expansion, num_rows)
+    num_new = parents.shape[0]
     if num_new == 0:
         return weights
-    parents = np.asarray(expansion.parents, dtype=np.int64).reshape(num_new, 2)
-    limits = num_rows + np.arange(num_new)[:, None]
-    if np.any(parents < -1) or np.any(parents >= limits):
-        raise InvalidParameterError(
-            f"grow_weights: parents must be existing features (row i in [0, {num_rows} + i)) "
-            f"or -1; got {parents.tolist()}."
-        )
     grown = append_rows(weights, num_new)
     as_table = grown.reshape(grown.shape[0], -1)  # a view: rows stay rows
     for i in range(num_new):
@@ -152,12 +147,36 @@ def grow_weights(weights: np.ndarray, expansion: Expansion | None) -> np.ndarray
     return grown
 
 
+def expansion_parents(expansion: Expansion, num_rows: int) -> np.ndarray:
+    """The (g, h) of each new feature (int64, shape (num_new, 2)), checked against the rows.
+
+    Raises `InvalidParameterError` if ``expansion.first_new`` is not ``num_rows`` (the
+    weights were not grown after every ``discover``) or a parent is neither −1 nor an existing
+    feature (row i's parents in ``[0, num_rows + i)``).
+    """
+    if expansion.first_new != num_rows:
+        raise InvalidParameterError(
+            f"grow_weights: the expansion numbers its new features from "
+            f"{expansion.first_new}, but the weights have {num_rows} rows; were the weights "
+            f"grown after every discover() call?"
+        )
+    num_new = expansion.num_new
+    parents = np.asarray(expansion.parents, dtype=np.int64).reshape(num_new, 2)
+    limits = num_rows + np.arange(num_new)[:, None]
+    if np.any(parents < -1) or np.any(parents >= limits):
+        raise InvalidParameterError(
+            f"grow_weights: parents must be existing features (row i in [0, {num_rows} + i)) "
+            f"or -1; got {parents.tolist()}."
+        )
+    return parents
+
+
 @njit(cache=True)
 def parent_sum_row(weights: np.ndarray, g: int, h: int, f: int) -> None:
     """Row f ← (0 + θ_g) + θ_h, a parent of −1 adding nothing (Section 4.1.1).
 
-    The one kernel of new features' weights: `grow_weights` and the compiled loop
-    (`conjure.compiled`) both call it.
+    The one kernel of new features' weights: `grow_weights` and the learners' growth kernel
+    (`conjure.agents.compiled_agent.grow_learner_rows`) both call it.
     """
     for a in range(weights.shape[1]):
         weights[f, a] = 0.0

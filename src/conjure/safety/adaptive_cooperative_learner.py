@@ -66,7 +66,10 @@ class AdaptiveCooperativeLearner(CooperativeLearner):
       model does not count, plans nothing). A `ModelPlanner`'s policy depends on η̂ itself,
       and every counted move moves η̂, so at ΔT = 0 it runs value iteration once per move:
       raise ΔT (e.g. 0.01) there. (A `SwitchingPlanner` of fixed policies, as in the shipped
-      configs, only compares η̂ with its threshold.)
+      configs, only compares η̂ with its threshold.) Cost: one ``planner.update`` per step
+      that moved η̂ (Θ(1) for the shipped switch, one value-iteration solve for a
+      `ModelPlanner`). The default stays 0: it is the threshold the shipped AM-iCCA configs
+      and their stored results ran with, and a positive default would delay the switch.
     - Choice: the risk analyser is told of every change of T̂ (`RiskAnalyzer.update`, with
       whether π^p changed too), not only of a new π^p; the Monte-Carlo analyser reads η̂ at
       each rollout and re-tabulates π^p only when it changed.

@@ -110,6 +110,13 @@ class CooperativeLearner(CooperativeAgent):
       mentor instead of the first action of highest value (which walks a grid agent into a
       wall until the episode cap). Learners without ``q_values`` use their own greedy action.
     - Choice: a learner action equal to π^p(s) is safe without analysis (`RiskAnalyzer`).
+    - Choice (``trusted_knownness``): the trust test compares the knownness of the pair
+      ⟨s, π^p(s)⟩, the value line 2 computes, where Section 5.5.3 speaks of the knownness
+      of the state. The two are the same number here: the count grows only on ⟨s, π^p(s)⟩
+      (line 8), π^p is fixed in Algorithm 24, and Algorithm 26 resets every count when π^p
+      changes (line 15), so count(s, π^p(s)) counts every unconsulted visit to s under the
+      current π^p, and no other action of s has a count. Keying on the pair keeps one count
+      table and one knownness per step instead of a second, per-state count.
     - Choice (the veto rule, ``veto_reward``): Algorithm 24 gives a vetoed proposal no
       consequence (Algorithm 23 lowers the actor's ρ(s, a′) by λ), so a learner whose values
       favour a move the analyser keeps blocking proposes it again and again while the planner
@@ -230,7 +237,7 @@ class CooperativeLearner(CooperativeAgent):
             learner_action = self._greedy_learner_action(state, planner_action, legal_actions)
         else:
             learner_action = self.learner_.act(state, False, legal_actions)  # line 4
-        if self._is_trusted(knownness) or self.risk_.is_safe(
+        if self._is_trusted(knownness) or self.risk_.is_safe(  # the pair's knownness (Notes)
             state, learner_action, self.eval_rng_ if greedy else None, planner_action=planner_action
         ):  # line 5
             return learner_action  # line 6

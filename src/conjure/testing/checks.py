@@ -15,6 +15,7 @@ model's domain instead of the 4-state chain.
 from __future__ import annotations
 
 import copy
+import functools
 import pickle
 import tempfile
 import warnings
@@ -23,6 +24,8 @@ from typing import Any, NamedTuple
 
 import numpy as np
 from gymnasium.utils.env_checker import check_env
+from numba import njit, typeof
+from numba.experimental.structref import StructRefProxy
 
 from conjure.core.compiled_form import compiled_form
 from conjure.core.cooperative import CooperativePlanner, NoisyDomain, RiskAnalyzer
@@ -31,6 +34,7 @@ from conjure.core.interfaces import Agent, Domain, DomainSpec, Policy, Represent
 from conjure.core.params import AnyOf, Configurable, Constraint, Options
 from conjure.core.seeding import make_rng
 from conjure.domains import GridWorld, UAVMission
+from conjure.domains.compiled_domain import CALLBACK, DomainKernel, callback_domain
 from conjure.models.approximate_model import ApproximateModel
 from conjure.planners import CBBAPlanner, ShortestPathPlanner
 from conjure.planners.base import Planner
@@ -363,13 +367,59 @@ def _alternatives(constraint: Constraint, value: Any) -> list[Any]:
 
 
 def _same(a: Any, b: Any) -> bool:
-    """Whether two compiled forms are equal, arrays by value (NaN equal to NaN)."""
+    """Whether two compiled forms hold the same content.
+
+    Named tuples field by field, arrays by value (NaN equal to NaN), numba structrefs by their
+    fields, numpy Generators by their bit generator's state (a `CALLBACK` domain's key is
+    replaced beforehand, `_form_content`): two set-ups of one configuration are the same,
+    whichever objects they allocated.
+    """
     if isinstance(a, tuple) and isinstance(b, tuple):
-        return len(a) == len(b) and all(_same(x, y) for x, y in zip(a, b, strict=True))
+        return (
+            type(a) is type(b)
+            and len(a) == len(b)
+            and all(_same(x, y) for x, y in zip(a, b, strict=True))
+        )
+    if isinstance(a, dict) and isinstance(b, dict):
+        return a.keys() == b.keys() and all(_same(a[key], b[key]) for key in a)
     if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
         a, b = np.asarray(a), np.asarray(b)
         return a.shape == b.shape and a.dtype == b.dtype and np.array_equal(a, b, equal_nan=True)
+    if isinstance(a, StructRefProxy) and isinstance(b, StructRefProxy):
+        return typeof(a) == typeof(b) and _same(_structref_fields(a), _structref_fields(b))
+    if isinstance(a, np.random.Generator) and isinstance(b, np.random.Generator):
+        return _same(a.bit_generator.state, b.bit_generator.state)
     return bool(a == b) and type(a) is type(b)
+
+
+def _structref_fields(value: StructRefProxy) -> tuple:
+    """The fields of a numba structref, in its type's order (read by one compiled getter)."""
+    return _field_reader(typeof(value))(value)
+
+
+@functools.cache
+def _field_reader(kind: Any) -> Callable[[Any], tuple]:
+    """A compiled function returning every field of a structref of type ``kind``."""
+    fields = ", ".join(f"value.{name}" for name in kind.field_dict)
+    namespace: dict[str, Any] = {}
+    exec(f"def read(value):\n    return ({fields},)", namespace)  # only the type's field names
+    return njit(namespace["read"])
+
+
+def _form_content(component: Configurable) -> Any:
+    """The compiled form of a set-up copy of ``component``, None if it has none.
+
+    A `CALLBACK` domain's form holds only a key to the live domain (the loop calls its own
+    ``reset`` and ``step``), so its content is the domain's class and parameters, read while
+    the copy is alive.
+    """
+    set_up = _set_up_copy(component)
+    form = compiled_form(set_up)
+    if isinstance(form, DomainKernel) and form.kind == CALLBACK:
+        domain = callback_domain(form)
+        key = np.zeros(0, dtype=np.int64)
+        return form._replace(state=key), type(domain).__name__, repr(domain.get_params())
+    return form
 
 
 def check_compiled_form_covers_params(component: Configurable) -> None:
@@ -381,7 +431,7 @@ def check_compiled_form_covers_params(component: Configurable) -> None:
     offers no other value here (a component, a function) are not varied: a component has its
     own form, checked on its own.
     """
-    reference = compiled_form(_set_up_copy(component))
+    reference = _form_content(component)
     if reference is None:
         return
     irrelevant = getattr(component, "compiled_irrelevant_params", frozenset())
@@ -392,10 +442,9 @@ def check_compiled_form_covers_params(component: Configurable) -> None:
             continue
         for other in _alternatives(constraint, params[name]):
             try:
-                changed = _set_up_copy(type(component)(**{**params, name: other}))
+                form = _form_content(type(component)(**{**params, name: other}))
             except (InvalidParameterError, IncompatibleComponentsError):
                 continue  # another value may fit the other parameters
-            form = compiled_form(changed)
             if form is not None and _same(form, reference):
                 ignored.append(f"{name}={other!r} (from {params[name]!r})")
             break
