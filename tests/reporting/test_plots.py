@@ -94,7 +94,9 @@ def test_29_methods_leave_the_axes_most_of_the_figure():
     legend = axes.get_legend().get_window_extent(renderer)
     assert legend.x0 >= axes.get_window_extent(renderer).x1
     assert legend.x1 <= figure.bbox.x1 and legend.y0 >= figure.bbox.y0  # all of it is seen
-    assert "icca [alpha_0=0.01, n_0=100]" in [t.get_text() for t in axes.get_legend().texts]
+    texts = [t.get_text() for t in axes.get_legend().texts]
+    assert "icca [alpha_0=0.01, n_0=100]" in texts
+    assert "icca [alpha_0=0.01, n_0=1,000,000]" in texts  # issue 21: no `n_0=1000000`
 
 
 def test_identical_curves_differ_in_line_style_marker_and_colour():

@@ -43,6 +43,7 @@ from matplotlib.ticker import StrMethodFormatter
 
 from conjure.core.errors import InvalidParameterError
 from conjure.experiments.metric_ranges import clip_interval, describe_range, metric_range
+from conjure.experiments.numbers import readable_setting
 from conjure.experiments.results import (
     RESULTS_FILE,
     has_finite_values,
@@ -131,6 +132,8 @@ def method_labels(results: pd.DataFrame, *, abbreviate: bool = True) -> pd.Serie
     ...     "learner.step_size.alpha_0=0.1, learner.step_size.n_0=100", ""]})
     >>> method_labels(frame).tolist()
     ['icca [alpha_0=0.1, n_0=100]', 'sarsa']
+    >>> method_labels(pd.DataFrame({"label": ["sarsa"], "setting": ["n_0=200000.0"]})).tolist()
+    ['sarsa [n_0=200,000]']
     """
     labels = results["label"].astype(str)
     if "domain_label" in results.columns and results["domain_label"].nunique() > 1:
@@ -140,6 +143,7 @@ def method_labels(results: pd.DataFrame, *, abbreviate: bool = True) -> pd.Serie
     setting = results["setting"].fillna("").astype(str)
     if abbreviate:
         setting = setting.map(_short_setting)
+    setting = setting.map(readable_setting)
     return labels + np.where(setting != "", " [" + setting + "]", "")
 
 
