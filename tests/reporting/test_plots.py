@@ -153,6 +153,20 @@ def test_bands_stop_at_the_cap_and_value_bounds_the_runs_declared():
     assert curve_bands(optimality, "optimality").iloc[0]["high"] == 1.0  # it reached 1.75
 
 
+def test_a_return_band_stops_at_declared_return_bounds_and_says_when_it_is_not_cut():
+    # Issue 21: GridWorld-1's returns (at most 1) had bands reaching 8.5.
+    returns = pd.DataFrame(
+        {"label": "icca", "seed": [0, 1], "learning_steps": 100, "return": [1.0, -0.5]}
+    )
+    declared = returns.assign(lowest_return=-1.999, highest_return=1.0)
+    band = curve_bands(declared, "return").iloc[0]
+    assert (band["low"], band["high"]) == (-1.999, 1.0)
+    for frame, said in ((declared, "cut at the range [-1.999, 1]"), (returns, "not cut")):
+        figure = learning_curve_figure(frame, "return")
+        texts = [t.get_text() for t in figure.axes[0].get_legend().get_texts()]
+        assert any(said in t for t in texts), texts
+
+
 def test_bands_stay_within_the_metrics_possible_range():
     # Three seeds failing 1, 1, 0 times in 1: the Student-t interval is mean ± 2.48, far past
     # [0, 1]; the band is clipped there, and an unbounded metric keeps its full interval.

@@ -281,7 +281,8 @@ def write_report(
         + (f"{len(errors)} failed (tracebacks in `{ERRORS_DIR}/`)" if errors else "none failed")
         + "; seeds per method shown as `n`. Curves are means over seeds with 95% confidence "
         "bands (Student t), cut at what each metric can be (a rate within [0, 1], an episode "
-        "no longer than the domain's cap, a return within the domain's value bounds); in the "
+        "no longer than the domain's cap, a return within the bounds its domain declares, "
+        "if any: `value_bounds`, `return_bounds`; other returns are not cut); in the "
         "tables an interval so cut reads `mean [low, high]`. The final performance is the "
         "last policy check.",
         "",
