@@ -67,3 +67,16 @@ def test_the_layer_order_is_the_import_linter_contracts():
         for layer in reversed(layers)
     ]
     assert order == expected
+
+
+def test_the_mountain_car_speed_rows_are_dated_and_the_prose_quotes_their_reference():
+    # Issue 21: the MountainCar row had no date, and the sentence under the table quoted
+    # `env.step` at 63,000-73,000 steps/s where the reference row said 105,802.
+    rows = [line.split(" | ") for line in README.splitlines() if line.startswith("|")]
+    car = [row for row in rows if "MountainCar-v0 via `from_gymnasium`" in row[0]]
+    reference = [row for row in rows if row[0].startswith("| reference: MountainCar-v0")]
+    assert len(car) == 1 and len(reference) == 1
+    assert re.search(r"\d{4}-\d\d-\d\d, \d\d:\d\d UTC", car[0][0])
+    assert car[0][1] == "`python benchmarks/learning_speed.py --steps 100000 --repeats 5`"
+    prose = README.split(reference[0][0], 1)[1].split("## Development", 1)[0]
+    assert f"`env.step` alone ran {reference[0][2]} steps/s" in prose

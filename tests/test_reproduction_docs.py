@@ -2,6 +2,7 @@
 
 import csv
 import importlib.util
+import re
 import sys
 from pathlib import Path
 
@@ -26,6 +27,49 @@ def test_the_stored_figures_tables_equal_what_the_stored_results_give():
     blocks = [name for name in figures.FIGURES if f"chapter5:{name} -->" in text]
     assert blocks, "docs/reproduction.md has no generated chapter-5 block"
     assert figures.rendered(text) == text, "run `python docs/reproduction/figures.py render`"
+
+
+def chapter_4_cells() -> list[tuple[str, str]]:
+    """(column heading, cell) of every table in docs/reproduction.md's chapter 3-4 part."""
+    text = (ROOT / "docs" / "reproduction.md").read_text()
+    part = text.split("# Reproduction of the thesis's chapter 5 results", 1)[0]
+    cells, heading = [], []
+    for line in part.splitlines():
+        if not line.startswith("|"):
+            heading = []
+        elif not heading:
+            heading = line.split(" | ")
+        elif not line.startswith("|---"):
+            cells += zip(heading, line.split(" | "), strict=True)
+    return cells
+
+
+def test_chapter_4_tables_print_numbers_as_conjure_does_and_cut_steps_at_the_cap():
+    # Issue 21: `2993 ± 14.5` steps above the 3,000-step cap, `1.023e+04`, `± 8.43e-17`.
+    cells = chapter_4_cells()
+    assert len(cells) > 100
+    for heading, cell in cells:
+        assert not re.search(r"\de[+-]\d", cell), cell
+        # 2,993, not 2993 (a setting's value, `=3000.0` or `[3000]`, and a percentage aside)
+        assert not re.search(r"(?<![\d,.=[])\d{4,}(?![\d.]*%)", cell), cell
+        if re.search("failures|difference|features", heading):
+            continue  # counts and differences: no cap
+        for mean, half in re.findall(r"(-?[\d,.]+) ± ([\d,.]+)", cell):
+            mean, half = float(mean.replace(",", "")), float(half.replace(",", ""))
+            assert not mean <= 3000 < mean + half, (heading, cell)  # chapter 4's episode cap
+
+
+def test_every_chapter_4_plot_is_shown_and_every_shown_plot_exists():
+    # Issue 21: the docs showed the old plots (legend over the curves, a band above the cap)
+    # while the new ones sat unlinked.
+    docs = [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]
+    shown = set()
+    for doc in docs:
+        for target in re.findall(r"!\[[^\]]*\]\(([^)]+\.png)\)", doc.read_text()):
+            assert (doc.parent / target).is_file(), f"{doc.name} shows a missing {target}"
+            shown.add((doc.parent / target).resolve())
+    for png in sorted(SCRIPTS.glob("fig_[34]_*.png")):
+        assert png.resolve() in shown, f"{png.name} is shown nowhere: link or delete it"
 
 
 def selections():

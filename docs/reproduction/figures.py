@@ -36,9 +36,11 @@ from pathlib import Path
 
 import pandas as pd
 
+from conjure.experiments import registry
 from conjure.reporting.plots import plot_learning_curves
 from conjure.sweeps import reproduction
 from conjure.sweeps.reproduction import claim_rows, curve_table, finals_markdown, finals_table
+from conjure.sweeps.sweep import load_sweep
 
 HERE = Path(__file__).resolve().parent
 DOC = HERE.parent / "reproduction.md"
@@ -98,14 +100,38 @@ def selection_rows(name: str) -> str:
     return "\n".join(lines)
 
 
+def episode_cap(name: str) -> float:
+    """The episode cap of the figure's domain (its sweep config's one ``domain``)."""
+    sweep = load_sweep(HERE.parents[1] / FIGURES[name].config)
+    domain = registry.build("domain", sweep.domain.model_dump(), path="domain")
+    return float(domain.domain_spec.max_episode_steps)
+
+
+def stored_finals(name: str) -> pd.DataFrame:
+    """A figure's stored finals, with its domain's episode cap where it has episode lengths.
+
+    The stored CSV holds no cap; an episode length's interval (in the table and the claims)
+    is cut at the cap of the figure's domain, read from its config, as a run's tables cut it.
+    """
+    finals = pd.read_csv(store_dir(name) / f"{name}_finals.csv")
+    if "episode_length" not in finals.columns:
+        return finals
+    return finals.assign(max_episode_steps=episode_cap(name))
+
+
 def block(name: str) -> str:
     """The generated text of one figure: its command, selection, final table and claims."""
     figure = FIGURES[name]
-    finals = pd.read_csv(store_dir(name) / f"{name}_finals.csv")
+    finals = stored_finals(name)
     scales = (
         "; V/V* is the return over the exact optimum, optimality (V − V_worst)/(V* − V_worst) "
         "the thesis's Fig. 5-6b scale"
         if chapter(name) == "5"
+        else ""
+    )
+    cut = (
+        "; an interval past the episode cap is cut there and reads `mean [low, high]`"
+        if "max_episode_steps" in finals.columns
         else ""
     )
     parts = [
@@ -113,7 +139,7 @@ def block(name: str) -> str:
         f"(`python docs/reproduction/figures.py store {name} DIR` after "
         f"`conjure sweep {figure.config} --out DIR`, or `conjure reproduce {name} --scale "
         f"thesis --out DIR`). Final policy check on the fresh seeds (mean ± 95% t "
-        f"half-width){scales}.",
+        f"half-width){scales}{cut}.",
         "",
         selection_rows(name),
         "",
@@ -126,8 +152,7 @@ def block(name: str) -> str:
 
 def claims_block(name: str) -> str:
     """A figure's claims alone, from its stored finals (README's comparison table)."""
-    finals = pd.read_csv(store_dir(name) / f"{name}_finals.csv")
-    return claim_rows(FIGURES[name].claims, finals)
+    return claim_rows(FIGURES[name].claims, stored_finals(name))
 
 
 def rendered(text: str) -> str:

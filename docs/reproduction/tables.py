@@ -5,8 +5,9 @@
 
 Prints, per method (label and grid setting, or the columns given with --by), the mean metric
 with a 95% Student-t half-width at the given learning steps, the mean area under the curve
-(the selection criterion) and the mean final feature count. Uses DIR/selected/ (the
-fresh-seed rerun) when it exists.
+(the selection criterion) and the mean final feature count, in conjure's number format (an
+interval past the metric's range, e.g. the episode cap the runs recorded, cut there and shown
+as ``mean [low, high]``). Uses DIR/selected/ (the fresh-seed rerun) when it exists.
 """
 
 from __future__ import annotations
@@ -16,16 +17,18 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
-from scipy import stats
+
+from conjure.experiments.metric_ranges import metric_range
+from conjure.experiments.numbers import format_interval, format_number
+from conjure.experiments.results import t_confidence
 
 
-def t_interval(values: np.ndarray) -> str:
-    """Format the mean with its 95% Student-t half-width, ignoring NaNs."""
+def t_interval(values: np.ndarray, bounds: tuple[float, float]) -> str:
+    """The mean with its 95% Student-t half-width (NaNs ignored), cut at the metric's range."""
     values = values[~np.isnan(values)]
-    if len(values) < 2:
-        return f"{values.mean():.4g}" if len(values) else "n/a"
-    half = stats.t.ppf(0.975, len(values) - 1) * values.std(ddof=1) / np.sqrt(len(values))
-    return f"{values.mean():.4g} ± {half:.3g}"
+    if not len(values):
+        return "n/a"
+    return format_interval(*t_confidence(values), bounds)
 
 
 def table(results_dir: Path, metric: str | None, steps: list[int], by: list[str]) -> str:
@@ -43,13 +46,16 @@ def table(results_dir: Path, metric: str | None, steps: list[int], by: list[str]
         key = key if isinstance(key, tuple) else (key,)
         row = dict(zip(keys, key, strict=True))
         row["n"] = group["seed"].nunique()
+        bounds = metric_range(group, metric)
         for step in steps:
             at = group[group["learning_steps"] == step][metric].to_numpy(dtype=float)
-            row[f"{metric} @ {step:,}"] = t_interval(at)
+            row[f"{metric} @ {step:,}"] = t_interval(at, bounds)
         auc = group.sort_values("learning_steps").groupby("seed")[metric].mean().to_numpy()
-        row["AUC (mean over checks)"] = t_interval(auc)
+        row["AUC (mean over checks)"] = t_interval(auc, bounds)
         last = group[group["learning_steps"] == group["learning_steps"].max()]
-        row["final features"] = f"{last['num_features'].mean():.4g}"
+        features = float(last["num_features"].mean())  # a count: whole unless seeds differ
+        whole = features.is_integer()
+        row["final features"] = f"{features:,.0f}" if whole else format_number(features)
         rows.append(row)
     out = pd.DataFrame(rows)
     header = "| " + " | ".join(out.columns) + " |\n|" + "---|" * len(out.columns) + "\n"

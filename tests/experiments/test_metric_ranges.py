@@ -6,12 +6,16 @@ import math
 
 import pandas as pd
 
+from conjure.agents import SARSA
+from conjure.domains import ChainMDP, GridWorld
 from conjure.experiments.metric_ranges import (
     clip_interval,
     describe_range,
     domain_bounds,
     metric_range,
 )
+from conjure.experiments.run import run
+from conjure.representations import Tabular
 
 
 def runs(**columns) -> pd.DataFrame:
@@ -51,3 +55,27 @@ def test_clip_interval_and_describe_range():
     assert all(math.isnan(end) for end in clip_interval(0.5, math.nan, (0.0, 1.0)))
     assert describe_range((0.0, 3000.0)) == "[0, 3,000]"
     assert describe_range((-math.inf, 1.0)) == "(-inf, 1]"
+
+
+def test_return_bounds_cut_the_return_only_and_the_tighter_declared_range_wins():
+    # Issue 21: GridWorld-1 (return <= 1) printed `0.543 ± 1.226`; a chain band reached 47.
+    grid = runs(**domain_bounds(1000, None, (-1.999, 1.0)), seed=[0])
+    assert metric_range(grid, "return") == (-1.999, 1.0)
+    assert metric_range(grid, "optimality") == (0.0, 1.0)  # never scaled by return bounds
+    assert metric_range(grid, "value_ratio") == (-math.inf, 1.0)
+    both = runs(**domain_bounds(40, (-2.0, 0.8), (-5.0, 3.0)), seed=[0])
+    assert metric_range(both, "return") == (-2.0, 0.8)
+    assert metric_range(both, "value_ratio") == (-2.5, 1.0)
+
+
+def test_a_run_on_gridworld_and_the_chain_records_what_an_episode_can_return():
+    chain = ChainMDP(num_states=8)
+    for domain, bounds in ((GridWorld.gridworld_1(), (-1.999, 1.0)), (chain, (0.0, 7.0))):
+        assert domain.value_bounds() is None  # optimality stays undefined there
+        agent = SARSA(representation=Tabular())
+        result = run(domain=domain, agent=agent, budget_steps=200, seed=0, num_policy_checks=1)
+        declared = result.domain_bounds
+        assert (declared["lowest_return"], declared["highest_return"]) == bounds
+        assert "worst_return" not in declared
+        returns = [row["return"] for row in result.rows]
+        assert all(bounds[0] <= r <= bounds[1] for r in returns)

@@ -201,10 +201,13 @@ def test_the_summary_table_keeps_long_labels_whole_at_80_columns():
     text = console.export_text()
     rows = [line.split("│") for line in text.splitlines() if line.startswith("│")]
     flat = "".join(cells[1].strip() for cells in rows)  # the label column, unwrapped
+    settings = "".join(cells[2].strip() for cells in rows)
     assert "…" not in text
     for label in labels:
         assert label in flat
     assert "-1.000 ± 0.000" in text
+    # Issue 21: a grid value 1000000 (or 2e5, read as 200000.0) printed without separators.
+    assert "step_size.n_0=1,000,000" in settings and "1000000" not in settings
 
 
 def test_the_summary_table_cuts_an_interval_at_the_metrics_range():

@@ -94,7 +94,9 @@ def test_29_methods_leave_the_axes_most_of_the_figure():
     legend = axes.get_legend().get_window_extent(renderer)
     assert legend.x0 >= axes.get_window_extent(renderer).x1
     assert legend.x1 <= figure.bbox.x1 and legend.y0 >= figure.bbox.y0  # all of it is seen
-    assert "icca [alpha_0=0.01, n_0=100]" in [t.get_text() for t in axes.get_legend().texts]
+    texts = [t.get_text() for t in axes.get_legend().texts]
+    assert "icca [alpha_0=0.01, n_0=100]" in texts
+    assert "icca [alpha_0=0.01, n_0=1,000,000]" in texts  # issue 21: no `n_0=1000000`
 
 
 def test_identical_curves_differ_in_line_style_marker_and_colour():
@@ -149,6 +151,20 @@ def test_bands_stop_at_the_cap_and_value_bounds_the_runs_declared():
         optimality=[1.0, 1.0, 0.4]
     )
     assert curve_bands(optimality, "optimality").iloc[0]["high"] == 1.0  # it reached 1.75
+
+
+def test_a_return_band_stops_at_declared_return_bounds_and_says_when_it_is_not_cut():
+    # Issue 21: GridWorld-1's returns (at most 1) had bands reaching 8.5.
+    returns = pd.DataFrame(
+        {"label": "icca", "seed": [0, 1], "learning_steps": 100, "return": [1.0, -0.5]}
+    )
+    declared = returns.assign(lowest_return=-1.999, highest_return=1.0)
+    band = curve_bands(declared, "return").iloc[0]
+    assert (band["low"], band["high"]) == (-1.999, 1.0)
+    for frame, said in ((declared, "cut at the range [-1.999, 1]"), (returns, "not cut")):
+        figure = learning_curve_figure(frame, "return")
+        texts = [t.get_text() for t in figure.axes[0].get_legend().get_texts()]
+        assert any(said in t for t in texts), texts
 
 
 def test_bands_stay_within_the_metrics_possible_range():

@@ -191,7 +191,9 @@ def test_report_cuts_intervals_at_each_metrics_range_and_prints_short_numbers(tm
 
 
 def test_report_of_a_selection_names_the_rerun_and_prints_its_scores_to_read(tmp_path):
-    sweep = fake_sweep(selection={"criterion": "auc", "fresh_seeds": 2})
+    # Issue 21: a grid value 1000000 read `diverge_at=1000000` in report.md.
+    grid = {"agents.a.params.diverge_at": [100000, 1000000]}
+    sweep = fake_sweep(grid=grid, selection={"criterion": "auc", "fresh_seeds": 2})
     run_sweep(sweep, tmp_path, max_workers=1, run_fn=run_with_fakes, progress=False)
     from conjure.reporting.report import write_report
 
@@ -199,6 +201,9 @@ def test_report_of_a_selection_names_the_rerun_and_prints_its_scores_to_read(tmp
     table = text.split("## Selected settings")[1]
     assert "score ± 95% t" in table and "score_mean" not in table
     assert not re.search(r"\d\.\d{6,}", table)  # no float noise
+    assert "a [diverge_at=1,000,000]" in text and "1000000" not in text
+    chosen = pd.read_csv(tmp_path / "selection.csv")["setting"]  # the key stays YAML
+    assert set(chosen.dropna()) <= {"diverge_at=100000", "diverge_at=1000000"}
     rerun = (tmp_path / "selected" / "report.md").read_text()
     assert rerun.startswith("# Report: fake_sweep (best settings, fresh seeds)")
 

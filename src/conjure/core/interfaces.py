@@ -273,6 +273,17 @@ class Domain(gym.Env, Configurable):
         """
         return None
 
+    def return_bounds(self) -> tuple[float, float] | None:
+        """Return (lowest, highest) return any episode from the start can have, if known.
+
+        Used only to cut the confidence intervals of the return (`conjure.experiments.
+        metric_ranges`), never to scale a metric: unlike `value_bounds` the two ends need not
+        be any policy's expected return, only hold for every episode within the episode cap.
+        Domains whose rewards make them exact and cheap (`GridWorld`, `ChainMDP`) return them;
+        the default is ``None`` (the return is then cut only at `value_bounds`, if any).
+        """
+        return None
+
     def check_action(self, action: Any) -> int:
         """Return ``action`` as an int, or raise a clear error if it is not a valid action."""
         n = self.domain_spec.num_actions

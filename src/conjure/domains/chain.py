@@ -135,6 +135,21 @@ class ChainMDP(Domain):
 
     compiled_methods = ("step", "reset")
 
+    def return_bounds(self) -> tuple[float, float]:
+        """(lowest, highest) return of any episode (cuts intervals only).
+
+        An episode makes at most k = min(n − 1, cap) successful moves right, each earning r,
+        and nothing else earns a reward: the return lies between k·min(r, 0) and k·max(r, 0).
+
+        Examples
+        --------
+        >>> ChainMDP(num_states=8).return_bounds()
+        (0.0, 7.0)
+        """
+        moves = min(int(self.num_states) - 1, int(self.max_episode_steps))
+        r = float(self.step_reward)
+        return moves * min(r, 0.0), moves * max(r, 0.0)
+
     def compiled_form(self) -> DomainKernel:
         """The chain for the compiled loop: `ChainConstants` (n, step reward, slip), the state."""
         constants = ChainConstants(

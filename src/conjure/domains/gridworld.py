@@ -454,6 +454,24 @@ class GridWorld(NoisyDomain):
             self.clone().set_params(noise=1.0).model(),
         )
 
+    def return_bounds(self) -> tuple[float, float]:
+        """(lowest, highest) return of any episode within the cap T (cuts intervals only).
+
+        An episode of L ≤ T steps earns ``step_reward`` s on each step but a last one that
+        enters a goal (+1) or a pit (−1), or T·s when it is cut at the cap: the return lies in
+        [min(−1 + min(0, (T−1)s), T·s), max(1 + max(0, (T−1)s), T·s)] (+1 for −1 on a map
+        without pits). GridWorld-1 (s = −0.001, T = 1,000): [−1.999, 1].
+
+        Examples
+        --------
+        >>> GridWorld.gridworld_1().return_bounds()
+        (-1.999, 1.0)
+        """
+        steps, s = int(self.max_episode_steps), float(self.step_reward)
+        worst_end = -1.0 if PIT in self.grid_ else 1.0
+        lowest = min(worst_end + min(0.0, (steps - 1) * s), steps * s)
+        return lowest, max(1.0 + max(0.0, (steps - 1) * s), steps * s)
+
     def is_constrained(self, state: np.ndarray) -> bool:
         """Whether ``state`` is a pit (the danger zones of Figures 5-1 and 5-10)."""
         return bool(self._is_pit[self._cell_of(state)])

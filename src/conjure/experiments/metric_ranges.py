@@ -14,11 +14,15 @@ Notes
   2. What each run's domain declared, recorded with the run (`DOMAIN_BOUND_COLUMNS`): the
      episode length is at most the episode cap (`DomainSpec.max_episode_steps`; a pendulum
      balances at most 3,000 steps); the return lies within ``Domain.value_bounds()`` (worst,
-     best), and V/V* is at least worst / best.
+     best) and within ``Domain.return_bounds()`` (lowest, highest: what any episode can
+     return, e.g. GridWorld-1's [-1.999, 1]), and V/V* is at least worst / best.
+     ``return_bounds`` cuts the return's intervals only; optimality and V/V* use
+     ``value_bounds`` alone.
 
   Runs shown together (the seeds of a method, or several domains in one plot) take the union
-  of their declared ranges. A run that declared nothing (a domain without value bounds, or a
-  run recorded before runs recorded their domain's bounds) leaves the fixed range.
+  of their declared ranges. A run that declared nothing (a domain with neither bounds, or a
+  run recorded before runs recorded their domain's bounds) leaves the fixed range: its
+  return is not cut.
 - Choice: the range bounds the expected value, which the interval is about. One evaluation
   can return more than the optimum's expected return V*; no policy's expected return can.
   The IQM's bootstrap interval is made of observed values and is not cut.
@@ -59,13 +63,21 @@ FIXED_RANGES = {
     "learning_failures": (0.0, math.inf),
 }
 #: The per-run columns of a results table that hold what the run's domain declared.
-DOMAIN_BOUND_COLUMNS = ("max_episode_steps", "worst_return", "best_return")
+DOMAIN_BOUND_COLUMNS = (
+    "max_episode_steps",
+    "worst_return",
+    "best_return",
+    "lowest_return",
+    "highest_return",
+)
 
 
 def domain_bounds(
-    max_episode_steps: int, value_bounds: tuple[float, float] | None
+    max_episode_steps: int,
+    value_bounds: tuple[float, float] | None,
+    return_bounds: tuple[float, float] | None = None,
 ) -> dict[str, float]:
-    """Return what a run records of its domain: the episode cap and any value bounds.
+    """Return what a run records of its domain: the episode cap, any value and return bounds.
 
     Examples
     --------
@@ -73,10 +85,14 @@ def domain_bounds(
     {'max_episode_steps': 3000.0}
     >>> domain_bounds(40, (-1.0, 0.5))
     {'max_episode_steps': 40.0, 'worst_return': -1.0, 'best_return': 0.5}
+    >>> domain_bounds(100, None, (0.0, 3.0))
+    {'max_episode_steps': 100.0, 'lowest_return': 0.0, 'highest_return': 3.0}
     """
     declared = {"max_episode_steps": float(max_episode_steps)}
     if value_bounds is not None:
         declared["worst_return"], declared["best_return"] = map(float, value_bounds)
+    if return_bounds is not None:
+        declared["lowest_return"], declared["highest_return"] = map(float, return_bounds)
     return declared
 
 
@@ -91,8 +107,9 @@ def _declared_ranges(frame: pd.DataFrame, metric: str) -> tuple[np.ndarray, np.n
     """Per row of ``frame``, the range of ``metric`` its domain declared (NaN: none)."""
     unknown = np.full(len(frame), math.nan)
     worst, best = _column(frame, "worst_return"), _column(frame, "best_return")
-    if metric == "return":
-        return worst, best
+    if metric == "return":  # the tighter of the two declared ranges (fmax/fmin skip a NaN)
+        lowest, highest = _column(frame, "lowest_return"), _column(frame, "highest_return")
+        return np.fmax(worst, lowest), np.fmin(best, highest)
     if metric == "value_ratio":
         with np.errstate(divide="ignore", invalid="ignore"):
             return np.where(best > 0, worst / best, math.nan), unknown
@@ -113,6 +130,9 @@ def metric_range(frame: pd.DataFrame, metric: str) -> tuple[float, float]:
     >>> metric_range(pd.DataFrame({"worst_return": [-2.0, -1.0], "best_return": [1.0, 2.0]}),
     ...              "return")
     (-2.0, 2.0)
+    >>> metric_range(pd.DataFrame({"lowest_return": [-1.999], "highest_return": [1.0]}),
+    ...              "return")
+    (-1.999, 1.0)
     """
     low, high = FIXED_RANGES.get(metric, (-math.inf, math.inf))
     lows, highs = _declared_ranges(frame, metric)

@@ -4,7 +4,9 @@ Tables, summaries and messages print a number with 4 significant digits and thou
 separators (`format_number`: ``200,000``, ``0.05002``), and a confidence interval as
 ``mean ± half-width`` at the mean's precision (`format_interval`). A value that goes back
 into a config (a grid setting, a tuned parameter) prints as YAML that ``--set`` and a grid
-accept (`format_value`: ``0.05002``, ``1000000``).
+accept (`format_value`: ``0.05002``, ``1000000``); shown to a reader (a table, a plot's
+legend, report.md) a setting's whole numbers get separators (`readable_setting`:
+``n_0=200,000``).
 
 Notes
 -----
@@ -18,21 +20,28 @@ Notes
   (``n_0=1000000``, so it can be pasted into ``--set``) and at most 6 significant digits of a
   float that is not whole (``0.05002000000000905`` reads ``0.05002``); whole floats keep their
   point (``1.0``), as YAML read them.
+- Choice: the setting text (`conjure.experiments.results.describe_setting`) stays the key of
+  a method in results tables and ``selection.csv``; only its display changes: a whole number
+  (``1000000``, ``200000.0``) reads as an int with separators (``1,000,000``, ``200,000``),
+  other values as they are.
 """
 
 from __future__ import annotations
 
 import math
+import re
 from typing import Any
 
 import numpy as np
 
-__all__ = ["format_interval", "format_number", "format_value"]
+__all__ = ["format_interval", "format_number", "format_value", "readable_setting"]
 
 #: The most decimals a number prints with.
 MAX_DECIMALS = 8
 #: Significant digits of a non-whole float in a config value (`format_value`).
 VALUE_DIGITS = 6
+#: A whole number after a setting's ``key=`` (ending the setting or before ``, ``).
+_WHOLE_VALUE = re.compile(r"(?<==)(-?\d+)(?:\.0)?(?=, |$)")
 
 
 def _decimals(scale: float, digits: int) -> int:
@@ -111,3 +120,16 @@ def format_value(value: Any) -> str:
     return np.format_float_positional(
         value, precision=digits, unique=True, fractional=False, trim="-"
     )
+
+
+def readable_setting(setting: str) -> str:
+    """Return a setting's text (``key=value, ...``) for a reader: whole numbers with separators.
+
+    Examples
+    --------
+    >>> readable_setting("step_size.alpha_0=0.1, step_size.n_0=200000.0")
+    'step_size.alpha_0=0.1, step_size.n_0=200,000'
+    >>> readable_setting("n_0=1000000"), readable_setting("alpha_0=1.0"), readable_setting("")
+    ('n_0=1,000,000', 'alpha_0=1', '')
+    """
+    return _WHOLE_VALUE.sub(lambda match: f"{int(match[1]):,}", setting)

@@ -55,7 +55,7 @@ from conjure.experiments.claims import Claims, Owner
 from conjure.experiments.config import ExperimentConfig, dump_yaml, parse_config, resolve_run
 from conjure.experiments.executors import NOT_CLAIMED, Executor, LocalExecutor, TaskFailure
 from conjure.experiments.loop import COMPILE_WORTH_STEPS
-from conjure.experiments.numbers import format_interval, format_value
+from conjure.experiments.numbers import format_interval, format_value, readable_setting
 from conjure.experiments.preflight import check_runs
 from conjure.experiments.results import (
     RESOLVED_FILE,
@@ -676,7 +676,8 @@ def print_summary(
         if low > mean - half or high < mean + half:
             table.caption = escape("mean [low, high]: a 95% CI cut at what the metric can be")
         table.add_row(
-            *(str(row[k]).replace(", ", ",\n") for k in keys),  # a setting: one value a line
+            *(str(row[k]) for k in keys if k != "setting"),
+            *([readable_setting(row["setting"]).replace(", ", ",\n")] if "setting" in keys else []),
             str(row["num_seeds"]),
             format_interval(mean, half, (low, high)),
             f"{row['final_num_features']:,.0f}",

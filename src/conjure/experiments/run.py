@@ -90,7 +90,7 @@ class Result:
     is_complete : bool
         False for the partial result a `DivergenceError` carries.
     domain_bounds : dict
-        What the domain declared of its metrics' ranges (its episode cap and value bounds,
+        What the domain declared of its metrics' ranges (its episode cap, value and return bounds,
         `conjure.experiments.metric_ranges.domain_bounds`); recorded with the run.
     path : str
         Which path the learning steps took: ``"compiled"`` or ``"python: <why not
@@ -266,7 +266,7 @@ def run(
         "domain_name": domain.domain_spec.name,
         "path": loop.path,
     }
-    declared = domain_bounds(domain.domain_spec.max_episode_steps, bounds)
+    declared = domain_bounds(domain.domain_spec.max_episode_steps, bounds, domain.return_bounds())
     int_seed = int(seed) if isinstance(seed, (int, np.integer)) else -1
 
     rows: list[dict[str, Any]] = []

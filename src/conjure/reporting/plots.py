@@ -7,9 +7,10 @@ Notes
 -----
 - Choice: the band is the Student-t 95% confidence interval of the mean over seeds, cut at
   the metric's range (`conjure.experiments.metric_ranges`: a failure rate in [0, 1], an
-  episode no longer than the domain's cap, a return within the domain's value bounds): an
-  interval over few seeds spills past what the mean it brackets can be. The legend says what
-  the band is and where it was cut.
+  episode no longer than the domain's cap, a return within the value or return bounds the
+  domain declares): an interval over few seeds spills past what the mean it brackets can
+  be. The legend says what the band is and where it was cut, or that it was not (a return
+  on a domain that declares no bounds).
 - Choice: the legend sits right of the axes, never over the curves, and the figure grows
   around it instead of shrinking the axes: they keep at least `AXES_INCHES`, grow as tall as
   the legend when it is taller (a sweep's 29 labels) and as wide as `AXES_ASPECT` then asks.
@@ -44,6 +45,7 @@ from matplotlib.ticker import StrMethodFormatter
 
 from conjure.core.errors import InvalidParameterError
 from conjure.experiments.metric_ranges import clip_interval, describe_range, metric_range
+from conjure.experiments.numbers import readable_setting
 from conjure.experiments.results import (
     RESULTS_FILE,
     has_finite_values,
@@ -133,6 +135,8 @@ def method_labels(results: pd.DataFrame, *, abbreviate: bool = True) -> pd.Serie
     ...     "learner.step_size.alpha_0=0.1, learner.step_size.n_0=100", ""]})
     >>> method_labels(frame).tolist()
     ['icca [alpha_0=0.1, n_0=100]', 'sarsa']
+    >>> method_labels(pd.DataFrame({"label": ["sarsa"], "setting": ["n_0=200000.0"]})).tolist()
+    ['sarsa [n_0=200,000]']
     """
     labels = results["label"].astype(str)
     if "domain_label" in results.columns and results["domain_label"].nunique() > 1:
@@ -142,6 +146,7 @@ def method_labels(results: pd.DataFrame, *, abbreviate: bool = True) -> pd.Serie
     setting = results["setting"].fillna("").astype(str)
     if abbreviate:
         setting = setting.map(_short_setting)
+    setting = setting.map(readable_setting)
     return labels + np.where(setting != "", " [" + setting + "]", "")
 
 
@@ -241,7 +246,7 @@ def _band_text(bounds: tuple[float, float], seeds: pd.Series) -> str:
     over = f"{seeds.iloc[0]} seeds" if seeds.nunique() == 1 else "n seeds"
     text = f"shaded: 95% confidence interval\nof the mean over {over}"
     if all(math.isinf(b) for b in bounds):
-        return text
+        return f"{text},\nnot cut (no range declared)"
     return f"{text},\ncut at the range {describe_range(bounds)}"
 
 

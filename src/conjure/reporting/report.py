@@ -31,7 +31,7 @@ from scipy import stats
 
 from conjure.core.errors import InvalidParameterError, write_failure
 from conjure.experiments.metric_ranges import metric_range
-from conjure.experiments.numbers import format_interval, format_number
+from conjure.experiments.numbers import format_interval, format_number, readable_setting
 from conjure.experiments.options import out_dir_option
 from conjure.experiments.results import (
     ERRORS_DIR,
@@ -285,7 +285,8 @@ def write_report(
         + (f"{len(errors)} failed (tracebacks in `{ERRORS_DIR}/`)" if errors else "none failed")
         + "; seeds per method shown as `n`. Curves are means over seeds with 95% confidence "
         "bands (Student t), cut at what each metric can be (a rate within [0, 1], an episode "
-        "no longer than the domain's cap, a return within the domain's value bounds); in the "
+        "no longer than the domain's cap, a return within the bounds its domain declares, "
+        "if any: `value_bounds`, `return_bounds`; other returns are not cut); in the "
         "tables an interval so cut reads `mean [low, high]`. The final performance is the "
         "last policy check.",
         "",
@@ -358,13 +359,17 @@ def _domain_lines(
 
 
 def _selection_table(selection: pd.DataFrame, results: pd.DataFrame, metric: str) -> pd.DataFrame:
-    """``selection.csv`` to read: the score as one interval (cut at the metric's range)."""
+    """``selection.csv`` to read: the score as one interval (cut at the metric's range).
+
+    The setting's whole numbers get separators (`readable_setting`); the file keeps its key.
+    """
     bounds = metric_range(results, metric)
     scores = [
         format_interval(mean, half, bounds)
         for mean, half in zip(selection["score_mean"], selection["score_ci95"], strict=True)
     ]
     table = selection.drop(columns=["score_mean", "score_ci95"])
+    table["setting"] = table["setting"].astype(str).map(readable_setting)
     table.insert(table.columns.get_loc("criterion") + 1, "score ± 95% t", scores)
     return table
 

@@ -47,7 +47,7 @@ from scipy import stats
 from conjure.core.errors import InvalidParameterError
 from conjure.core.params import did_you_mean
 from conjure.experiments.config import parse_overridden
-from conjure.experiments.metric_ranges import clip_interval, metric_range
+from conjure.experiments.metric_ranges import DOMAIN_BOUND_COLUMNS, clip_interval, metric_range
 from conjure.experiments.numbers import format_interval
 from conjure.experiments.results import group_columns, t_confidence
 from conjure.sweeps.selection import fresh_seeds, score_runs
@@ -155,13 +155,16 @@ def finals_markdown(finals: pd.DataFrame) -> str:
     """The markdown table of the final policy check (`finals_table`), one row per method.
 
     Columns: the metrics with a finite value (`METRICS` headings, else ``final <metric>``)
-    and the area under the curve, each as mean ± 95% t half-width.
+    and the area under the curve, each as mean ± 95% t half-width, cut at the metric's range
+    (`metric_range`: with what the domain declared, the `DOMAIN_BOUND_COLUMNS` of ``finals``
+    when given; they are not shown).
     """
     areas = [c for c in finals.columns if c.startswith("auc_")]
     metrics = [
         c
         for c in finals.columns
         if c not in (*areas, "label", "domain_label", "setting", "seed", "learning_steps")
+        and c not in DOMAIN_BOUND_COLUMNS
         and np.isfinite(finals[c].to_numpy(dtype=float)).any()
     ]
     heading = [

@@ -80,3 +80,7 @@ class SharedObservationBuffer(Domain):
     def value_bounds(self) -> tuple[float, float] | None:
         """The wrapped domain's value bounds."""
         return self.domain.value_bounds()
+
+    def return_bounds(self) -> tuple[float, float] | None:
+        """The wrapped domain's return bounds."""
+        return self.domain.return_bounds()
