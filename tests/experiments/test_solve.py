@@ -1,4 +1,3 @@
-import re
 from pathlib import Path
 
 import pytest
@@ -140,15 +139,3 @@ def test_an_agent_kind_is_not_a_planner(tmp_path):
     result = solve_text(tmp_path, "domain: {kind: GridWorld}\nplanner: {kind: SARSA}\n")
     assert isinstance(result.exception, InvalidParameterError)
     assert "'SARSA' is in the 'agent' registry, not a planner" in str(result.exception)
-
-
-@pytest.mark.parametrize("doc", ["README.md", "docs/safe-exploration.md"])
-def test_the_docs_show_what_solve_uav_prints(doc):
-    text = (ROOT / doc).read_text()
-    shown = re.search(
-        r"```text\n\$ conjure solve examples/solve_uav.yaml\n(.*?)\n(?:\$|```)", text, re.S
-    )
-    assert shown is not None, f"{doc} does not show `conjure solve examples/solve_uav.yaml`"
-    result = CliRunner().invoke(solve_command, [str(UAV_EXAMPLE)])
-    assert result.exit_code == 0, result.output
-    assert shown.group(1).strip("\n") == result.output.strip("\n")
