@@ -259,6 +259,7 @@ def limit_loop(path: str) -> Callable[[int], float]:
     if spec is None or spec.loader is None:
         raise SystemExit(f"--limit-loop {path!r}: not a Python file")
     module = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = module  # numba's disk cache finds the module again by name
     spec.loader.exec_module(module)
     rng = np.random.default_rng(0)
     return lambda num_steps: module.loop(num_steps, rng)
