@@ -29,7 +29,9 @@ Notes
   the Python learner's `grow_weights` / ``append_rows`` would leave it.
 - Choice: ``advance`` calls the kernel in chunks sized in time, not in steps (`next_chunk`):
   the first call of a stepper takes one step, each next one as many as the last call's rate
-  fits in `CHUNK_SECONDS`, at most twice the last chunk and `MAX_KERNEL_STEPS`. Ctrl-C, which
+  fits in `CHUNK_SECONDS`, at most `CHUNK_GROWTH` times the last chunk and `MAX_KERNEL_STEPS`
+  (a call costs about 0.4 ms before its first step, numba typing its arguments, so a run of
+  10⁴ steps takes four calls, not the fourteen that doubling would make). Ctrl-C, which
   Python only sees between compiled calls, therefore stops a run within about a second of the
   step in progress ending, however slow a step is (a Monte-Carlo risk analyser of 10⁶
   rollouts), while fast loops reach long chunks after a few calls. The kernel's pausable
@@ -75,6 +77,8 @@ __all__ = [
 
 #: Seconds one kernel call aims at (`next_chunk`): Ctrl-C waits for the call in progress.
 CHUNK_SECONDS = 0.5
+#: At most this many times the last call's steps in the next call (`next_chunk`).
+CHUNK_GROWTH = 64
 #: Steps per kernel call at most (a fraction of a second on the fastest combinations).
 MAX_KERNEL_STEPS = 2**18
 #: The first call's seconds (compile or cache load) of each compilation, by `_kernel_name`.
@@ -304,20 +308,20 @@ class CompiledStepper:
 def next_chunk(chunk: int, steps: int, seconds: float) -> int:
     """Steps of the next kernel call after one of ``steps`` steps took ``seconds``.
 
-    As many as that rate fits in `CHUNK_SECONDS`, at most twice ``chunk`` and
+    As many as that rate fits in `CHUNK_SECONDS`, at most `CHUNK_GROWTH` times ``chunk`` and
     `MAX_KERNEL_STEPS`, at least one; ``chunk`` again after a call that took no step.
 
     Examples
     --------
-    >>> next_chunk(1, 1, 1e-4), next_chunk(64, 64, 0.01), next_chunk(64, 64, 2.0)
-    (2, 128, 16)
+    >>> next_chunk(1, 1, 4e-4), next_chunk(64, 64, 0.01), next_chunk(64, 64, 2.0)
+    (64, 3200, 16)
     >>> next_chunk(1, 1, 30.0), next_chunk(8, 0, 0.0), next_chunk(MAX_KERNEL_STEPS, 5, 1e-6)
     (1, 8, 262144)
     """
     if steps == 0:
         return chunk
     fits = int(steps * CHUNK_SECONDS / max(seconds, 1e-9))
-    return max(1, min(2 * chunk, MAX_KERNEL_STEPS, fits))
+    return max(1, min(CHUNK_GROWTH * chunk, MAX_KERNEL_STEPS, fits))
 
 
 def _kernel_name(selection: Selection) -> str:
