@@ -19,6 +19,8 @@ from conjure.core.schedules import EpisodicDecay, FeatureNormalizedDecay
 from conjure.domains import ChainMDP, GridWorld, InvertedPendulum, UAVMission, from_gymnasium
 from conjure.domains.gridworld import open_grid
 from conjure.experiments.loop import LearningLoop
+from conjure.models.approximate_model import ApproximateModel
+from conjure.planners import ShortestPathPlanner
 from conjure.policies import EpsilonGreedy, Gibbs
 from conjure.representations import (
     RBF,
@@ -27,6 +29,7 @@ from conjure.representations import (
     Tabular,
     TileCoding,
 )
+from conjure.safety import CooperativeLearner, MonteCarloRiskAnalyzer
 
 DECAY = FeatureNormalizedDecay(alpha_0=1.0, n_0=100)
 
@@ -448,3 +451,23 @@ def test_kernel_calls_last_about_chunk_seconds_however_slow_a_step_is(monkeypatc
     sizes = [size for size, _ in calls]
     assert sum(sizes) == 60 and sizes[0] <= 2 and max(sizes) <= 10, sizes
     assert max(seconds for _, seconds in calls) < 0.5, calls
+
+
+def test_a_call_judges_at_most_chunk_simulated_steps_of_rollouts():
+    # Issue 20 probe: a box ran cheap planner steps first, so the calls grew, then judged every
+    # proposal with 10**6 rollouts and a Ctrl-C waited 72 s; the analyser's own worst case
+    # per step (𝓜𝓗) now bounds a call, whatever the steps before it cost.
+    world = GridWorld.gridworld_2()
+
+    def box(num_rollouts):
+        return CooperativeLearner(
+            learner=SARSA(representation=Tabular()),
+            planner=ShortestPathPlanner.conservative(),
+            risk=MonteCarloRiskAnalyzer(num_rollouts=num_rollouts, horizon=100),
+            model=ApproximateModel(domain=GridWorld.gridworld_2(), initial_noise=0.4),
+        ).setup(world.domain_spec, 0)
+
+    assert stepper_module.max_chunk(box(10**6)) == 1
+    assert stepper_module.max_chunk(box(5)) == stepper_module.CHUNK_SIMULATED_STEPS // 500
+    plain = SARSA(representation=Tabular()).setup(world.domain_spec, 0)
+    assert stepper_module.max_chunk(plain) == stepper_module.CHUNK_SIMULATED_STEPS

@@ -31,7 +31,8 @@ Notes
   the first call of a stepper takes one step, each next one as many as the last call's rate
   fits in `CHUNK_SECONDS`, at most `CHUNK_GROWTH` times the last chunk and `MAX_KERNEL_STEPS`
   (a call costs about 0.4 ms before its first step, numba typing its arguments, so a run of
-  10⁴ steps takes four calls, not the fourteen that doubling would make). Ctrl-C, which
+  10⁴ steps takes four calls, not the fourteen that doubling would make), and at most
+  `max_chunk` steps when the agent's risk analyser simulates rollouts. Ctrl-C, which
   Python only sees between compiled calls, therefore stops a run within about a second of the
   step in progress ending, however slow a step is (a Monte-Carlo risk analyser of 10⁶
   rollouts), while fast loops reach long chunks after a few calls. The kernel's pausable
@@ -60,6 +61,7 @@ from conjure.compiled.combination import (
     representation_form,
     select,
 )
+from conjure.core.cooperative import RiskAnalyzer
 from conjure.core.errors import DivergenceError, InvalidParameterError
 from conjure.core.interfaces import Agent, Domain
 from conjure.domains.compiled_domain import DomainKernel, callback_error
@@ -79,6 +81,9 @@ __all__ = [
 CHUNK_SECONDS = 0.5
 #: At most this many times the last call's steps in the next call (`next_chunk`).
 CHUNK_GROWTH = 64
+#: Transitions of T̂ the risk judgements of one kernel call may simulate (`max_chunk`): about
+#: a second of Algorithm 25's rollouts, whatever the steps before them cost.
+CHUNK_SIMULATED_STEPS = 10**8
 #: Steps per kernel call at most (a fraction of a second on the fastest combinations).
 MAX_KERNEL_STEPS = 2**18
 #: The first call's seconds (compile or cache load) of each compilation, by `_kernel_name`.
@@ -160,6 +165,7 @@ class CompiledStepper:
         self._obs = np.zeros(domain.domain_spec.num_dims)
         self._state = lp.new_loop_state(domain.domain_spec.num_actions)
         self._chunk = 1  # steps of the next kernel call (`next_chunk`)
+        self._max_chunk = max_chunk(agent)  # and never more than these
 
     @property
     def is_mid_episode(self) -> bool:
@@ -226,7 +232,9 @@ class CompiledStepper:
                 before = int(state.episode[0])
                 started = time.perf_counter()
                 status, steps, fails, delta, ep_float, ep_int = self._call(
-                    min(num_steps - done, self._chunk), domain_form, max_episodes - ended
+                    min(num_steps - done, self._chunk, self._max_chunk),
+                    domain_form,
+                    max_episodes - ended,
                 )
                 self._chunk = next_chunk(self._chunk, steps, time.perf_counter() - started)
                 ended += ep_float.shape[0]
@@ -322,6 +330,18 @@ def next_chunk(chunk: int, steps: int, seconds: float) -> int:
         return chunk
     fits = int(steps * CHUNK_SECONDS / max(seconds, 1e-9))
     return max(1, min(CHUNK_GROWTH * chunk, MAX_KERNEL_STEPS, fits))
+
+
+def max_chunk(agent: Agent) -> int:
+    """Steps per kernel call whose risk judgements simulate at most `CHUNK_SIMULATED_STEPS`.
+
+    A cooperative box may run cheap planner steps first and then judge every proposal with 𝓜
+    rollouts (Algorithm 25), so the rate of earlier calls cannot bound a later call's length:
+    the analyser's own worst case per step does (``RiskAnalyzer.simulated_steps``).
+    """
+    risk = getattr(agent, "risk_", None)
+    simulated = risk.simulated_steps() if isinstance(risk, RiskAnalyzer) else 0
+    return max(1, CHUNK_SIMULATED_STEPS // max(simulated, 1))
 
 
 def _kernel_name(selection: Selection) -> str:

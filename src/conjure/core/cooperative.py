@@ -154,6 +154,13 @@ class RiskAnalyzer(Configurable):
         Raises `IncompatibleComponentsError` naming the domain and what the analyser needs.
         """
 
+    def simulated_steps(self) -> int:
+        """Transitions of T̂ one judgement simulates at most (none by default; Algorithm 25: 𝓜𝓗).
+
+        The compiled loop sizes its calls by it, so that Ctrl-C is seen between them.
+        """
+        return 0
+
     def update(self, *, is_policy_changed: bool = True) -> None:
         """T̂ or π^p changed: refresh anything derived from them (nothing by default).
 

@@ -189,6 +189,10 @@ class MonteCarloRiskAnalyzer(RiskAnalyzer):
             num_rollouts=int(self.num_rollouts), risk_tolerance=float(self.risk_tolerance)
         )
 
+    def simulated_steps(self) -> int:
+        """𝓜𝓗: the rollouts of one judgement, each at most 𝓗 transitions of T̂."""
+        return self.num_rollouts * self.horizon_
+
     def update(self, *, is_policy_changed: bool = True) -> None:
         """π^p changed: tabulate it again before the next compiled rollout.
 
