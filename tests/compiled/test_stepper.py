@@ -449,7 +449,8 @@ def test_kernel_calls_last_about_chunk_seconds_however_slow_a_step_is(monkeypatc
     monkeypatch.setattr(stepper, "_call", timed_call)
     stepper.advance(60)
     sizes = [size for size, _ in calls]
-    assert sum(sizes) == 60 and sizes[0] <= 2 and max(sizes) <= 10, sizes
+    # 0.05 s fits about five steps of 0.01 s: no call takes many more, from the first on
+    assert sum(sizes) == 60 and max(sizes) <= 10, sizes
     assert max(seconds for _, seconds in calls) < 0.5, calls
 
 
