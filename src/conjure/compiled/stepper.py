@@ -26,12 +26,13 @@ Notes
   with its own method and the kernel continues. θ (and Actor-Critic's ω, SARSA(λ)'s
   ``trace_slots_``) is passed with as many rows as the representation can hold features (a
   buffer that `append_rows` keeps using) and set to its first n_t rows after every call, as
-  the Python learner's `grow_weights` / ``append_rows`` would leave it.
+  the Python learner's ``_grow`` (`conjure.agents.compiled_agent.grow_learner_rows`) would
+  leave it.
 - Choice: ``advance`` calls the kernel in chunks sized in time, not in steps (`next_chunk`):
   the first call of a stepper takes one step, each next one as many as the last call's rate
   fits in `CHUNK_SECONDS`, at most `CHUNK_GROWTH` times the last chunk and `MAX_KERNEL_STEPS`
-  (a call costs about 0.4 ms before its first step, numba typing its arguments, so a run of
-  10⁴ steps takes four calls, not the fourteen that doubling would make), and at most
+  (each call pays a fixed cost before its first step, numba typing its arguments, so a run
+  of 10⁴ steps takes four calls, not the fourteen that doubling would make), and at most
   `max_chunk` steps when the agent's risk analyser simulates rollouts. Ctrl-C, which
   Python only sees between compiled calls, therefore stops a run within about a second of the
   step in progress ending, however slow a step is (a Monte-Carlo risk analyser of 10⁶
@@ -61,11 +62,11 @@ from conjure.compiled.combination import (
     representation_form,
     select,
 )
-from conjure.core.cooperative import RiskAnalyzer
 from conjure.core.errors import DivergenceError, InvalidParameterError
 from conjure.core.interfaces import Agent, Domain
 from conjure.domains.compiled_domain import DomainKernel, callback_error
 from conjure.safety.compiled_cooperative import packed_parts
+from conjure.safety.cooperative_agent import CooperativeAgent
 
 __all__ = [
     "AdvanceStats",
@@ -339,8 +340,7 @@ def max_chunk(agent: Agent) -> int:
     rollouts (Algorithm 25), so the rate of earlier calls cannot bound a later call's length:
     the analyser's own worst case per step does (``RiskAnalyzer.simulated_steps``).
     """
-    risk = getattr(agent, "risk_", None)
-    simulated = risk.simulated_steps() if isinstance(risk, RiskAnalyzer) else 0
+    simulated = agent.risk_.simulated_steps() if isinstance(agent, CooperativeAgent) else 0
     return max(1, CHUNK_SIMULATED_STEPS // max(simulated, 1))
 
 

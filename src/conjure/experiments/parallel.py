@@ -652,6 +652,13 @@ def _path_lines(results: pd.DataFrame) -> list[str]:
     return lines
 
 
+def _cell(row: Mapping[str, Any], key: str) -> str:
+    """A summary row's ``key`` as the table shows it (a setting: readable, one value a line)."""
+    if key == "setting":
+        return readable_setting(row[key]).replace(", ", ",\n")
+    return str(row[key])
+
+
 def print_summary(
     outcome: ExperimentResult, console: Console | None = None, title: str | None = None
 ) -> None:
@@ -676,8 +683,7 @@ def print_summary(
         if low > mean - half or high < mean + half:
             table.caption = escape("mean [low, high]: a 95% CI cut at what the metric can be")
         table.add_row(
-            *(str(row[k]) for k in keys if k != "setting"),
-            *([readable_setting(row["setting"]).replace(", ", ",\n")] if "setting" in keys else []),
+            *(_cell(row, key) for key in keys),
             str(row["num_seeds"]),
             format_interval(mean, half, (low, high)),
             f"{row['final_num_features']:,.0f}",
