@@ -174,7 +174,7 @@ def test_step_replays_the_compiled_kernel():
     # follow the same trajectory from the same seed (one uniform per move).
     domain = BlocksWorld()
     observation, _ = domain.reset(seed=3)
-    constants = BlocksConstants(6, 0.3, -0.001, 1.0)
+    constants = BlocksConstants(num_blocks=6, drop=0.3, step_reward=-0.001, goal_reward=1.0)
     dstate = np.empty(36 + 12, dtype=np.int64)
     obs = np.empty(36)
     blocks_reset(6, dstate, obs)

@@ -68,13 +68,13 @@ _FLOAT64 = np.dtype(np.float64)
 _NDARRAY = np.ndarray
 _q_values = _kernels.q_values
 #: The trace arrays of `compiled_arrays` for a learner without traces.
-_NO_TRACES = (
-    np.zeros((0, 0), dtype=np.int64),
-    np.zeros(0, dtype=np.int64),
-    np.zeros(0, dtype=np.int64),
-    np.zeros(0),
-    np.zeros(1, dtype=np.int64),
-)
+_NO_TRACES = {
+    "trace_slots": np.zeros((0, 0), dtype=np.int64),
+    "trace_features": np.zeros(0, dtype=np.int64),
+    "trace_actions": np.zeros(0, dtype=np.int64),
+    "trace_values": np.zeros(0),
+    "trace_count": np.zeros(1, dtype=np.int64),
+}
 _l1_norm = _kernels.l1_norm
 
 
@@ -158,9 +158,17 @@ class LinearTDAgent(Agent):
         if policy is None or schedule is None or actor is None:
             return None
         return forms.AgentKernel(
-            kind, traces, trace_decay, min_trace, self.discount_, schedule, actor, policy,
-            is_state_value, is_log_policy,
-        )  # fmt: skip
+            kind=kind,
+            traces=traces,
+            trace_decay=trace_decay,
+            min_trace=min_trace,
+            discount=self.discount_,
+            schedule=schedule,
+            actor_schedule=actor,
+            policy=policy,
+            is_state_value=is_state_value,
+            is_log_policy=is_log_policy,
+        )
 
     def compiled_arrays(self, rows: int = 0) -> forms.LearnerArrays:
         """θ, ω and the traces for the compiled loop, with room for ``rows`` features.
@@ -170,7 +178,7 @@ class LinearTDAgent(Agent):
         """
         check_is_set_up(self, "compiled_arrays")
         weights = with_room(self.weights_, rows)
-        return forms.LearnerArrays(weights, weights, *_NO_TRACES)
+        return forms.LearnerArrays(weights=weights, actor_weights=weights, **_NO_TRACES)
 
     def compiled_row_traces(self) -> forms.RowTracePair:
         """Actor-Critic's traces for the compiled loop; `NO_ROW_TRACE_PAIR` for the others."""

@@ -42,9 +42,11 @@ class RowTraceArrays(NamedTuple):
 
 #: The `RowTraceArrays` of a learner without row traces (the fields' types, empty).
 NO_ROW_TRACES = RowTraceArrays(
-    np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64), np.zeros((0, 0)),
-    np.zeros(1, dtype=np.int64),
-)  # fmt: skip
+    slot_of=np.zeros(0, dtype=np.int64),
+    rows=np.zeros(0, dtype=np.int64),
+    values=np.zeros((0, 0)),
+    count=np.zeros(1, dtype=np.int64),
+)
 
 
 class RowTraces:
@@ -84,7 +86,9 @@ class RowTraces:
 
     def compiled_form(self) -> RowTraceArrays:
         """The traces' own arrays for the compiled loop (`RowTraceArrays`, updated in place)."""
-        return RowTraceArrays(self.slot_of, self.rows, self.traces, self.count)
+        return RowTraceArrays(
+            slot_of=self.slot_of, rows=self.rows, values=self.traces, count=self.count
+        )
 
     def grow(self, expansion: Expansion) -> None:
         """Make room for the features an adaptive representation added (their z is 0)."""

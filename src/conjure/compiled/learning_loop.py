@@ -116,8 +116,14 @@ class LoopState(NamedTuple):
 
 def new_loop_state(num_actions: int) -> LoopState:
     """A `LoopState` before the first reset."""
-    ints = [np.zeros(1, dtype=np.int64) for _ in range(6)]
-    return LoopState(*ints, np.zeros(1), np.zeros(1), np.ones(1), np.zeros(num_actions))
+    ints = ("phase", "action", "episode_steps", "episode", "learning_steps", "episode_failures")
+    return LoopState(
+        **{name: np.zeros(1, dtype=np.int64) for name in ints},
+        total=np.zeros(1),
+        discounted=np.zeros(1),
+        weight=np.ones(1),
+        drawn=np.zeros(num_actions),
+    )
 
 
 @njit(cache=True, inline="always")

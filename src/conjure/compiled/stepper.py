@@ -272,7 +272,12 @@ class CompiledStepper:
         ep_float = np.concatenate([c[0] for c in chunks]) if chunks else np.zeros((0, 2))
         ep_int = np.concatenate([c[1] for c in chunks]) if chunks else np.zeros((0, 2), np.int64)
         return AdvanceStats(
-            done, failures, ep_float[:, 0], ep_float[:, 1], ep_int[:, 0], ep_int[:, 1]
+            num_steps=done,
+            num_failures=failures,
+            episode_returns=ep_float[:, 0],
+            discounted_returns=ep_float[:, 1],
+            episode_lengths=ep_int[:, 0],
+            episode_failures=ep_int[:, 1],
         )
 
     def _full_index_error(self) -> Exception:

@@ -91,7 +91,7 @@ class ConstantStepSize(StepSizeSchedule):
 
     def compiled_form(self) -> ScheduleKernel:
         """α_0 for the compiled loop."""
-        return ScheduleKernel(CONSTANT, float(self.alpha_0), 0.0)
+        return ScheduleKernel(kind=CONSTANT, alpha_0=float(self.alpha_0), n_0=0.0)
 
 
 class FeatureNormalizedDecay(StepSizeSchedule):
@@ -132,7 +132,9 @@ class FeatureNormalizedDecay(StepSizeSchedule):
 
     def compiled_form(self) -> ScheduleKernel:
         """α_0 and N_0 for the compiled loop."""
-        return ScheduleKernel(FEATURE_NORMALIZED, float(self.alpha_0), float(self.n_0))
+        return ScheduleKernel(
+            kind=FEATURE_NORMALIZED, alpha_0=float(self.alpha_0), n_0=float(self.n_0)
+        )
 
 
 class EpisodicDecay(StepSizeSchedule):
@@ -167,4 +169,4 @@ class EpisodicDecay(StepSizeSchedule):
 
     def compiled_form(self) -> ScheduleKernel:
         """α_0 and N_0 for the compiled loop."""
-        return ScheduleKernel(EPISODIC, float(self.alpha_0), float(self.n_0))
+        return ScheduleKernel(kind=EPISODIC, alpha_0=float(self.alpha_0), n_0=float(self.n_0))

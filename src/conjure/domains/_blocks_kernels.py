@@ -105,7 +105,7 @@ class BlocksConstants(NamedTuple):
 
 
 #: The `BlocksConstants` of a compiled form that is not BlocksWorld's.
-NO_BLOCKS = BlocksConstants(0, 0.0, 0.0, 0.0)
+NO_BLOCKS = BlocksConstants(num_blocks=0, drop=0.0, step_reward=0.0, goal_reward=0.0)
 
 
 @njit(cache=True)

@@ -145,7 +145,17 @@ class PSTConstants(NamedTuple):
 
 
 #: The `PSTConstants` of a compiled form that is not Persistent Surveillance's.
-NO_PST = PSTConstants(0, 0, 0, 0.0, 0.0, 0.0, 0.0, False, False)
+NO_PST = PSTConstants(
+    num_uavs=0,
+    num_targets=0,
+    max_fuel=0,
+    failure_probability=0.0,
+    surveillance_reward=0.0,
+    fuel_penalty=0.0,
+    crash_penalty=0.0,
+    crash_penalty_per_uav=False,
+    is_relay_actuator_checked=False,
+)
 
 
 @njit(cache=True)

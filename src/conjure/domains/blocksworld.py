@@ -165,7 +165,12 @@ class BlocksWorld(ActionMasking, Domain):
         self._drop = float(self.drop_probability)
         self._step_reward = float(self.step_reward)
         self._goal_reward = float(self.goal_reward)
-        self._constants = BlocksConstants(n, self._drop, self._step_reward, self._goal_reward)
+        self._constants = BlocksConstants(
+            num_blocks=n,
+            drop=self._drop,
+            step_reward=self._step_reward,
+            goal_reward=self._goal_reward,
+        )
         dims = n * n
         low = np.zeros(dims, dtype=np.float64)
         high = np.ones(dims, dtype=np.float64)

@@ -153,7 +153,9 @@ class ChainMDP(Domain):
     def compiled_form(self) -> DomainKernel:
         """The chain for the compiled loop: `ChainConstants` (n, step reward, slip), the state."""
         constants = ChainConstants(
-            int(self.num_states), float(self._step_reward), float(self._slip)
+            num_states=int(self.num_states),
+            step_reward=float(self._step_reward),
+            slip=float(self._slip),
         )
         return domain_kernel(CHAIN, int(self.num_actions), constants=constants, state=[self._state])
 

@@ -141,10 +141,16 @@ class MissionConstants(NamedTuple):
     traverse_failure: float
 
 
-_NO_PENDULUM = PendulumConstants(0.0, 0.0)
-_NO_GRID = GridConstants(0.0, 0)
-_NO_CHAIN = ChainConstants(0, 0.0, 0.0)
-_NO_MISSION = MissionConstants(np.zeros(0, dtype=np.int64), 0, 0.0, 0.0, 0.0)
+_NO_PENDULUM = PendulumConstants(force_noise=0.0, start_noise=0.0)
+_NO_GRID = GridConstants(noise=0.0, start_cell=0)
+_NO_CHAIN = ChainConstants(num_states=0, step_reward=0.0, slip=0.0)
+_NO_MISSION = MissionConstants(
+    start=np.zeros(0, dtype=np.int64),
+    horizon=0,
+    fuel_penalty=0.0,
+    failure_penalty=0.0,
+    traverse_failure=0.0,
+)
 #: Where `domain_kernel` puts each kind of constants.
 _CONSTANT_FIELDS = {
     PendulumConstants: "pendulum",

@@ -397,7 +397,7 @@ class GridWorld(NoisyDomain):
         return domain_kernel(
             GRIDWORLD,
             len(MOVES),
-            constants=GridConstants(float(self._noise), int(self._start_cell)),
+            constants=GridConstants(noise=float(self._noise), start_cell=int(self._start_cell)),
             table=self._move_array,
             cells=self._cell_table,
             state=[self._cell],

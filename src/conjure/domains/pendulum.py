@@ -142,7 +142,9 @@ class InvertedPendulum(Domain):
         return domain_kernel(
             PENDULUM,
             3,
-            constants=PendulumConstants(self._force_noise, float(self.start_noise)),
+            constants=PendulumConstants(
+                force_noise=self._force_noise, start_noise=float(self.start_noise)
+            ),
             fstate=np.array([self._theta, self._theta_dot]),
         )
 

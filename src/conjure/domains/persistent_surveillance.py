@@ -209,15 +209,15 @@ class PersistentSurveillance(ActionMasking, Domain):
         self._n = n
         self._num_actions = 3**n
         self._constants = PSTConstants(
-            n,
-            int(self.num_targets),
-            int(self.max_fuel),
-            float(self.failure_probability),
-            float(self.surveillance_reward),
-            float(self.fuel_penalty),
-            float(self.crash_penalty),
-            bool(self.crash_penalty_per_uav),
-            bool(self.is_relay_actuator_checked),
+            num_uavs=n,
+            num_targets=int(self.num_targets),
+            max_fuel=int(self.max_fuel),
+            failure_probability=float(self.failure_probability),
+            surveillance_reward=float(self.surveillance_reward),
+            fuel_penalty=float(self.fuel_penalty),
+            crash_penalty=float(self.crash_penalty),
+            crash_penalty_per_uav=bool(self.crash_penalty_per_uav),
+            is_relay_actuator_checked=bool(self.is_relay_actuator_checked),
         )
         low = np.zeros(4 * n, dtype=np.float64)
         high = np.tile(np.array([self.max_fuel, NUM_LOCATIONS - 1, 1, 1], dtype=np.float64), n)

@@ -246,7 +246,13 @@ class RescueMission(ActionMasking, Domain):
         """
         horizon, fuel_penalty, failure_penalty = self._scalars
         start = np.asarray(self._start_state(), dtype=np.int64)
-        constants = MissionConstants(start, int(horizon), fuel_penalty, failure_penalty, 0.0)
+        constants = MissionConstants(
+            start=start,
+            horizon=int(horizon),
+            fuel_penalty=fuel_penalty,
+            failure_penalty=failure_penalty,
+            traverse_failure=0.0,
+        )
         return domain_kernel(
             RESCUE,
             NUM_ACTIONS,

@@ -275,7 +275,13 @@ class UAVMission(ActionMasking, NoisyDomain):
         return domain_kernel(
             UAV_MISSION,
             int(self.domain_spec.num_actions),
-            constants=MissionConstants(start, 0, 0.0, 0.0, float(self._eta)),
+            constants=MissionConstants(
+                start=start,
+                horizon=0,
+                fuel_penalty=0.0,
+                failure_penalty=0.0,
+                traverse_failure=float(self._eta),
+            ),
             table=table,
             cells=self._tables[3],
             state=self._state,

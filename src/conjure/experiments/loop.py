@@ -47,7 +47,6 @@ Notes
 
 from __future__ import annotations
 
-import importlib
 import time
 from collections.abc import Callable
 from typing import Any, NamedTuple
@@ -268,7 +267,10 @@ class Stepper:
                 if terminated or truncated or episode_steps >= cap:
                     state = None
                     self.last_episode = EpisodeStats(
-                        float(total), float(discounted), episode_steps, episode_failures
+                        episode_return=float(total),
+                        discounted_return=float(discounted),
+                        num_steps=episode_steps,
+                        num_failures=episode_failures,
                     )
                     if stop_at_episode_end:
                         break
@@ -315,16 +317,6 @@ LearningLoop = Stepper
 COMPILE_WORTH_STEPS = 2_000_000
 
 
-def _compiled_module() -> Any:
-    """The `conjure.compiled` module, or None when it is not installed."""
-    try:
-        return importlib.import_module("conjure.compiled")
-    except ModuleNotFoundError as exc:
-        if exc.name != "conjure.compiled":
-            raise
-        return None
-
-
 def learning_stepper(
     domain: Domain, agent: Agent, *, seed: int | None = None, budget_steps: int = 0
 ) -> Any:
@@ -335,23 +327,24 @@ def learning_stepper(
     Choice: it is used when its kernel is warm (compiled in this process or in numba's disk
     cache, ``conjure.compiled.is_warm(stepper)``; each kernel separately) or when
     ``budget_steps`` reaches `COMPILE_WORTH_STEPS`, so a short cold run never waits for a
-    compile it would not earn back; otherwise, when ``for_combination`` answers ``None`` (some
-    part has no kernel), or ``conjure.compiled`` is not installed, a learning `Stepper` runs.
+    compile it would not earn back; otherwise, or when ``for_combination`` answers ``None``
+    (some part has no kernel), a learning `Stepper` runs. Choice: `conjure.compiled` is
+    imported here, not at the top, so that importing this module does not load numba's
+    compiled loop (about 3 s on a loaded machine) before a run needs it.
     """
-    module = _compiled_module()
-    if module is None:
-        return Stepper(domain, agent, seed=seed, path="python: conjure.compiled is not installed")
-    compiled = module.for_combination(domain, agent, seed=seed)  # packing only: no compile
-    if compiled is None:
-        reason = module.why_not_compiled(domain, agent)
+    from conjure import compiled
+
+    stepper = compiled.for_combination(domain, agent, seed=seed)  # packing only: no compile
+    if stepper is None:
+        reason = compiled.why_not_compiled(domain, agent)
         return Stepper(domain, agent, seed=seed, path=f"python: {reason}")
-    if budget_steps < COMPILE_WORTH_STEPS and not module.is_warm(compiled):
+    if budget_steps < COMPILE_WORTH_STEPS and not compiled.is_warm(stepper):
         reason = (
             f"its kernel is not compiled yet and {budget_steps:,} steps would not earn the "
             f"compile back (the compiled path starts at {COMPILE_WORTH_STEPS:,})"
         )
         return Stepper(domain, agent, seed=seed, path=f"python: {reason}")
-    return compiled
+    return stepper
 
 
 def run_episode(
@@ -398,15 +391,21 @@ def greedy_episodes(
     compiled loop's greedy steps when every part has a kernel and the loop is warm (a
     compiled learning run's is), else by that Python loop. Nothing is learned.
     """
-    module = _compiled_module()
-    compiled = module and module.for_combination(domain, agent, seed=seed, learn=False)
-    if compiled is None or not module.is_warm(compiled):
+    from conjure import compiled
+
+    stepper = compiled.for_combination(domain, agent, seed=seed, learn=False)
+    if stepper is None or not compiled.is_warm(stepper):
         return [
             run_episode(domain, agent, seed=seed if k == 0 else None) for k in range(num_episodes)
         ]
-    played = compiled.play_episodes(num_episodes)
+    played = stepper.play_episodes(num_episodes)
     return [
-        EpisodeStats(float(total), float(discounted), int(length), int(failures))
+        EpisodeStats(
+            episode_return=float(total),
+            discounted_return=float(discounted),
+            num_steps=int(length),
+            num_failures=int(failures),
+        )
         for total, discounted, length, failures in zip(
             played.episode_returns,
             played.discounted_returns,

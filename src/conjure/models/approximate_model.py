@@ -178,11 +178,11 @@ class ApproximateModel(Configurable):
         """η̂ and its counts for a compiled kernel (copies; `load_noise_model` takes them back)."""
         check_is_set_up(self, "noise_model")
         return NoiseModel(
-            np.array([self.num_unintended_, self.num_moves_], dtype=np.int64),
-            np.array([self.noise_]),
-            float(self.prior_noise_),
-            float(self.prior_weight),
-            bool(self.is_adaptive),
+            counts=np.array([self.num_unintended_, self.num_moves_], dtype=np.int64),
+            noise=np.array([self.noise_]),
+            prior_noise=float(self.prior_noise_),
+            prior_weight=float(self.prior_weight),
+            is_adaptive=bool(self.is_adaptive),
         )
 
     def load_noise_model(self, form: NoiseModel) -> None:

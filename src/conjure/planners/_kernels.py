@@ -350,7 +350,7 @@ class SparseRows(NamedTuple):
 def sparse_rows(matrix: sp.spmatrix) -> SparseRows:
     """The `SparseRows` of ``matrix`` (its own arrays when it is already CSR)."""
     rows = sp.csr_matrix(matrix)
-    return SparseRows(rows.indptr, rows.indices, rows.data)
+    return SparseRows(indptr=rows.indptr, indices=rows.indices, data=rows.data)
 
 
 class Backups(NamedTuple):
@@ -402,7 +402,9 @@ def drawn_backups(data: dict[str, Any]) -> Backups:
         states=np.arange(num_samples),
         actions=data["actions"],
         rewards=np.zeros(num_samples),
-        successors=SparseRows(np.arange(0, draws.size + 1, num_next), draws, np.ones(draws.size)),
+        successors=SparseRows(
+            indptr=np.arange(0, draws.size + 1, num_next), indices=draws, data=np.ones(draws.size)
+        ),
         successor_rewards=np.ascontiguousarray(data["rewards"]).reshape(-1),
         next_phi=sparse_rows(data["phi_next"]),
         num_draws=num_next,

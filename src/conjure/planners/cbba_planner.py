@@ -337,13 +337,21 @@ class CBBAPlanner(CooperativePlanner):
             graph.state_spec("CBBAPlanner's plan cache"), 0
         )
         self._form = MissionPlanner(
-            self.distances_, self.next_hop_, self.node_tasks_, graph.num_uavs, graph.base,
-            float(graph.horizon), np.array([1.0, 0.0, float(self.fuel_weight)]),
-            self.variant == "conservative", float(self.fuel_reserve), self.refuel == "empty_plan",
-            default_max_rounds(graph.num_uavs, graph.num_nodes, graph.num_nodes, 1),
-            self._cache.compiled_form(), np.full(self._cache.num_features_, -1, dtype=np.int64),
-            self.cache_size > 0,
-        )  # fmt: skip
+            distances=self.distances_,
+            next_hop=self.next_hop_,
+            node_tasks=self.node_tasks_,
+            num_uavs=graph.num_uavs,
+            base=graph.base,
+            horizon=float(graph.horizon),
+            settings=np.array([1.0, 0.0, float(self.fuel_weight)]),
+            is_conservative=self.variant == "conservative",
+            fuel_reserve=float(self.fuel_reserve),
+            is_refuel_to_plan=self.refuel == "empty_plan",
+            max_rounds=default_max_rounds(graph.num_uavs, graph.num_nodes, graph.num_nodes, 1),
+            cache=self._cache.compiled_form(),
+            cached=np.full(self._cache.num_features_, -1, dtype=np.int64),
+            has_cache=self.cache_size > 0,
+        )
         self.is_set_up_ = True
         return self
 

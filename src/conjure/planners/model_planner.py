@@ -128,7 +128,7 @@ class ModelPlanner(CooperativePlanner):
     def compiled_form(self) -> PlannedPolicy:
         """π^p of the current plan over the tabular model's states (a copy of the table)."""
         check_is_set_up(self, "compiled_form")
-        return PlannedPolicy(self._model.states.copy(), self.policy_.copy())
+        return PlannedPolicy(states=self._model.states.copy(), actions=self.policy_.copy())
 
     def action(self, state: np.ndarray) -> int:
         """π^p(s) of the current plan."""

@@ -135,7 +135,9 @@ class ShortestPathPlanner(CooperativePlanner):
         check_is_set_up(self, "compiled_form")
         cells = np.argwhere(self._grid != BLOCKED)
         actions = self.policy_[cells[:, 0] * self._num_cols + cells[:, 1]]
-        return PlannedPolicy(cells.astype(np.float64), actions.astype(np.int64), True)
+        return PlannedPolicy(
+            states=cells.astype(np.float64), actions=actions.astype(np.int64), is_fixed=True
+        )
 
     def action(self, state: np.ndarray) -> int:
         """π^p(s): the first move of the shortest path from cell s."""

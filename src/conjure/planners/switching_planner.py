@@ -43,7 +43,13 @@ class PlannerPair(NamedTuple):
 
 def fixed_pair(planner: MissionPlanner) -> PlannerPair:
     """One planner as a `PlannerPair` that never switches."""
-    return PlannerPair(planner, planner, 0.0, np.zeros(1, dtype=np.bool_), False)
+    return PlannerPair(
+        conservative=planner,
+        aggressive=planner,
+        noise_threshold=0.0,
+        is_aggressive=np.zeros(1, dtype=np.bool_),
+        is_switching=False,
+    )
 
 
 @njit(cache=True, inline="always")
@@ -161,7 +167,13 @@ class SwitchingPlanner(CooperativePlanner):
         if not (is_cbba or is_table):
             return None
         is_aggressive = np.array([self.is_aggressive_], dtype=np.bool_)
-        return PlannerPair(*forms, float(self.noise_threshold), is_aggressive, True)
+        return PlannerPair(
+            conservative=forms[0],
+            aggressive=forms[1],
+            noise_threshold=float(self.noise_threshold),
+            is_aggressive=is_aggressive,
+            is_switching=True,
+        )
 
     def load_compiled_form(self, form: PlannerPair) -> None:
         """Take back which planner a compiled kernel switched to."""

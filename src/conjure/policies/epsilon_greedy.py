@@ -51,7 +51,7 @@ class EpsilonGreedy(Policy):
 
     def compiled_form(self) -> PolicyKernel:
         """ε for the compiled loop (`conjure.policies.compiled_policy.select_action`)."""
-        return PolicyKernel(EPSILON_GREEDY, float(self.epsilon))
+        return PolicyKernel(kind=EPSILON_GREEDY, parameter=float(self.epsilon))
 
     def probabilities(self, values: np.ndarray, legal_actions: np.ndarray) -> np.ndarray:
         probs = np.zeros(values.shape[0])

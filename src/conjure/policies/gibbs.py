@@ -50,7 +50,7 @@ class Gibbs(Policy):
 
     def compiled_form(self) -> PolicyKernel:
         """τ for the compiled loop (`conjure.policies.compiled_policy.select_action`)."""
-        return PolicyKernel(GIBBS, float(self.temperature))
+        return PolicyKernel(kind=GIBBS, parameter=float(self.temperature))
 
     def probabilities(self, values: np.ndarray, legal_actions: np.ndarray) -> np.ndarray:
         if self.temperature == 0:

@@ -49,7 +49,7 @@ class IFDDKernel(NamedTuple):
 
 def fixed(base: RepresentationKernel) -> IFDDKernel:
     """A fixed representation's kernel in the loop's growing-representation slot."""
-    return IFDDKernel(base, False, empty_tables())
+    return IFDDKernel(base=base, is_ifdd=False, tables=empty_tables())
 
 
 @njit(cache=True, inline="always")

@@ -101,9 +101,17 @@ def representation_kernel(
     rbf: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> RepresentationKernel:
     """A `RepresentationKernel` with the tables ``kind`` needs (C-contiguous), the rest empty."""
-    tables = (np.ascontiguousarray(a) for a in (dims, layout, groups, vector))
     return RepresentationKernel(
-        kind, num_tilings, max_active, *tables, hash_table, hash_counts, rbf
+        kind=kind,
+        num_tilings=num_tilings,
+        max_active=max_active,
+        dims=np.ascontiguousarray(dims),
+        layout=np.ascontiguousarray(layout),
+        groups=np.ascontiguousarray(groups),
+        vector=np.ascontiguousarray(vector),
+        hash_table=hash_table,
+        hash_counts=hash_counts,
+        rbf=rbf,
     )
 
 

@@ -299,7 +299,7 @@ class OnlineIFDD(Representation):
         base = compiled_form(self.base_)
         if base is None or base.rbf is not None:
             return None
-        return IFDDKernel(base, True, self.kernel_tables())
+        return IFDDKernel(base=base, is_ifdd=True, tables=self.kernel_tables())
 
     def grow_tables(self) -> None:
         """Double the node, feature and pool capacities and rebuild the hash table.

@@ -184,22 +184,64 @@ def _no_parts() -> BoxParts:
     no_ints = np.zeros(0, dtype=np.int64)
     no_cache = representation_kernel(HASHED_TABULAR, 1)
     planner = MissionPlanner(
-        np.zeros((0, 0)), np.zeros((0, 0), dtype=np.int64), np.zeros((0, 4)), 0, 0, 0.0,
-        np.zeros(3), False, 0.0, False, 0, no_cache, no_ints, False,
-    )  # fmt: skip
+        distances=np.zeros((0, 0)),
+        next_hop=np.zeros((0, 0), dtype=np.int64),
+        node_tasks=np.zeros((0, 4)),
+        num_uavs=0,
+        base=0,
+        horizon=0.0,
+        settings=np.zeros(3),
+        is_conservative=False,
+        fuel_reserve=0.0,
+        is_refuel_to_plan=False,
+        max_rounds=0,
+        cache=no_cache,
+        cached=no_ints,
+        has_cache=False,
+    )
     layout = np.zeros(4, dtype=np.int64)
     no_flags = np.zeros(0, dtype=np.bool_)
     grid = GridRollouts(
-        0, 0, 1.0, 0, np.zeros(1, dtype=np.int64), no_ints, np.zeros(0), no_flags, no_flags,
-        np.zeros((0, 2)), _NO_DRAWS,
-    )  # fmt: skip
+        num_rollouts=0,
+        horizon=0,
+        risk_tolerance=1.0,
+        num_actions=0,
+        indptr=np.zeros(1, dtype=np.int64),
+        indices=no_ints,
+        probabilities=np.zeros(0),
+        is_constrained=no_flags,
+        is_terminal=no_flags,
+        states=np.zeros((0, 2)),
+        rng=_NO_DRAWS,
+    )
     return BoxParts(
-        fixed_pair(planner), False, FuelRisk(layout, no_ints, 1.0),
-        MissionRollouts(0, 0, 1.0, layout, np.zeros((0, 4)), _NO_DRAWS), fixed_pair(no_ints),
-        grid, np.zeros((0, 0), dtype=np.int64),
-        NoiseModel(np.zeros(2, dtype=np.int64), np.zeros(1), 0.0, 0.0, False), layout,
-        False, 0.0, np.zeros(1), np.zeros(1, dtype=np.int64),
-    )  # fmt: skip
+        planners=fixed_pair(planner),
+        has_rollouts=False,
+        fuel=FuelRisk(layout=layout, home=no_ints, risk_tolerance=1.0),
+        rollouts=MissionRollouts(
+            num_rollouts=0,
+            horizon=0,
+            risk_tolerance=1.0,
+            layout=layout,
+            node_table=np.zeros((0, 4)),
+            rng=_NO_DRAWS,
+        ),
+        tables=fixed_pair(no_ints),
+        grid=grid,
+        intended=np.zeros((0, 0), dtype=np.int64),
+        model=NoiseModel(
+            counts=np.zeros(2, dtype=np.int64),
+            noise=np.zeros(1),
+            prior_noise=0.0,
+            prior_weight=0.0,
+            is_adaptive=False,
+        ),
+        layout=layout,
+        is_adaptive=False,
+        replan_threshold=0.0,
+        planned_noise=np.zeros(1),
+        policy_changes=np.zeros(1, dtype=np.int64),
+    )
 
 
 NO_PARTS = _no_parts()
@@ -305,9 +347,22 @@ def no_box(index: RepresentationKernel) -> BoxKernel:
     no_table = np.zeros((0, 0), dtype=np.bool_)
     no_counts = np.zeros((0, 0), dtype=np.int32)
     return BoxKernel(
-        NO_BOX, index, empty, no_table, False, empty, 0.0, 0.0, False, no_counts, 1.0, 0.0, False,
-        2.0, _NO_DRAWS,
-    )  # fmt: skip
+        kind=NO_BOX,
+        index=index,
+        planner_actions=empty,
+        safe=no_table,
+        is_mission=False,
+        visits=empty,
+        bias=0.0,
+        half_life=0.0,
+        is_fading=False,
+        counts=no_counts,
+        num_known=1.0,
+        veto_reward=0.0,
+        has_veto=False,
+        trusted=2.0,
+        rng=_NO_DRAWS,
+    )
 
 
 class CompiledBox(NamedTuple):
@@ -336,7 +391,7 @@ def packed_parts(parts: BoxParts) -> _PartsStruct:
 
 def alone(index: RepresentationKernel) -> CompiledBox:
     """The `NO_BOX` form of a learner alone (``index`` a stand-in of the loop's type)."""
-    return CompiledBox(no_box(index), NO_PARTS)
+    return CompiledBox(box=no_box(index), parts=NO_PARTS)
 
 
 class BoxTables(NamedTuple):
@@ -415,7 +470,14 @@ def tabulate(agent: Any) -> BoxTables | None:
     if _is_mission_planner(planned):
         if not isinstance(risk, (FuelRisk, MissionRollouts)):
             return None
-        return BoxTables(index, NO_PARTS.tables, no_table, None, no_moves, True)
+        return BoxTables(
+            index=index,
+            tables=NO_PARTS.tables,
+            safe=no_table,
+            grid=None,
+            intended=no_moves,
+            is_mission=True,
+        )
     policies = _planned_policies(planned)
     is_static = not agent.model_.is_adaptive
     if policies is None or index.kind != TABULAR:
@@ -427,14 +489,18 @@ def tabulate(agent: Any) -> BoxTables | None:
         return None
     rows_of = [np.array([agent.state_row(s) for s in p.states], dtype=np.int64) for p in policies]
     tables = [_table(agent, rows, p.actions) for rows, p in zip(rows_of, policies, strict=True)]
-    pair = fixed_pair(tables[0]) if len(tables) == 1 else planned._replace(
-        conservative=tables[0], aggressive=tables[1]
-    )  # fmt: skip
+    pair = (
+        fixed_pair(tables[0])
+        if len(tables) == 1
+        else planned._replace(conservative=tables[0], aggressive=tables[1])
+    )
     active = pair.aggressive if _is_aggressive(agent) else pair.conservative
     safe = _safe_table(agent, policies[0].states, rows_of[0], active) if is_fixed_risk else no_table
     grid = None if is_fixed_risk else _rollouts_by_row(agent, risk)
     intended = no_moves if is_static else _intended_rows(agent, policies[0].states)
-    return BoxTables(index, pair, safe, grid, intended, False)
+    return BoxTables(
+        index=index, tables=pair, safe=safe, grid=grid, intended=intended, is_mission=False
+    )
 
 
 def _is_mission_planner(planned: Any) -> bool:
@@ -571,7 +637,7 @@ def icca_kernel(agent: Any) -> CompiledBox | None:
     box = tables.box(ICCA, agent)._replace(
         visits=agent.visits_, bias=fading[0], half_life=fading[1], is_fading=half_life is not None
     )
-    return CompiledBox(box, tables.parts(agent))
+    return CompiledBox(box=box, parts=tables.parts(agent))
 
 
 def cooperative_learner_kernel(agent: Any) -> CompiledBox | None:
@@ -594,7 +660,7 @@ def cooperative_learner_kernel(agent: Any) -> CompiledBox | None:
         veto_reward=0.0 if veto is None else float(veto), has_veto=veto is not None,
         trusted=2.0 if trusted is None else float(trusted), rng=agent.rng_,
     )  # fmt: skip
-    return CompiledBox(box, tables.parts(agent))
+    return CompiledBox(box=box, parts=tables.parts(agent))
 
 
 @njit(cache=True, inline="always")

@@ -113,14 +113,15 @@ class FuelRiskAnalyzer(RiskAnalyzer):
                 f"NominalRiskAnalyzer or MonteCarloRiskAnalyzer."
             )
         self.graph_ = graph
-        self._form = FuelRisk(*_fuel_tables(graph), 1.0)
+        layout, home = _fuel_tables(graph)
+        self._form = FuelRisk(layout=layout, home=home, risk_tolerance=float(self.risk_tolerance))
 
     compiled_methods = ("risk", "is_safe")
 
     def compiled_form(self) -> FuelRisk:
-        """The fuel rule for the compiled iCCA box (`fuel_risk`)."""
+        """The fuel rule for the compiled iCCA box (`fuel_risk`), built once with ε in setup."""
         check_is_set_up(self, "compiled_form")
-        return self._form._replace(risk_tolerance=float(self.risk_tolerance))
+        return self._form
 
     def risk(self, state: np.ndarray, action: int, rng: np.random.Generator | None = None) -> float:
         """1.0 if after the noise-free outcome some UAV cannot reach the base in time, else 0.0."""

@@ -132,7 +132,12 @@ class MonteCarloRiskAnalyzer(RiskAnalyzer):
         _check_rollout_steps(self.num_rollouts, self.horizon)
 
     def _bind(self) -> None:
-        """Fix 𝓗; tabulate T̂'s decomposition when the model's domain has one."""
+        """Fix 𝓗; build the compiled form (with 𝓜, 𝓗 and ε) once, as the analyser's state.
+
+        On a UAV mission a `MissionRollouts`; where T̂ has a noise decomposition a
+        `GridRollouts` of its tables. Choice: parameters set after ``setup`` take effect at the
+        next ``setup`` (scikit-learn's contract), so the form is never re-stamped.
+        """
         domain = self.model_.domain_
         if type(domain).is_constrained is Domain.is_constrained:
             raise IncompatibleComponentsError(
@@ -153,7 +158,12 @@ class MonteCarloRiskAnalyzer(RiskAnalyzer):
         if isinstance(domain, UAVMission):
             graph = domain.graph_
             self._mission = MissionRollouts(
-                self.num_rollouts, self.horizon_, 1.0, graph.layout, graph.node_table, self.rng_
+                num_rollouts=int(self.num_rollouts),
+                horizon=self.horizon_,
+                risk_tolerance=float(self.risk_tolerance),
+                layout=graph.layout,
+                node_table=graph.node_table,
+                rng=self.rng_,
             )
         decomposition = domain.noise_decomposition()
         self.is_compiled_ = decomposition is not None
@@ -165,13 +175,20 @@ class MonteCarloRiskAnalyzer(RiskAnalyzer):
             )
             self._tabular = calm
             self._grid = GridRollouts(
-                self.num_rollouts, self.horizon_, 1.0, calm.num_actions,
-                stacked.indptr.astype(np.int64), stacked.indices.astype(np.int64),
-                stacked.data.astype(np.float64),
-                np.array([domain.is_constrained(s) for s in calm.states], dtype=np.bool_),
-                np.asarray(calm.is_terminal, dtype=np.bool_),
-                np.ascontiguousarray(calm.states, dtype=np.float64), self.rng_,
-            )  # fmt: skip
+                num_rollouts=int(self.num_rollouts),
+                horizon=self.horizon_,
+                risk_tolerance=float(self.risk_tolerance),
+                num_actions=calm.num_actions,
+                indptr=stacked.indptr.astype(np.int64),
+                indices=stacked.indices.astype(np.int64),
+                probabilities=stacked.data.astype(np.float64),
+                is_constrained=np.array(
+                    [domain.is_constrained(s) for s in calm.states], dtype=np.bool_
+                ),
+                is_terminal=np.asarray(calm.is_terminal, dtype=np.bool_),
+                states=np.ascontiguousarray(calm.states, dtype=np.float64),
+                rng=self.rng_,
+            )
 
     compiled_methods = ("risk", "is_safe")
 
@@ -182,12 +199,7 @@ class MonteCarloRiskAnalyzer(RiskAnalyzer):
         (`grid_failures`, π^p a table the box supplies); None for other models.
         """
         check_is_set_up(self, "compiled_form")
-        form = self._mission if self._mission is not None else self._grid
-        if form is None:
-            return None
-        return form._replace(
-            num_rollouts=int(self.num_rollouts), risk_tolerance=float(self.risk_tolerance)
-        )
+        return self._mission if self._mission is not None else self._grid
 
     def simulated_steps(self) -> int:
         """𝓜𝓗: the rollouts of one judgement, each at most 𝓗 transitions of T̂."""
@@ -208,7 +220,7 @@ class MonteCarloRiskAnalyzer(RiskAnalyzer):
         planner = _mission_planner(self.planner_)
         if self._mission is not None and planner is not None:
             self.model_.nominal_next_state(state, action)  # checks s and that a is legal
-            rollouts = self._mission._replace(num_rollouts=int(self.num_rollouts), rng=rng)
+            rollouts = self._mission._replace(rng=rng)
             state = np.asarray(state, dtype=np.float64)
             failures = mission_failures(rollouts, planner, state, int(action), self.model_.noise_)
         elif self.is_compiled_:
@@ -225,7 +237,7 @@ class MonteCarloRiskAnalyzer(RiskAnalyzer):
             self._policy = np.array(
                 [self.planner_.action(s) for s in tabular.states], dtype=np.int64
             )
-        rollouts = self._grid._replace(num_rollouts=int(self.num_rollouts), rng=rng)
+        rollouts = self._grid._replace(rng=rng)
         return grid_failures(
             rollouts, tabular.state_index(state), action, float(self.model_.noise_), self._policy
         )

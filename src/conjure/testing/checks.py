@@ -179,12 +179,17 @@ def cooperative_settings() -> list[CooperativeSetting]:
     stranded = mission.graph_.initial_state()
     stranded[0], stranded[1], stranded[-1] = 1.0, 1.0, 1.0
     return [
-        CooperativeSetting(grid, ShortestPathPlanner(), np.array([2.0, 3.0]), 2),
         CooperativeSetting(
-            mission,
-            CBBAPlanner(variant="aggressive"),
-            stranded,
-            mission.graph_.encode_action([2, 0]),
+            domain=grid,
+            planner=ShortestPathPlanner(),
+            unsafe_state=np.array([2.0, 3.0]),
+            unsafe_action=2,
+        ),
+        CooperativeSetting(
+            domain=mission,
+            planner=CBBAPlanner(variant="aggressive"),
+            unsafe_state=stranded,
+            unsafe_action=mission.graph_.encode_action([2, 0]),
         ),
     ]
 
