@@ -423,6 +423,20 @@ def test_the_box_tabulates_once_per_plan_and_again_after_a_restore(tmp_path):
     np.testing.assert_array_equal(again.safe, tables.safe)
 
 
+def test_a_static_box_keeps_one_compiled_form_and_an_adaptive_one_rebuilds_it(tmp_path):
+    domain = GridWorld.gridworld_1()
+    agent = _box(domain, "fading").setup(domain.domain_spec, 0)
+    form = agent.compiled_form()
+    for_combination(domain, agent, seed=0).advance(200)
+    assert agent.compiled_form() is form  # its own arrays, updated in place by the kernel
+    assert form.box.visits is agent.visits_ and form.box.visits.sum() > 0
+    restored = CooperativeActorCritic.restore(agent.save(tmp_path / "box"))
+    assert restored.compiled_form() is not form  # built anew around the restored state
+    world = _gridworld_2()
+    adaptive = _grid_am_icca(world, "adaptive").setup(world.domain_spec, 0)
+    assert adaptive.compiled_form() is not adaptive.compiled_form()  # T̂'s copies (Alg. 26)
+
+
 @pytest.mark.parametrize(
     ("make_box", "world", "variant"),
     [

@@ -384,9 +384,22 @@ class CompiledBox(NamedTuple):
     parts: BoxParts
 
 
+#: The latest (parts, packed parts) of `packed_parts`.
+_LAST_PACKED: list[tuple[BoxParts, _PartsStruct]] = []
+
+
 def packed_parts(parts: BoxParts) -> _PartsStruct:
-    """``parts`` as the loop's `_PartsStruct` (the same arrays)."""
-    return _pack(*parts)
+    """``parts`` as the loop's `_PartsStruct` (the same arrays).
+
+    Choice: the latest packing is kept and returned again for the same ``parts`` object (a
+    learner alone passes `NO_PARTS`, a box with a static T̂ the parts of its kept form), so
+    a kernel call packs nothing; the struct shares the parts' arrays, so it is the same value.
+    """
+    if _LAST_PACKED and _LAST_PACKED[0][0] is parts:
+        return _LAST_PACKED[0][1]
+    packed = _pack(*parts)
+    _LAST_PACKED[:] = [(parts, packed)]
+    return packed
 
 
 def alone(index: RepresentationKernel) -> CompiledBox:

@@ -168,7 +168,7 @@ class CooperativeActorCritic(CooperativeAgent):
     def compiled_form(self) -> CompiledBox | None:
         """Algorithm 23's box for the compiled loop (`icca_kernel`), or None."""
         check_is_set_up(self, "compiled_form")
-        return icca_kernel(self)
+        return self._kept_box(icca_kernel)
 
     def act(
         self, state: np.ndarray, greedy: bool = False, legal_actions: np.ndarray | None = None

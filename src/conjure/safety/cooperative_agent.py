@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -139,6 +140,7 @@ class CooperativeAgent(Agent):
         self._all_actions = np.arange(spec.num_actions, dtype=np.int64)
         self._build_tables(self.index_.num_features_, spec.num_actions)
         self._compiled_tables: BoxTables | object | None = _NOT_TABULATED
+        self._compiled_box: CompiledBox | object | None = _NOT_TABULATED
         self.is_set_up_ = True
         return self
 
@@ -174,6 +176,20 @@ class CooperativeAgent(Agent):
         if self._compiled_tables is _NOT_TABULATED:
             self._compiled_tables = tabulate(self)
         return self._compiled_tables
+
+    def _kept_box(self, build: Callable[[Any], CompiledBox | None]) -> CompiledBox | None:
+        """The box's compiled form, ``build(self)``: built once and kept as its state.
+
+        The form holds the box's own arrays and generators (updated in place), so a box
+        whose T̂ is static keeps one form from `setup` (or `load_state`) on, and a kernel
+        call costs no rebuilding. Choice: a box that adapts T̂ (Algorithm 26) still builds it
+        per call, since its T̂ counts, η̂^p and π^p are copies `load_compiled_form` takes back.
+        """
+        if self.adapts_model:
+            return build(self)
+        if self._compiled_box is _NOT_TABULATED:
+            self._compiled_box = build(self)
+        return self._compiled_box
 
     def _build_tables(self, num_states: int, num_actions: int) -> None:
         """Allocate the per-state tables (subclasses)."""
@@ -274,7 +290,7 @@ class CooperativeAgent(Agent):
         is_policy_changed = self.planner_.update(model)
         model.load_counts(int(state["num_unintended"]), int(state["num_moves"]))
         self.risk_.update(is_policy_changed=is_policy_changed)  # T̂ (and maybe π^p) changed
-        self._compiled_tables = _NOT_TABULATED
+        self._compiled_tables = self._compiled_box = _NOT_TABULATED
         self.rng_ = rng_from_state(state["rng"])
         self.eval_rng_ = rng_from_state(state["evaluation_rng"])
         self.risk_.rng_ = rng_from_state(state["risk_rng"])

@@ -215,7 +215,7 @@ class CooperativeLearner(CooperativeAgent):
     def compiled_form(self) -> CompiledBox | None:
         """Algorithm 24's box for the compiled loop (`cooperative_learner_kernel`), or None."""
         check_is_set_up(self, "compiled_form")
-        return cooperative_learner_kernel(self)
+        return self._kept_box(cooperative_learner_kernel)
 
     def act(
         self, state: np.ndarray, greedy: bool = False, legal_actions: np.ndarray | None = None
