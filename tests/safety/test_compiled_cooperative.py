@@ -445,6 +445,7 @@ def test_a_policy_check_plays_the_same_greedy_episodes_on_both_paths(make_box, w
     _, python_agent = _run(make_box, world, variant, 2, compiled=False)
     _, agent = _run(make_box, world, variant, 2, compiled=True)
     table = (agent.counts_ if hasattr(agent, "counts_") else agent.visits_).copy()
+    before = [_box_state(python_agent), _box_state(agent)]
     python_domain, domain = world(), world()
     checks = []
     for _ in range(2):  # the second check replays the first one's start states
@@ -461,3 +462,24 @@ def test_a_policy_check_plays_the_same_greedy_episodes_on_both_paths(make_box, w
     assert agent.learner_.num_learning_steps_ == sum(CHUNKS)  # nothing learned, nothing counted
     after = agent.counts_ if hasattr(agent, "counts_") else agent.visits_
     np.testing.assert_array_equal(after, table)
+    # Neither path's checks stored a cell or changed a weight: the learner's features, θ (and
+    # the actor's), the box's index and tables are as they were, and equal across paths.
+    for old, new in zip(before, [_box_state(python_agent), _box_state(agent)], strict=True):
+        assert new.keys() == old.keys()
+        for key in old:
+            np.testing.assert_array_equal(new[key], old[key], err_msg=key)
+    assert python_agent.num_features == agent.num_features
+
+
+def _box_state(agent) -> dict[str, np.ndarray]:
+    """Every array a policy check must leave alone: the learner's and the box's."""
+    learner = agent.learner_
+    arrays = {"weights": learner.weights_, "num_features": np.array(agent.num_features)}
+    if hasattr(learner, "actor_weights_"):
+        arrays["actor_weights"] = learner.actor_weights_
+    for prefix, part in (("representation.", learner.representation_), ("index.", agent.index_)):
+        arrays.update({prefix + k: v for k, v in part.state_arrays().items()})
+    for name in ("counts_", "visits_"):
+        if hasattr(agent, name):
+            arrays[name] = getattr(agent, name)
+    return {key: np.array(value, copy=True) for key, value in arrays.items()}
