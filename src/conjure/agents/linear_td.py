@@ -207,13 +207,11 @@ class LinearTDAgent(Agent):
             encode = self._encode
         except AttributeError:
             check_is_set_up(self, "act")
+        legal = self._all_actions if legal_actions is None else legal_actions
         if greedy:
-            q = self.q_values(state)
-            legal = self._all_actions if legal_actions is None else legal_actions
-            return int(greedy_action(q, legal))
+            return int(greedy_action(self.q_values(state), legal))
         phi = encode(state)
         q = _q_values(self.weights_, phi[0], phi[1])
-        legal = self._all_actions if legal_actions is None else legal_actions
         self._remember(state, phi, q)
         return int(self.policy_.select(q, self.rng_, legal))
 

@@ -82,11 +82,11 @@ class HashedTabular(BucketTable, Representation):
     - Choice: indices follow the order in which `active_features` first sees a cell, so they
       depend on the states learned from, not on the seed; every probe compares the whole
       stored cell, so cells whose hashes collide are never merged.
+      `state_arrays` saves the cells in index order and `load_state_arrays` rebuilds the hash
+      slots from them.
     - Choice: greedy acting reads φ(s) by `peek`, which stores nothing: a new cell gets the
       index it would be given, ``num_stored_``, whose θ row no update has touched, so the
       action is the one storing it would give and a policy check leaves the index as it was.
-      `state_arrays` saves the cells in index order and `load_state_arrays` rebuilds the hash
-      slots from them.
     - Choice: a full table raises rather than sharing indices (tiles3's fallback), which would
       silently merge states; `index_of` looks a state up without storing it.
     - The seed is accepted for interface uniformity; nothing is random.
