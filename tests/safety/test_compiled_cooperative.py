@@ -483,3 +483,34 @@ def _box_state(agent) -> dict[str, np.ndarray]:
         if hasattr(agent, name):
             arrays[name] = getattr(agent, name)
     return {key: np.array(value, copy=True) for key, value in arrays.items()}
+
+
+@pytest.mark.parametrize("make_agent", [_uav_csarsa, _uav_am_icca])
+def test_a_run_records_the_same_curve_on_both_paths_feature_counts_included(
+    make_agent, monkeypatch
+):
+    # examples/uav_icca.yaml's CSARSA and AM-iCCA counted more features on the compiled path:
+    # its policy checks stored the states they visited in the learner's HashedTabular.
+    import pandas as pd
+
+    import conjure.compiled
+    from conjure.experiments import loop
+    from conjure.experiments.run import run
+
+    results = []
+    for is_compiled in (False, True):
+        with monkeypatch.context() as patch:
+            if not is_compiled:  # learning and policy checks in Python
+                patch.setattr(conjure.compiled, "is_warm", lambda stepper=None: False)
+            domain = _noisy_uav_7_2()
+            agent = make_agent(domain, "veto")
+            steps = loop.COMPILE_WORTH_STEPS if is_compiled else None
+            short = {"budget_steps": 600, "num_policy_checks": 2, "eval_episodes": 3}
+            results.append(run(domain=domain, agent=agent, seed=5, compile_steps=steps, **short))
+    python, compiled = results
+    assert python.path.startswith("python") and compiled.path == "compiled"
+    timing = ["wall_time_s", "steps_per_second"]
+    curves = [pd.DataFrame(r.rows).drop(columns=timing) for r in results]
+    pd.testing.assert_frame_equal(*curves)
+    assert curves[0]["num_features"].iloc[0] == 0  # the check at step 0 stored nothing
+    assert curves[0]["num_features"].iloc[-1] > 0
