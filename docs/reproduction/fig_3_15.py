@@ -9,6 +9,7 @@ tabular representation (1,200 features) on 100,000 samples. The error is the RMS
 Ṽ and V at the sample states after each iteration (iteration 0 = the initial features).
 
     python docs/reproduction/fig_3_15.py --seeds 20 --expansions 20 --out /tmp/repro/fig_3_15
+    python docs/reproduction/fig_3_15.py --quick --out /tmp/fig_3_15_quick   # a smoke run
 
 writes OUT/fig_3_15.csv (one row per seed, size, method, iteration), OUT/fig_3_15_summary.csv
 (mean RMSE with a 95% t-interval per size, method and iteration) and OUT/fig_3_15.png.
@@ -90,14 +91,20 @@ def main() -> None:
     parser.add_argument("--expansions", type=int, default=20)
     parser.add_argument("--reference-samples", type=int, default=100_000)
     parser.add_argument("--out", type=Path, default=Path("/tmp/repro/fig_3_15"))
+    parser.add_argument(
+        "--quick", action="store_true", help="a smoke run: 2 seeds, 1 expansion, 1,000 samples"
+    )
     args = parser.parse_args()
+    sizes = SIZES
+    if args.quick:
+        args.seeds, args.expansions, args.reference_samples, sizes = 2, 1, 2_000, SIZES[:1]
     args.out.mkdir(parents=True, exist_ok=True)
 
     spec = InvertedPendulum().domain_spec
     reference = LSTD(representation=Tabular(num_buckets=20)).setup(spec, 0)
     reference.fit(pendulum_samples(args.reference_samples, 1234))
     rows = []
-    for size in SIZES:
+    for size in sizes:
         for seed in range(args.seeds):
             data = pendulum_samples(size, seed)  # the same data for every method
             target = reference.values([t.state for t in data])
@@ -139,7 +146,10 @@ def main() -> None:
     )
     summary.to_csv(args.out / "fig_3_15_summary.csv", index=False)
 
-    fig, axes = plt.subplots(1, len(SIZES), figsize=(4.2 * len(SIZES), 3.6), sharey=True)
+    fig, axes = plt.subplots(
+        1, len(sizes), figsize=(4.2 * len(sizes), 3.6), sharey=True, squeeze=False
+    )
+    axes = axes[0]
     names = {
         "random": "Random",
         "ifdd": "iFDD (Eq. 3.19)",
@@ -147,7 +157,7 @@ def main() -> None:
         "ifdd_plus_signed": "iFDD+ Σδ/√n (Eq. 3.18)",
         "best": "Best",
     }
-    for ax, size in zip(axes, SIZES, strict=True):
+    for ax, size in zip(axes, sizes, strict=True):
         for method in METHODS:
             part = summary[(summary["samples"] == size) & (summary["method"] == method)]
             x, m, h = part["iteration"], part["mean"], part["ci95"]

@@ -3,9 +3,11 @@
 Chapters 3-4: ``fig_3_*``/``fig_4_*``; chapter 5 (safe exploration, iCCA): ``fig_5_*``.
 
 python docs/reproduction/make_configs.py
+python docs/reproduction/make_configs.py --out DIR   # write them under DIR instead
 """
 
 import csv
+import sys
 from pathlib import Path
 
 import yaml
@@ -850,6 +852,8 @@ def ifdd_csarsa():
 
 
 if __name__ == "__main__":
+    if "--out" in sys.argv[1:]:
+        OUT = Path(sys.argv[sys.argv.index("--out") + 1])
     OUT.mkdir(parents=True, exist_ok=True)
     fig_4_5()
     fig_4_7()

@@ -1,6 +1,7 @@
 """The optimal expected return of the (reconstructed) Rescue Mission, by exact expectimax.
 
     python docs/reproduction/rescue_optimum.py
+    python docs/reproduction/rescue_optimum.py --quick   # a smoke run: horizon 4, not 10
 
 The mission lasts at most H = 10 steps from one start state, so backward induction over the
 states reachable from the start is exact: each step is deterministic except the rescue at the
@@ -22,7 +23,7 @@ from conjure.domains._uav_kernels import rescue_legal_actions, rescue_step
 def main() -> None:
     """Solve the default Rescue Mission and print V*(s0)."""
     sys.setrecursionlimit(10_000)
-    domain = RescueMission()
+    domain = RescueMission(horizon=4) if "--quick" in sys.argv[1:] else RescueMission()
     start, _ = domain.reset(seed=0)
     graph = (domain.neighbours_, domain._degrees, domain._is_near)
     people, success = domain._people, domain._success

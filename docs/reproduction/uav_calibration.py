@@ -284,6 +284,7 @@ def main() -> None:
     parser.add_argument("--spec", action="store_true", help="spec 2.2's first reconstruction")
     parser.add_argument("--refuel", action="store_true", help="Algorithm 27's two readings")
     parser.add_argument("--skip-10-2", action="store_true", help="UAV 7-2 only")
+    parser.add_argument("--quick", action="store_true", help="a smoke run: UAV 7-2 only")
     parser.add_argument("--search", choices=["7-2", "10-2"], help="search a new calibration")
     parser.add_argument("--candidates", type=int, default=400, help="random candidates")
     parser.add_argument("--steps", type=int, default=50, help="one-change steps after them")
@@ -299,7 +300,7 @@ def main() -> None:
         scenarios = spec
     elif args.refuel:
         scenarios = spec + scenarios
-    if args.skip_10_2:
+    if args.skip_10_2 or args.quick:
         scenarios = [(name, graph) for name, graph in scenarios if graph.num_nodes == 7]
     for name, graph in scenarios:
         if args.refuel:

@@ -18,7 +18,7 @@ from conjure.core.errors import DivergenceError, InvalidParameterError
 from conjure.core.schedules import EpisodicDecay, FeatureNormalizedDecay
 from conjure.domains import ChainMDP, GridWorld, InvertedPendulum, UAVMission, from_gymnasium
 from conjure.domains.gridworld import open_grid
-from conjure.experiments.loop import LearningLoop
+from conjure.experiments.loop import LearningLoop, run_episode
 from conjure.models.approximate_model import ApproximateModel
 from conjure.planners import ShortestPathPlanner
 from conjure.policies import EpsilonGreedy, Gibbs
@@ -289,6 +289,55 @@ def test_same_seed_gives_the_same_curve_on_both_paths(name, seed):
     # The next greedy action agrees too (the Python agent reads the compiled θ).
     obs = np.zeros(stepper.domain.domain_spec.num_dims)
     assert agent.act(obs, greedy=True) == python_agent.act(obs, greedy=True)
+
+
+def _learner_state(agent) -> dict[str, np.ndarray]:
+    """θ and the representation's stored arrays (cells, hashed tiles): a check must keep them."""
+    arrays = agent.representation_.state_arrays()
+    return {"weights": agent.weights_.copy(), **{k: v.copy() for k, v in arrays.items()}}
+
+
+@pytest.mark.parametrize(
+    "name",
+    [
+        "gridworld-hashed-tabular-q",
+        "pendulum-hashed-tiles-sarsa",
+        "uav-7-2-hashed-tabular-sarsa-lambda",
+    ],
+)
+def test_a_policy_check_leaves_a_lazily_indexed_learner_as_it_was_on_both_paths(name):
+    # Greedy acting reads φ(s) without storing new cells or tiles (`Representation.peek`):
+    # the compiled loop's greedy steps and `act(s, greedy=True)` play the same episodes and
+    # leave θ, the index and its feature count exactly as they were.
+    played = []
+    for is_compiled in (False, True):
+        domain, agent = _build(name, 3)
+        (
+            for_combination(domain, agent, seed=3)
+            if is_compiled
+            else LearningLoop(domain, agent, seed=3)
+        ).advance(400)
+        before, num_features = _learner_state(agent), agent.num_features
+        check_domain = COMBINATIONS[name][0]()
+        if is_compiled:
+            stats = for_combination(check_domain, agent, seed=11, learn=False).play_episodes(6)
+            returns, lengths = stats.episode_returns.tolist(), stats.episode_lengths.tolist()
+            episodes = list(zip(returns, lengths, strict=True))
+        else:
+            episodes = [
+                (e.episode_return, e.num_steps)
+                for e in (
+                    run_episode(check_domain, agent, seed=11 if k == 0 else None) for k in range(6)
+                )
+            ]
+        after = _learner_state(agent)
+        assert after.keys() == before.keys()
+        for key in before:
+            np.testing.assert_array_equal(after[key], before[key])
+        assert agent.num_features == num_features
+        played.append((episodes, num_features))
+    assert played[0] == played[1]
+    assert sum(length for _, length in played[0][0]) > 6  # the checks visited states
 
 
 def test_trace_growth_is_exercised():

@@ -162,3 +162,17 @@ def test_a_run_reports_the_features_in_use_not_the_capacity():
     assert 0 < in_use < representation.num_features_ == 100_000  # the capacity, θ's rows
     assert int(result.curve["num_features"].iloc[-1]) == in_use
     assert f"{in_use:,} features" in result.summary()
+
+
+def test_peek_gives_the_index_storing_would_give_and_stores_nothing():
+    # Greedy acting's φ(s): a seen cell's index, a new cell the next index (a θ row no update
+    # has touched), a new cell of a full table no feature; the index never changes.
+    rep = HashedTabular(capacity=2).setup(BINARY_10, seed=0)
+    a, b, c = np.zeros(10), np.ones(10), np.eye(10)[3]
+    assert rep.peek(a).indices.tolist() == [0] and rep.num_stored_ == 0
+    rep.active_features(a)
+    assert [rep.peek(s).indices.tolist() for s in (a, b, c)] == [[0], [1], [1]]
+    assert rep.num_stored_ == 1 and rep.index_of(b) == -1
+    rep.active_features(b)
+    assert rep.peek(c).indices.tolist() == [] and rep.num_stored_ == 2  # full: no feature
+    np.testing.assert_array_equal(rep.peek(b).values, [1.0])

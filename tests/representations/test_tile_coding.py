@@ -275,3 +275,25 @@ def test_not_set_up():
         TileCoding().active_features(np.zeros(2))
     with pytest.raises(NotSetUpError):
         TileCoding().state_arrays()
+
+
+def _stored(rep) -> dict[str, np.ndarray]:
+    return {key: value.copy() for key, value in rep.state_arrays().items()}
+
+
+@pytest.mark.parametrize("memory_size", [None, 50, 100_000])
+def test_peek_gives_what_storing_would_give_and_stores_nothing(memory_size):
+    # Greedy acting's φ(s): new tiles get the index storing would give them (50: the table
+    # fills up after a few states, then new keys fall back to hash % memory_size).
+    params = dict(num_tilings=8, tiles_per_dim=10, memory_size=memory_size)
+    rep = TileCoding(**params).setup(PENDULUM, seed=0)
+    for state in random_states(PENDULUM, 60):
+        before = _stored(rep)
+        peeked = rep.peek(state)
+        after = _stored(rep)
+        assert after.keys() == before.keys()
+        for key in before:
+            np.testing.assert_array_equal(after[key], before[key])
+        np.testing.assert_array_equal(peeked.indices, rep.active_features(state))
+        np.testing.assert_array_equal(peeked.values, np.ones(len(peeked.indices)))
+    assert memory_size != 50 or rep.num_collisions_ > 0  # the fallback was exercised

@@ -459,6 +459,7 @@ def test_a_policy_check_plays_the_same_greedy_episodes_on_both_paths(make_box, w
     _, python_agent = _run(make_box, world, variant, 2, compiled=False)
     _, agent = _run(make_box, world, variant, 2, compiled=True)
     table = (agent.counts_ if hasattr(agent, "counts_") else agent.visits_).copy()
+    before = [_box_state(python_agent), _box_state(agent)]
     python_domain, domain = world(), world()
     checks = []
     for _ in range(2):  # the second check replays the first one's start states
@@ -475,3 +476,55 @@ def test_a_policy_check_plays_the_same_greedy_episodes_on_both_paths(make_box, w
     assert agent.learner_.num_learning_steps_ == sum(CHUNKS)  # nothing learned, nothing counted
     after = agent.counts_ if hasattr(agent, "counts_") else agent.visits_
     np.testing.assert_array_equal(after, table)
+    # Neither path's checks stored a cell or changed a weight: the learner's features, θ (and
+    # the actor's), the box's index and tables are as they were, and equal across paths.
+    for old, new in zip(before, [_box_state(python_agent), _box_state(agent)], strict=True):
+        assert new.keys() == old.keys()
+        for key in old:
+            np.testing.assert_array_equal(new[key], old[key], err_msg=key)
+    assert python_agent.num_features == agent.num_features
+
+
+def _box_state(agent) -> dict[str, np.ndarray]:
+    """Every array a policy check must leave alone: the learner's and the box's."""
+    learner = agent.learner_
+    arrays = {"weights": learner.weights_, "num_features": np.array(agent.num_features)}
+    if hasattr(learner, "actor_weights_"):
+        arrays["actor_weights"] = learner.actor_weights_
+    for prefix, part in (("representation.", learner.representation_), ("index.", agent.index_)):
+        arrays.update({prefix + k: v for k, v in part.state_arrays().items()})
+    for name in ("counts_", "visits_"):
+        if hasattr(agent, name):
+            arrays[name] = getattr(agent, name)
+    return {key: np.array(value, copy=True) for key, value in arrays.items()}
+
+
+@pytest.mark.parametrize("make_agent", [_uav_csarsa, _uav_am_icca])
+def test_a_run_records_the_same_curve_on_both_paths_feature_counts_included(
+    make_agent, monkeypatch
+):
+    # examples/uav_icca.yaml's CSARSA and AM-iCCA counted more features on the compiled path:
+    # its policy checks stored the states they visited in the learner's HashedTabular.
+    import pandas as pd
+
+    import conjure.compiled
+    from conjure.experiments import loop
+    from conjure.experiments.run import run
+
+    results = []
+    for is_compiled in (False, True):
+        with monkeypatch.context() as patch:
+            if not is_compiled:  # learning and policy checks in Python
+                patch.setattr(conjure.compiled, "is_warm", lambda stepper=None: False)
+            domain = _noisy_uav_7_2()
+            agent = make_agent(domain, "veto")
+            steps = loop.COMPILE_WORTH_STEPS if is_compiled else None
+            short = {"budget_steps": 600, "num_policy_checks": 2, "eval_episodes": 3}
+            results.append(run(domain=domain, agent=agent, seed=5, compile_steps=steps, **short))
+    python, compiled = results
+    assert python.path.startswith("python") and compiled.path == "compiled"
+    timing = ["wall_time_s", "steps_per_second"]
+    curves = [pd.DataFrame(r.rows).drop(columns=timing) for r in results]
+    pd.testing.assert_frame_equal(*curves)
+    assert curves[0]["num_features"].iloc[0] == 0  # the check at step 0 stored nothing
+    assert curves[0]["num_features"].iloc[-1] > 0

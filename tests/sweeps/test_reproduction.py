@@ -14,13 +14,17 @@ from conjure.sweeps.reproduction import (
     FIGURES,
     METRICS,
     QUICK_SEEDS,
+    above,
     best_at_every_x,
     comparison_markdown,
+    every_run_within,
     figure_cost,
     figure_names,
     finals_markdown,
     finals_table,
+    level,
     load_figure_sweep,
+    no_better,
     summary_table,
     worst_above_worst,
 )
@@ -85,6 +89,32 @@ def test_claims_over_the_x_axis_compare_methods_at_each_cut_count():
     assert holds and text == "arifdd best at 2 of 2"  # no rival at 2 cuts: nothing to lose to
     with pytest.raises(InvalidParameterError, match="no grid settings"):
         best_at_every_x("arifdd", ("ifdd",), "episode_length")(finals.drop(columns="setting"))
+
+
+def test_each_word_of_the_thesis_has_its_test():
+    # "above": the 95% Welch interval of the difference lies above 0; "level" (the same
+    # level, not significant): it holds 0; "could not outperform": it does not lie above 0.
+    rows = [("a", v) for v in (1.0, 1.2, 1.4)] + [("b", v) for v in (1.1, 1.3, 1.5)]
+    rows += [("c", v) for v in (3.0, 3.1, 3.2)]
+    finals = pd.DataFrame(rows, columns=["label", "return"])
+    assert not above("b", "a")(finals)[1] and above("c", "a")(finals)[1]
+    assert level("b", "a")(finals)[1] and not level("c", "a")(finals)[1]
+    assert no_better("b", "a")(finals)[1] and not no_better("c", "a")(finals)[1]
+    assert no_better("a", "c")(finals)[1]  # below is "not above"
+    text, holds = every_run_within("c", "return", 3.0, 3.1)(finals)
+    assert not holds and text == "c: 2 of 3 runs in [3, 3.1]"
+    assert every_run_within("c", "return", 3.0, 3.2)(finals)[1]
+
+
+@pytest.mark.parametrize("name", list(FIGURES))
+def test_every_claim_quotes_its_sentence_of_the_thesis_or_says_it_has_none(name):
+    for claim in FIGURES[name].claims:
+        if claim.quote:
+            assert claim.quote.startswith(("Section ", "Fig. ")) and '"' in claim.quote
+        else:
+            assert claim.thesis.startswith("("), claim.text  # "(not in the thesis)", ...
+    text = comparison_markdown(name, fake_finals(name), scale="thesis")
+    assert text.count("\n- ") == len(FIGURES[name].claims)  # what each claim quotes
 
 
 def test_names_take_short_forms_and_unknown_ones_suggest():

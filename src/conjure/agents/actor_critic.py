@@ -271,11 +271,11 @@ class ActorCritic(LinearTDAgent):
     ) -> int:
         """Return a ~ π^actor(s), or argmax_a ρ(s, a) when ``greedy``."""
         check_is_set_up(self, "act")
+        legal = self._all_actions if legal_actions is None else legal_actions
+        if greedy:  # stores nothing (`preferences`)
+            return int(greedy_action(self.preferences(state), legal))
         psi = self._encode_actor(state)
         preferences = _kernels.q_values(self.actor_weights_, psi[0], psi[1])
-        legal = self._all_actions if legal_actions is None else legal_actions
-        if greedy:
-            return int(greedy_action(preferences, legal))
         policy = self.policy_.probabilities(preferences, legal) if self._is_log_policy else None
         self._remember(state, psi, policy)
         return int(self.policy_.select(preferences, self.rng_, legal))
@@ -291,9 +291,9 @@ class ActorCritic(LinearTDAgent):
         return super().q_values(state)
 
     def preferences(self, state: np.ndarray) -> np.ndarray:
-        """Return ρ(s, ·) = ωᵀψ(s, ·) (Eq. 2.33)."""
+        """Return ρ(s, ·) = ωᵀψ(s, ·) (Eq. 2.33); stores nothing (`Representation.peek`)."""
         check_is_set_up(self, "preferences")
-        return _kernels.q_values(self.actor_weights_, *self._encode_actor(state))
+        return _kernels.q_values(self.actor_weights_, *self.actor_representation_.peek(state))
 
     def shift_preference(self, state: np.ndarray, action: int, amount: float) -> None:
         """ρ(s, a) += ``amount``: the bias and penalty λ of iCCA (Section 5.3.2; Algorithm 23).

@@ -163,8 +163,11 @@ class BatchAgent(Agent):
         return int(self.policy_.select(q, self.rng_, legal))
 
     def _state_features(self, state: np.ndarray) -> SparseFeatures:
-        """φ(s) of the features Q is defined over (the representation's `encode`)."""
-        return self.representation_.encode(state)
+        """φ(s) of the features Q is defined over, storing nothing (`Representation.peek`).
+
+        Acting learns nothing (``fit`` encodes the samples), so it indexes no new feature.
+        """
+        return self.representation_.peek(state)
 
     def _q_weights(self) -> np.ndarray:
         """θ̄ of the Q that ``act`` uses, shape (n, |A|)."""

@@ -206,23 +206,27 @@ class LinearTDAgent(Agent):
     def act(
         self, state: np.ndarray, greedy: bool = False, legal_actions: np.ndarray | None = None
     ) -> int:
-        """Return π^ε(s) (or the greedy action for policy checks, which draws no random number)."""
+        """Return π^ε(s), or the greedy action for policy checks, which changes nothing.
+
+        Greedy acting draws no random number and reads φ(s) by `Representation.peek`, which
+        stores no new feature.
+        """
         try:
             encode = self._encode
         except AttributeError:
             check_is_set_up(self, "act")
-        phi = encode(state)
-        q = _q_values(self.weights_, phi[0], phi[1])
         legal = self._all_actions if legal_actions is None else legal_actions
         if greedy:
-            return int(greedy_action(q, legal))
+            return int(greedy_action(self.q_values(state), legal))
+        phi = encode(state)
+        q = _q_values(self.weights_, phi[0], phi[1])
         self._remember(state, phi, q)
         return int(self.policy_.select(q, self.rng_, legal))
 
     def q_values(self, state: np.ndarray) -> np.ndarray:
-        """Return Q(s, ·) under the current weights."""
+        """Return Q(s, ·) under the current weights; stores nothing (`Representation.peek`)."""
         check_is_set_up(self, "q_values")
-        indices, values = self._encode(state)
+        indices, values = self.representation_.peek(state)
         return _q_values(self.weights_, indices, values)
 
     # ------------------------------------------------------------------ learning

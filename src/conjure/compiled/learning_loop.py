@@ -74,6 +74,7 @@ from conjure.representations.compiled_representation import (
     HASHED_TABULAR,
     TILES,
     encode_into,
+    peek_into,
     values_of,
 )
 from conjure.safety.compiled_cooperative import (
@@ -254,7 +255,7 @@ def learning_loop(
     ep_float = np.empty((16, 2))
     ep_int = np.empty((16, 2), dtype=np.int64)
     is_buffered = base.kind == TILES and not is_ifdd  # φ(s) lives in phi_buffer
-    is_indexed = base.kind == HASHED_TABULAR  # φ(s) may be [FULL]
+    is_indexed = learn and base.kind == HASHED_TABULAR  # φ(s) may be [FULL] (not on peeking)
     num_ended = done = failures = 0
     delta = 0.0
     status = DONE
@@ -266,7 +267,9 @@ def learning_loop(
     phi = phi_buffer
     values = values_of(base, obs)  # φ(s)'s values (None: binary φ)
     if phase == IN_EPISODE:
-        phi = encode_into(base, obs, quanta, phi_buffer)
+        phi = encode_into(base, obs, quanta, phi_buffer) if learn else peek_into(
+            base, obs, quanta, phi_buffer
+        )  # fmt: skip
         if is_ifdd:  # `rep` is read only with iFDD (see `sparsify`)
             phi = sparsify(rep, phi)
     while done < num_steps:
@@ -282,7 +285,9 @@ def learning_loop(
             if learn:
                 episode += 1
                 clear_learner_traces(agent, arrays, row_traces)
-            phi = encode_into(base, obs, quanta, phi_buffer)
+                phi = encode_into(base, obs, quanta, phi_buffer)
+            else:  # a policy check stores nothing (`Representation.peek`)
+                phi = peek_into(base, obs, quanta, phi_buffer)
             if is_indexed and phi[0] < 0:
                 status, phase = FULL_INDEX, NEEDS_RESET
                 break
@@ -332,7 +337,9 @@ def learning_loop(
         next_action = 0
         target = reward
         if not terminated:  # φ(s'), a' = π(s') and Q⁺(s, a) (Algorithms 10-12, lines 4-5)
-            next_phi = encode_into(base, next_obs, quanta, next_buffer)
+            next_phi = encode_into(base, next_obs, quanta, next_buffer) if learn else peek_into(
+                base, next_obs, quanta, next_buffer
+            )  # fmt: skip
             if is_indexed and next_phi[0] < 0:
                 _copy(obs, next_obs)
                 status, phase = FULL_INDEX, NEEDS_RESET

@@ -347,7 +347,19 @@ class Representation(Configurable):
         The values are a read-only view of a buffer of ones the representation keeps (grown
         when a state has more active features), so encoding allocates nothing per step.
         """
-        indices = self.active_features(state)
+        return self._binary(self.active_features(state))
+
+    def peek(self, state: np.ndarray) -> SparseFeatures:
+        """Return φ(s) as `encode` does, storing nothing (greedy acting and inspection).
+
+        The default is `encode`. The representations whose `encode` stores (`HashedTabular`'s
+        cells, `TileCoding`'s hashed tiles) override it to give the indices storing would
+        give without storing them, so a policy check leaves them as they were.
+        """
+        return self.encode(state)
+
+    def _binary(self, indices: np.ndarray) -> SparseFeatures:
+        """``indices`` with values 1 (a view of the ones buffer)."""
         ones = self._unit_values
         if len(ones) != len(indices):
             ones = self._unit_values = self._ones(len(indices))

@@ -19,7 +19,7 @@ from numba import njit
 
 from conjure.representations._kernels import _bucket, _mix
 
-__all__ = ["cell_hash", "find_cell", "lookup_cell", "rebuild_slots", "state_cell"]
+__all__ = ["cell_hash", "find_cell", "lookup_cell", "peek_cell", "rebuild_slots", "state_cell"]
 
 EMPTY = -1
 #: `find_cell`'s answer when the cell is new and the table holds ``capacity`` cells already.
@@ -86,6 +86,25 @@ def find_cell(
         slots[slot] = index
         counts[0] = index + 1
     out[0] = index
+    return out
+
+
+@njit(cache=True)
+def peek_cell(
+    state: np.ndarray, dims: np.ndarray, slots: np.ndarray, cells: np.ndarray, counts: np.ndarray
+) -> np.ndarray:
+    """`find_cell` storing nothing: the index of s's cell, or the one it would get if new.
+
+    A new cell's index, ``counts[0]``, is a row no update has touched, so φ(s) gives the same
+    values as after storing it; a new cell of a full table gets no feature (an empty array).
+    """
+    index = lookup_cell(state, dims, slots, cells)
+    if index == EMPTY:
+        index = counts[0]
+    num_active = 0 if index == cells.shape[0] else 1
+    out = np.empty(num_active, dtype=np.int64)
+    if num_active:
+        out[0] = index
     return out
 
 

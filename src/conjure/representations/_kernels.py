@@ -292,6 +292,25 @@ def _hash_index(key: int, table: np.ndarray, counts: np.ndarray) -> int:
 
 
 @njit(cache=True)
+def _peek_index(key: int, table: np.ndarray, counts: np.ndarray, num_new: int) -> tuple[int, bool]:
+    """`_hash_index`'s answer for ``key`` after ``num_new`` new keys, storing nothing.
+
+    (index, whether it would be stored): a stored key's index; else the index storing would
+    give, ``counts[0] + num_new`` while below the memory size, then ``hash % memory_size``.
+    """
+    mask = table.shape[0] - 1
+    h = _mix(key)
+    slot = np.int64(h & np.uint64(mask))
+    while table[slot, 0] != key and table[slot, 0] != EMPTY_SLOT:
+        slot = (slot + 1) & mask
+    if table[slot, 0] == key:
+        return table[slot, 1], False
+    if counts[0] + num_new < counts[2]:
+        return counts[0] + num_new, True
+    return np.int64(h % np.uint64(counts[2])), False
+
+
+@njit(cache=True)
 def hashed_tile_features(
     state: np.ndarray,
     dims: np.ndarray,
@@ -300,11 +319,23 @@ def hashed_tile_features(
     num_tilings: int,
     table: np.ndarray,
     counts: np.ndarray,
+    is_storing: bool = True,
 ) -> np.ndarray:
-    """Return the hashed tiles: each tile's unhashed index is the key (group, tiling, coords)."""
+    """Return the hashed tiles: each tile's unhashed index is the key (group, tiling, coords).
+
+    With ``is_storing`` false (greedy acting) nothing is stored: each new key gets the index
+    storing it would give (`_peek_index`; the keys of one state are distinct), so the result
+    is the same and the table unchanged.
+    """
     out = _tile_indices(state, dims, layout, groups, num_tilings)
+    num_new = 0
     for k in range(out.shape[0]):
-        out[k] = _hash_index(out[k], table, counts)
+        if is_storing:
+            out[k] = _hash_index(out[k], table, counts)
+        else:
+            index, is_new = _peek_index(out[k], table, counts, num_new)
+            out[k] = index
+            num_new += is_new
     return _sort_unique(out)
 
 

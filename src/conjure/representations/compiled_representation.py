@@ -13,7 +13,13 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from conjure.representations._hashed_tabular_kernels import EMPTY, FULL, find_cell, lookup_cell
+from conjure.representations._hashed_tabular_kernels import (
+    EMPTY,
+    FULL,
+    find_cell,
+    lookup_cell,
+    peek_cell,
+)
 from conjure.representations._kernels import (
     hashed_tile_features,
     independent_features,
@@ -36,6 +42,7 @@ __all__ = [
     "encode_into",
     "index_row",
     "lookup_row",
+    "peek_into",
     "representation_kernel",
     "rows_in_use",
     "values_of",
@@ -141,6 +148,25 @@ def encode_into(
     if rep.kind == RBF:
         return rep.vector
     return np.flatnonzero(state)
+
+
+@njit(cache=True, inline="always")
+def peek_into(
+    rep: RepresentationKernel, state: np.ndarray, quanta: np.ndarray, out: np.ndarray
+) -> np.ndarray:
+    """`encode_into` storing nothing (greedy acting; `Representation.peek`).
+
+    A hashed table's new cell or tile gets the index storing it would give (`peek_cell`,
+    `hashed_tile_features` not storing); the other encoders store nothing anyway.
+    """
+    if rep.kind == HASHED_TABULAR:
+        return peek_cell(state, rep.dims, rep.vector, rep.hash_table, rep.hash_counts)
+    if rep.kind == HASHED_TILES:
+        return hashed_tile_features(
+            state, rep.dims, rep.layout, rep.groups, rep.num_tilings, rep.hash_table,
+            rep.hash_counts, False,
+        )  # fmt: skip
+    return encode_into(rep, state, quanta, out)
 
 
 @njit(cache=True, inline="always")

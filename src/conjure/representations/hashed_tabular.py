@@ -7,7 +7,7 @@ import math
 import numpy as np
 
 from conjure.core.errors import InvalidParameterError
-from conjure.core.interfaces import DomainSpec, Representation, check_is_set_up
+from conjure.core.interfaces import DomainSpec, Representation, SparseFeatures, check_is_set_up
 from conjure.core.params import Interval
 from conjure.core.seeding import as_seed_sequence
 from conjure.representations import _hashed_tabular_kernels as _hk
@@ -80,10 +80,13 @@ class HashedTabular(BucketTable, Representation):
       values outside ``[low, high]``), so the two give the same partition of the state space;
       only the numbering differs.
     - Choice: indices follow the order in which `active_features` first sees a cell, so they
-      depend on the states seen (greedy policy checks included), not on the seed; every probe
-      compares the whole stored cell, so cells whose hashes collide are never merged.
+      depend on the states learned from, not on the seed; every probe compares the whole
+      stored cell, so cells whose hashes collide are never merged.
       `state_arrays` saves the cells in index order and `load_state_arrays` rebuilds the hash
       slots from them.
+    - Choice: greedy acting reads φ(s) by `peek`, which stores nothing: a new cell gets the
+      index it would be given, ``num_stored_``, whose θ row no update has touched, so the
+      action is the one storing it would give and a policy check leaves the index as it was.
     - Choice: a full table raises rather than sharing indices (tiles3's fallback), which would
       silently merge states; `index_of` looks a state up without storing it.
     - The seed is accepted for interface uniformity; nothing is random.
@@ -159,6 +162,11 @@ class HashedTabular(BucketTable, Representation):
         if phi[0] == _hk.FULL:
             self._raise_full(state)
         return phi
+
+    def peek(self, state: np.ndarray) -> SparseFeatures:
+        """φ(s) without storing s's cell (greedy acting): the index it has or would get."""
+        dims, state = self._dims_and_state(state)
+        return self._binary(_hk.peek_cell(state, dims, self._slots, self._cells, self._counts))
 
     def index_of(self, state: np.ndarray) -> int:
         """Return the index of s's cell, or −1 if it was never seen (stores nothing)."""

@@ -7,7 +7,7 @@ from typing import Any
 import numpy as np
 
 from conjure.core.errors import InvalidParameterError
-from conjure.core.interfaces import DomainSpec, Representation, check_is_set_up
+from conjure.core.interfaces import DomainSpec, Representation, SparseFeatures, check_is_set_up
 from conjure.core.params import InstanceOf, Interval, Predicate
 from conjure.core.seeding import as_seed_sequence
 from conjure.representations._kernels import (
@@ -105,7 +105,8 @@ class TileCoding(BucketTable, Representation):
       indices 0, 1, 2, ... in order of first appearance, then falls back to a splitmix64
       hash of the key modulo ``memory_size``. Two active tiles may then share an index:
       `active_features` returns the sorted unique indices, so fewer than ``num_active_``.
-      The indices depend on the order states were seen; `state_arrays` saves the table.
+      The indices depend on the order states were learned from (greedy acting reads φ(s)
+      by `peek`, which stores no tile); `state_arrays` saves the table.
     - Choice: the unhashed tile count must fit in an int64 (< 2**62), also when hashing;
       use ``dimension_groups`` to tile large state spaces.
     - The seed is accepted for interface uniformity; tile coding uses no randomness.
@@ -255,6 +256,15 @@ class TileCoding(BucketTable, Representation):
                 self._hash_counts,
             )
         return tile_features(state, dims, self._layout, self._group_table, self._num_tilings)
+
+    def peek(self, state: np.ndarray) -> SparseFeatures:
+        """φ(s) without storing new tiles in the hash table (greedy acting); else `encode`."""
+        if not self._is_hashed:
+            return self.encode(state)
+        dims, state = self._dims_and_state(state)
+        tables = (self._layout, self._group_table, self._num_tilings)
+        counted = (self._hash_table, self._hash_counts)
+        return self._binary(hashed_tile_features(state, dims, *tables, *counted, False))
 
     @property
     def num_collisions_(self) -> int:
