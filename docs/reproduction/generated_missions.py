@@ -178,12 +178,15 @@ def main() -> None:
         for mission in range(args.missions)
         for k in range(args.seeds)
     ]
-    started = time.perf_counter()
-    if args.workers <= 1:
-        rows = [measure(*task) for task in tasks]
-    else:
-        with ProcessPoolExecutor(max_workers=args.workers) as pool:
-            rows = list(pool.map(measure, *zip(*tasks, strict=True)))
+    started, rows = time.perf_counter(), []
+    with ProcessPoolExecutor(max_workers=max(args.workers, 1)) as pool:
+        for row in pool.map(measure, *zip(*tasks, strict=True)):
+            rows.append(row)
+            print(
+                f"{len(rows)}/{len(tasks)}: mission {row['mission_seed']} seed {row['seed']}: "
+                f"gain {100 * row['gain']:+.2f}% ({time.perf_counter() - started:.0f} s)",
+                flush=True,
+            )
     table = pd.DataFrame(rows)
     args.csv.parent.mkdir(parents=True, exist_ok=True)
     table.to_csv(args.csv, index=False, float_format="%.6g")
