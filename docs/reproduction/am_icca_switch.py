@@ -124,11 +124,12 @@ def trace(seed: int, steps: int, chunk: int, episodes: int) -> tuple[pd.DataFram
         return changed
 
     risk.is_safe, planner.update, agent.learn = counting_is_safe, recording_update, counting_learn
-    rows = []
+    rows, started = [], time.perf_counter()
     while stepper.total_steps < steps:
         stepper.advance(min(chunk, steps - stepper.total_steps))
         rows.append(
             {
+                "seconds": round(time.perf_counter() - started, 1),
                 "learning_steps": stepper.total_steps,
                 "learning_episodes": stepper.num_completed_episodes,
                 "learning_failures": stepper.num_failures,
@@ -141,6 +142,7 @@ def trace(seed: int, steps: int, chunk: int, episodes: int) -> tuple[pd.DataFram
                 "vetoes": tally["vetoes"],
             }
         )
+        print(rows[-1], flush=True)
     # the final agent, greedy: as evaluated, vetoes counted, then every proposal executed
     tally.update(proposals=0, vetoes=0)
     eval_domain = domain.clone()
@@ -222,7 +224,6 @@ def main() -> None:
         table, summary = trace(args.seed, args.steps, args.chunk, args.episodes)
         path = args.csv or TRACE_CSV
         table.to_csv(path, index=False, float_format="%.6g")
-        print(table.to_string(index=False))
         for key, value in summary.items():
             print(f"{key}: {value}")
     else:
