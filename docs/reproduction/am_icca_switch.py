@@ -82,8 +82,14 @@ def build(label: str, seed: int) -> tuple[Any, Any, tuple[int, int]]:
     return domain, agent, (seed_to_int(seeds["domain"]), seed_to_int(seeds["evaluation"]))
 
 
-def trace(seed: int, steps: int, chunk: int, episodes: int) -> tuple[pd.DataFrame, dict]:
-    """Train ``am_icca`` through the Python stepper, recording the switch and the vetoes."""
+def trace(
+    seed: int, steps: int, chunk: int, episodes: int, max_planner_states: int | None = None
+) -> tuple[pd.DataFrame, dict]:
+    """Train ``am_icca`` through the Python stepper, recording the switch and the vetoes.
+
+    ``max_planner_states``: judge π^p's own action in only the first that many of the states
+    π^p reaches (in time order; None: all).
+    """
     import numpy as np
 
     from conjure.experiments.loop import Stepper, greedy_episodes
@@ -154,10 +160,11 @@ def trace(seed: int, steps: int, chunk: int, episodes: int) -> tuple[pd.DataFram
     # Section 5.5.1's condition on the states π^p reaches: is π^p's own action safe?
     truth = eval_domain.evaluate_policy(planner.action)  # the non-terminal states it reaches
     rng = np.random.default_rng(seed)
-    pairs = zip(truth.states, truth.actions, strict=True)
+    limit = slice(None, max_planner_states)
+    pairs = zip(truth.states[limit], truth.actions[limit], strict=True)
     planner_risks = np.array([risk.risk(state, action, rng) for state, action in pairs])
     is_unsafe = planner_risks >= risk.risk_tolerance
-    weights = truth.reach_probabilities / truth.reach_probabilities.sum()
+    weights = truth.reach_probabilities[limit] / truth.reach_probabilities[limit].sum()
     summary = {
         "seed": seed,
         "learning_steps": steps,
@@ -180,12 +187,15 @@ def trace(seed: int, steps: int, chunk: int, episodes: int) -> tuple[pd.DataFram
     return pd.DataFrame(rows), summary
 
 
-def final(label: str, seed: int) -> dict[str, Any]:
-    """One run of ``label`` at the config's budget: its final policy check."""
+def final(label: str, seed: int, budget: int | None = None) -> dict[str, Any]:
+    """One run of ``label`` at ``budget`` steps (None: the config's): its final policy check."""
     from conjure.experiments.config import parse_config
     from conjure.experiments.run import run_config
 
-    result = run_config(parse_config(experiment()), agent_name=label, seed=seed)
+    data = experiment()
+    if budget is not None:
+        data["budget_steps"] = budget
+    result = run_config(parse_config(data), agent_name=label, seed=seed)
     last = result.rows[-1]
     return {
         "label": label,
