@@ -1,24 +1,27 @@
 """Why AM-iCCA ends below CSARSA on the noisy UAV 7-2 (Figs. 5-9/5-13): a measurement.
 
-    python docs/reproduction/am_icca_switch.py trace [--seed 30000]
+    python docs/reproduction/am_icca_switch.py trace [--seed 30000] [--steps 20000]
+    python docs/reproduction/am_icca_switch.py judge [--seed 30000] [--episodes 100]
     python docs/reproduction/am_icca_switch.py variants [--seeds 10] [--workers 2]
-    python docs/reproduction/am_icca_switch.py trace --steps 2000 --episodes 5   # short
 
-Both read examples/reproduction/fig_5_9_13.yaml, whose base settings are the selected ones
+All read examples/reproduction/fig_5_9_13.yaml, whose base settings are the selected ones
 (`am_icca`: Algorithm 26 with Algorithm 25's M = 5 rollouts and ε = 20%, K = 20, a vetoed
 proposal as printed; `csarsa`: Algorithm 24 with aggressive CBBA and the fuel rule).
 
 ``trace`` trains ``am_icca`` on one seed through the Python `Stepper` (the same steps and draws
-as the compiled loop) and writes, every ``--chunk`` steps, η̂ (the model's noise estimate),
-whether π^p is the aggressive policy, the policy changes, the counts in use, the pairs known
-(count ≥ K), the learner's proposals other than π^p(s) and how many the analyser vetoed, and
-the failures while learning; the switch's step and the counts its reset erased. Then, on the
-final agent and ``--episodes`` greedy episodes: the return as evaluated, the return with
-every proposal executed, the proposals vetoed, and Section 5.5.1's condition ("the planner's
-policy should be seen safe through the eyes of the risk analyzer at all times"): over the
-states π^p itself reaches (`UAVMission.evaluate_policy`, at the true 5%), the share where the
-analyser finds π^p(s)'s own action unsafe (risk ≥ ε), plain and weighted by the probability
-of reaching the state, beside π^p's exact value and crash probability from s₀.
+as the compiled loop, about 50 steps a second here, hence 2·10⁴ steps by default) and writes,
+every ``--chunk`` steps, η̂ (the model's noise estimate), whether π^p is the aggressive policy,
+the policy changes, the counts in use, the pairs known (count ≥ K), the learner's proposals
+other than π^p(s) and how many the analyser vetoed, and the failures while learning; and
+prints the switch's step and the counts its reset erased.
+
+``judge`` runs ``am_icca`` for the config's 10⁵ steps (compiled) on one seed and plays
+``--episodes`` greedy episodes of the final agent on the Python path: as evaluated (vetoes
+counted), then with every proposal executed. Then it checks Section 5.5.1's condition ("the
+planner's policy should be seen safe through the eyes of the risk analyzer at all times"):
+over the states π^p itself reaches (`UAVMission.evaluate_policy`, at the true 5%), the share
+where the analyser finds π^p(s)'s own action unsafe (risk ≥ ε), plain and weighted by the
+probability of reaching the state, beside π^p's exact value and crash probability from s₀.
 
 ``variants`` runs, per seed, the final return and learning failures of: ``csarsa``;
 ``am_icca``; AM-iCCA started aggressive (initial noise 5%: π^p never switches, so no
@@ -82,36 +85,24 @@ def build(label: str, seed: int) -> tuple[Any, Any, tuple[int, int]]:
     return domain, agent, (seed_to_int(seeds["domain"]), seed_to_int(seeds["evaluation"]))
 
 
-def trace(
-    seed: int, steps: int, chunk: int, episodes: int, max_planner_states: int | None = None
-) -> tuple[pd.DataFrame, dict]:
-    """Train ``am_icca`` through the Python stepper, recording the switch and the vetoes.
+def trace(seed: int, steps: int, chunk: int) -> tuple[pd.DataFrame, list[dict[str, Any]]]:
+    """Train ``am_icca`` through the Python stepper: per chunk η̂, π^p, counts and vetoes.
 
-    ``max_planner_states``: judge π^p's own action in only the first that many of the states
-    π^p reaches (in time order; None: all).
+    Returns the per-chunk table and the policy switches (step, η̂, counts erased).
     """
-    import numpy as np
+    from conjure.experiments.loop import Stepper
 
-    from conjure.experiments.loop import Stepper, greedy_episodes
-
-    domain, agent, (domain_seed, eval_seed) = build("am_icca", seed)
+    domain, agent, (domain_seed, _) = build("am_icca", seed)
     risk, planner = agent.risk_, agent.planner_
     tally = {"proposals": 0, "vetoes": 0}
     switches: list[dict[str, Any]] = []
     stepper = Stepper(domain, agent, seed=domain_seed)
-    is_safe, update, learn = risk.is_safe, planner.update, agent.learn
+    update, learn = planner.update, agent.learn
     steps_learned = [0]
 
     def counting_learn(transition):
         steps_learned[0] += not transition.is_imagined
         return learn(transition)
-
-    def counting_is_safe(state, action, rng=None, *, planner_action=None):
-        safe = is_safe(state, action, rng, planner_action=planner_action)
-        if planner_action is None or action != planner_action:
-            tally["proposals"] += 1
-            tally["vetoes"] += not safe
-        return safe
 
     def recording_update(model):
         erased = int(agent.counts_.sum())
@@ -129,7 +120,8 @@ def trace(
             )
         return changed
 
-    risk.is_safe, planner.update, agent.learn = counting_is_safe, recording_update, counting_learn
+    risk.is_safe = counting(risk.is_safe, tally)
+    planner.update, agent.learn = recording_update, counting_learn
     rows, started = [], time.perf_counter()
     while stepper.total_steps < steps:
         stepper.advance(min(chunk, steps - stepper.total_steps))
@@ -149,30 +141,78 @@ def trace(
             }
         )
         print(rows[-1], flush=True)
-    # the final agent, greedy: as evaluated, vetoes counted, then every proposal executed
-    tally.update(proposals=0, vetoes=0)
-    eval_domain = domain.clone()
-    evaluated = greedy_episodes(eval_domain, agent, episodes, seed=eval_seed)
-    greedy_tally = dict(tally)
+    return pd.DataFrame(rows), switches
+
+
+def counting(is_safe: Any, tally: dict[str, int]) -> Any:
+    """``is_safe`` that also counts the proposals other than π^p(s) and the vetoed ones."""
+
+    def counted(state, action, rng=None, *, planner_action=None):
+        safe = is_safe(state, action, rng, planner_action=planner_action)
+        if planner_action is None or action != planner_action:
+            tally["proposals"] += 1
+            tally["vetoes"] += not safe
+        return safe
+
+    return counted
+
+
+def judge(
+    seed: int, budget: int | None, episodes: int, max_planner_states: int | None = None
+) -> dict[str, Any]:
+    """The final ``am_icca`` of a run (compiled) judged greedily, and π^p by its analyser.
+
+    Greedy episodes on the Python path (`run_episode`, so that the vetoes can be counted) from
+    the run's evaluation seed: as evaluated, then with every proposal executed. Then Section
+    5.5.1's condition on the states π^p reaches: is π^p(s)'s own action safe by the analyser?
+    ``max_planner_states`` judges only the first that many of them (time order; None: all).
+    """
+    import numpy as np
+
+    from conjure.core.seeding import seed_to_int, split_seed
+    from conjure.experiments.config import parse_config
+    from conjure.experiments.loop import run_episode
+    from conjure.experiments.run import SEED_STREAMS, run_config
+
+    data = experiment()
+    if budget is not None:
+        data["budget_steps"] = budget
+    result = run_config(parse_config(data), agent_name="am_icca", seed=seed)
+    agent = result.agent
+    domain, _, _ = build("am_icca", seed)
+    risk, planner = agent.risk_, agent.planner_
+    eval_seed = seed_to_int(split_seed(seed, SEED_STREAMS)["evaluation"])
+
+    def play() -> list[Any]:
+        return [
+            run_episode(domain, agent, seed=eval_seed if k == 0 else None) for k in range(episodes)
+        ]
+
+    tally = {"proposals": 0, "vetoes": 0}
+    is_safe = risk.is_safe
+    risk.is_safe = counting(is_safe, tally)
+    evaluated = play()
     risk.is_safe = lambda state, action, rng=None, *, planner_action=None: True
-    executed = greedy_episodes(eval_domain, agent, episodes, seed=eval_seed)
+    executed = play()
     risk.is_safe = is_safe
-    # Section 5.5.1's condition on the states π^p reaches: is π^p's own action safe?
-    truth = eval_domain.evaluate_policy(planner.action)  # the non-terminal states it reaches
+    truth = domain.evaluate_policy(planner.action)  # the non-terminal states π^p reaches
     rng = np.random.default_rng(seed)
     limit = slice(None, max_planner_states)
     pairs = zip(truth.states[limit], truth.actions[limit], strict=True)
     planner_risks = np.array([risk.risk(state, action, rng) for state, action in pairs])
     is_unsafe = planner_risks >= risk.risk_tolerance
     weights = truth.reach_probabilities[limit] / truth.reach_probabilities[limit].sum()
-    summary = {
+    return {
         "seed": seed,
-        "learning_steps": steps,
-        "switches": switches,
+        "learning_steps": int(result.rows[-1]["learning_steps"]),
+        "num_policy_changes": int(agent.num_policy_changes_),
+        "is_aggressive": bool(planner.is_aggressive_),
+        "noise_estimate": float(agent.model_.noise_),
+        "run_final_check_return": float(result.rows[-1]["return"]),
         "greedy_return": float(np.mean([e.episode_return for e in evaluated])),
         "greedy_failure_rate": float(np.mean([e.num_failures > 0 for e in evaluated])),
-        "greedy_proposals": greedy_tally["proposals"],
-        "greedy_vetoes": greedy_tally["vetoes"],
+        "greedy_proposals": tally["proposals"],
+        "greedy_vetoes": tally["vetoes"],
         "executed_return": float(np.mean([e.episode_return for e in executed])),
         "executed_failure_rate": float(np.mean([e.num_failures > 0 for e in executed])),
         "planner_states": int(planner_risks.size),
@@ -184,7 +224,6 @@ def trace(
         "risk_tolerance": float(risk.risk_tolerance),
         "num_rollouts": int(risk.num_rollouts),
     }
-    return pd.DataFrame(rows), summary
 
 
 def final(label: str, seed: int, budget: int | None = None) -> dict[str, Any]:
@@ -220,9 +259,10 @@ LABELS = (
 def main() -> None:
     """Parse the command line; run ``trace`` or ``variants``."""
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("mode", choices=["trace", "variants"])
+    parser.add_argument("mode", choices=["trace", "judge", "variants"])
     parser.add_argument("--seed", type=int, default=FIRST_SEED)
-    parser.add_argument("--steps", type=int, default=100_000)
+    parser.add_argument("--steps", type=int, default=20_000, help="trace: Python-path steps")
+    parser.add_argument("--budget", type=int, default=None, help="judge: the run's steps")
     parser.add_argument("--chunk", type=int, default=2_000)
     parser.add_argument("--episodes", type=int, default=100)
     parser.add_argument("--seeds", type=int, default=10)
@@ -231,10 +271,11 @@ def main() -> None:
     args = parser.parse_args()
     started = time.perf_counter()
     if args.mode == "trace":
-        table, summary = trace(args.seed, args.steps, args.chunk, args.episodes)
-        path = args.csv or TRACE_CSV
-        table.to_csv(path, index=False, float_format="%.6g")
-        for key, value in summary.items():
+        table, switches = trace(args.seed, args.steps, args.chunk)
+        table.to_csv(args.csv or TRACE_CSV, index=False, float_format="%.6g")
+        print(f"switches: {switches}")
+    elif args.mode == "judge":
+        for key, value in judge(args.seed, args.budget, args.episodes).items():
             print(f"{key}: {value}")
     else:
         tasks = [(label, FIRST_SEED + k) for k in range(args.seeds) for label in LABELS]
