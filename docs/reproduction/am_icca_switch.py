@@ -266,6 +266,8 @@ def main() -> None:
     parser.add_argument("--chunk", type=int, default=2_000)
     parser.add_argument("--episodes", type=int, default=100)
     parser.add_argument("--seeds", type=int, default=10)
+    parser.add_argument("--first-seed", type=int, default=FIRST_SEED, help="variants' first seed")
+    parser.add_argument("--labels", nargs="+", choices=LABELS, default=list(LABELS))
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--csv", type=Path, default=None)
     args = parser.parse_args()
@@ -278,7 +280,7 @@ def main() -> None:
         for key, value in judge(args.seed, args.budget, args.episodes).items():
             print(f"{key}: {value}")
     else:
-        tasks = [(label, FIRST_SEED + k) for k in range(args.seeds) for label in LABELS]
+        tasks = [(label, args.first_seed + k) for k in range(args.seeds) for label in args.labels]
         rows = []
         with ProcessPoolExecutor(max_workers=max(args.workers, 1)) as pool:
             for row in pool.map(final, *zip(*tasks, strict=True)):
