@@ -9,11 +9,11 @@ All read examples/reproduction/fig_5_9_13.yaml, whose base settings are the sele
 proposal as printed; `csarsa`: Algorithm 24 with aggressive CBBA and the fuel rule).
 
 ``trace`` trains ``am_icca`` on one seed through the Python `Stepper` (the same steps and draws
-as the compiled loop, about 50 steps a second here, hence 2·10⁴ steps by default) and writes,
-every ``--chunk`` steps, η̂ (the model's noise estimate), whether π^p is the aggressive policy,
-the policy changes, the counts in use, the pairs known (count ≥ K), the learner's proposals
-other than π^p(s) and how many the analyser vetoed, and the failures while learning; and
-prints the switch's step and the counts its reset erased.
+as the compiled loop; its Monte-Carlo rollouts make it slow, so 2·10⁴ steps by default) and
+writes, every ``--chunk`` steps, η̂ (the model's noise estimate), whether π^p is the aggressive
+policy, the policy changes, the counts in use, the pairs known (count ≥ K), the learner's
+proposals other than π^p(s) and how many the analyser vetoed, and the failures while
+learning; and prints the switch's step and the counts its reset erased.
 
 ``judge`` runs ``am_icca`` for the config's 10⁵ steps (compiled) on one seed and plays
 ``--episodes`` greedy episodes of the final agent on the Python path: as evaluated (vetoes
