@@ -7,7 +7,7 @@ Fig. 5-6 compares iCCA with CBBA on one graph. The calibrated graphs (`uav_7_2`,
 plant a valuable target beside the base whose best use CBBA's one-UAV-per-task model cannot
 plan, so CBBA's whole noise-free gap is one decision at s₀. Here every mission is drawn by
 `mission_graph.sample_mission` without that motif (``UAVMission(mission_seed=m)`` on UAV 7-2's
-nodes, edges and horizon: 7 nodes, 2 UAVs, H = 8, whose exact solve takes about a second),
+nodes, edges and horizon: 7 nodes, 2 UAVs, H = 8, small enough to solve each exactly),
 and on each one:
 
 - V* by backward induction (`UAVMission.exact_solution`);
