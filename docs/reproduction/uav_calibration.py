@@ -43,6 +43,7 @@ import numpy as np
 
 from conjure.domains.mission_graph import (
     MissionGraph,
+    sample_mission,
     uav_7_2,
     uav_7_2_spec,
     uav_10_2,
@@ -202,27 +203,8 @@ def distance(graph: MissionGraph, noise_free: dict[str, Any], noisy: dict[str, A
 
 
 def sample_targets(rng: np.random.Generator, graph: MissionGraph) -> dict[str, Any]:
-    """A random mission on ``graph``'s edges, horizon and size (spec 2.2's state counts)."""
-    horizon, targets = graph.horizon, {}
-    if rng.random() < 0.7:  # a valuable, unlikely target next to the base, open at t = 1 only
-        reward, p = rng.choice([400, 500, 600, 700]), rng.choice([0.3, 0.4, 0.5])
-        targets[1] = {"reward": float(reward), "probability": float(p), "window": [1, 1]}
-    for node in range(len(targets) + 1, graph.num_nodes):
-        if rng.random() < 0.2:
-            continue
-        target = {
-            "reward": float(rng.choice(np.arange(50, 500, 50))),
-            "probability": float(rng.choice(np.arange(3, 11) / 10)),
-        }
-        if rng.random() < 0.3:
-            hops = int(graph.distances[graph.base, node])
-            start = int(rng.integers(hops, horizon - hops + 1))
-            target["window"] = [start, min(start + int(rng.integers(0, 4)), horizon)]
-        targets[node] = target
-    fuel_pairs = [[6, 6], [6, 7], [7, 6], [7, 7]] if graph.num_nodes == 7 else [[8, 8], [9, 7]]
-    data = graph.to_dict()
-    data.update(targets=targets, fuel=fuel_pairs[int(rng.integers(len(fuel_pairs)))])
-    return data
+    """A random mission on ``graph``'s edges (`sample_mission`), often with the motif planted."""
+    return sample_mission(rng, graph, base_target_rate=0.7).to_dict()
 
 
 def mutate(rng: np.random.Generator, data: dict[str, Any]) -> dict[str, Any]:

@@ -4,6 +4,7 @@ import pytest
 from conjure.core.errors import InvalidParameterError
 from conjure.domains.mission_graph import (
     MissionGraph,
+    sample_mission,
     uav_7_2,
     uav_7_2_spec,
     uav_10_2,
@@ -123,3 +124,26 @@ def test_a_uav_without_fuel_is_refused_by_name():
     data = {"num_nodes": 2, "edges": [(0, 1)], "fuel": [3, 0], "horizon": 3}
     with pytest.raises(InvalidParameterError, match=r"`MissionGraph\.fuel\[1\]` .* fuel 0"):
         MissionGraph.from_dict(data)
+
+
+def test_a_sampled_mission_is_a_function_of_its_generator_seed():
+    draw = lambda seed: sample_mission(np.random.default_rng(seed), uav_7_2_spec()).to_dict()  # noqa: E731
+    assert draw(3) == draw(3)
+    assert draw(3) != draw(4)
+    mission = MissionGraph.from_dict(draw(3))
+    assert mission.edges == uav_7_2_spec().edges and mission.horizon == uav_7_2_spec().horizon
+    assert mission.fuel in {(6, 6), (6, 7), (7, 6), (7, 7)}
+
+
+def test_sampled_missions_plant_the_base_target_only_when_asked():
+    for seed in range(30):
+        free = sample_mission(np.random.default_rng(seed), uav_7_2_spec())
+        assert free.rewards.max() <= 450  # the motif's 400-700 at node 1 needs the rate
+        planted = sample_mission(np.random.default_rng(seed), uav_7_2_spec(), 1.0)
+        assert planted.rewards[1] >= 400 and planted.windows[1].tolist() == [1, 1]
+        assert planted.probabilities[1] in (0.3, 0.4, 0.5)
+
+
+def test_a_base_target_rate_outside_zero_one_is_refused_by_value():
+    with pytest.raises(InvalidParameterError, match=r"base_target_rate.*1.5"):
+        sample_mission(np.random.default_rng(0), uav_7_2_spec(), 1.5)

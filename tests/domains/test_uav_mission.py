@@ -487,3 +487,21 @@ def test_exact_solutions_too_large_for_memory_or_time_name_the_fuel_or_horizon(c
     graph = {**UAVMission().graph_.to_dict(), **change}
     with pytest.raises(InvalidParameterError, match=message):
         UAVMission(graph=graph).exact_solution()
+
+
+def test_a_generated_mission_keeps_the_scenarios_edges_and_draws_targets_from_its_seed():
+    first, again = UAVMission(mission_seed=5), UAVMission(mission_seed=5)
+    assert first.graph_.to_dict() == again.graph_.to_dict()
+    other = UAVMission(mission_seed=6)
+    assert other.graph_.to_dict() != first.graph_.to_dict()
+    shipped = UAVMission().graph_
+    assert first.graph_.edges == shipped.edges and first.graph_.horizon == shipped.horizon
+    assert first.graph_.to_dict()["targets"] != shipped.to_dict()["targets"]
+    assert "mission 5" in first.domain_spec.name
+    assert UAVMission(mission_seed=5).get_params()["mission_seed"] == 5
+
+
+@pytest.mark.parametrize("seed", [-1, 1.5, "0"])
+def test_a_bad_mission_seed_is_refused_by_value(seed):
+    with pytest.raises(InvalidParameterError, match="mission_seed"):
+        UAVMission(mission_seed=seed)

@@ -33,7 +33,15 @@ import numpy as np
 from conjure.core.errors import InvalidParameterError
 from conjure.core.interfaces import DomainSpec
 
-__all__ = ["MAX_NODES", "MissionGraph", "uav_7_2", "uav_7_2_spec", "uav_10_2", "uav_10_2_spec"]
+__all__ = [
+    "MAX_NODES",
+    "MissionGraph",
+    "sample_mission",
+    "uav_7_2",
+    "uav_7_2_spec",
+    "uav_10_2",
+    "uav_10_2_spec",
+]
 
 UNREACHABLE = np.iinfo(np.int64).max // 4
 #: Most nodes a mission graph may have: Floyd-Warshall's N × N table and N³ steps (about 2 s
@@ -486,6 +494,63 @@ def uav_10_2() -> MissionGraph:
             },
         }
     )
+
+
+def sample_mission(
+    rng: np.random.Generator, graph: MissionGraph, base_target_rate: float = 0.0
+) -> MissionGraph:
+    """[R] A random mission on ``graph``'s nodes, edges, base and horizon: targets and fuel drawn.
+
+    The sampler the calibration of `uav_7_2` and `uav_10_2` searched with
+    (docs/reproduction/uav_calibration.py), and the missions ``UAVMission(mission_seed=...)``
+    generates. Each node after the base is skipped with probability 0.2; otherwise it gets a
+    reward in {50, 100, ..., 450}, a probability in {0.3, 0.4, ..., 1.0} and, with
+    probability 0.3, a window [a, a + k] (a from the node's hop count h to H − h, k in 0-3,
+    cut at H). The fuel pair is drawn from {6, 7}² (7 nodes) or {(8, 8), (9, 7)} (others).
+
+    Parameters
+    ----------
+    rng : numpy.random.Generator
+        The only source of randomness.
+    graph : MissionGraph
+        Gives the nodes, edges, base and horizon; its targets and fuel are replaced.
+    base_target_rate : float, default 0.0
+        Probability in [0, 1] of first planting the calibration's motif: node 1 worth
+        400-700 with probability 0.3-0.5 inside the window [1, 1], which makes CBBA's whole
+        gap one decision at s₀. The calibration searched with 0.7; the generated missions
+        use 0, and no draw is made for it.
+
+    Notes
+    -----
+    - Choice: a mission whose nodes are all skipped (probability 0.2^(N−1)) has no target;
+      it is returned as drawn, and its V* is 0.
+    """
+    if not 0.0 <= base_target_rate <= 1.0:
+        raise InvalidParameterError(
+            f"`base_target_rate` must be a probability in [0, 1]; got {base_target_rate!r}."
+        )
+    horizon, targets = graph.horizon, {}
+    if base_target_rate > 0 and rng.random() < base_target_rate:
+        reward, p = rng.choice([400, 500, 600, 700]), rng.choice([0.3, 0.4, 0.5])
+        targets[1] = {"reward": float(reward), "probability": float(p), "window": [1, 1]}
+    for node in range(len(targets) + 1, graph.num_nodes):
+        if node == graph.base:
+            continue
+        if rng.random() < 0.2:
+            continue
+        target = {
+            "reward": float(rng.choice(np.arange(50, 500, 50))),
+            "probability": float(rng.choice(np.arange(3, 11) / 10)),
+        }
+        if rng.random() < 0.3:
+            hops = int(graph.distances[graph.base, node])
+            start = int(rng.integers(hops, horizon - hops + 1))
+            target["window"] = [start, min(start + int(rng.integers(0, 4)), horizon)]
+        targets[node] = target
+    fuel_pairs = [[6, 6], [6, 7], [7, 6], [7, 7]] if graph.num_nodes == 7 else [[8, 8], [9, 7]]
+    data = graph.to_dict()
+    data.update(targets=targets, fuel=fuel_pairs[int(rng.integers(len(fuel_pairs)))])
+    return MissionGraph.from_dict(data)
 
 
 # ---------------------------------------------------------------------------------------------

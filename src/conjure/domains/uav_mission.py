@@ -44,6 +44,7 @@ from conjure.domains.compiled_domain import (
 )
 from conjure.domains.mission_graph import (
     MissionGraph,
+    sample_mission,
     uav_7_2,
     uav_7_2_spec,
     uav_10_2,
@@ -105,6 +106,12 @@ class UAVMission(ActionMasking, NoisyDomain):
         Any mission graph, as a config mapping ``MissionGraph.from_dict`` reads (``num_nodes``,
         ``edges``, ``fuel``, ``horizon``, ``base``, ``targets``); it replaces ``scenario``. At
         most 10⁶ joint actions N^n (checked first) and 1000 nodes (`mission_graph.MAX_NODES`).
+    mission_seed : int or None, default=None
+        A generated mission: on the nodes, edges, base and horizon of ``scenario`` (or
+        ``graph``), targets and fuel drawn by `mission_graph.sample_mission` from
+        ``numpy.random.default_rng(mission_seed)``, without the calibrated graphs' target
+        planted beside the base. The same seed gives the same mission; the run's seed only
+        drives the episodes. ``None``: the graph as given.
     traverse_failure : float, default=0.0
         η in [0, 1], the probability that a UAV trying to traverse an edge stays where it is
         (Section 5.4.1 uses 0.05; Section 5.3.5 uses 0).
@@ -194,6 +201,7 @@ class UAVMission(ActionMasking, NoisyDomain):
         "graph": InstanceOf(
             (Mapping, type(None)), "a mission-graph mapping (see MissionGraph.from_dict) or None"
         ),
+        "mission_seed": Interval(int, 0, None) | InstanceOf(type(None)),
         "traverse_failure": Interval(float, 0.0, 1.0),
         **ActionMasking.masking_constraints,
     }
@@ -203,12 +211,14 @@ class UAVMission(ActionMasking, NoisyDomain):
         *,
         scenario: str = "uav-7-2",
         graph: Mapping[str, Any] | None = None,
+        mission_seed: int | None = None,
         traverse_failure: float = 0.0,
         illegal_action: str = "raise",
         illegal_action_penalty: float = 1.0,
     ) -> None:
         self.scenario = scenario
         self.graph = graph
+        self.mission_seed = mission_seed
         self.traverse_failure = traverse_failure
         self.illegal_action = illegal_action
         self.illegal_action_penalty = illegal_action_penalty
@@ -230,6 +240,8 @@ class UAVMission(ActionMasking, NoisyDomain):
             adjacency[u, v] = adjacency[v, u] = 1
         node_table, layout = graph.node_table, graph.layout
         name = self.scenario if self.graph is None else f"{num_nodes} nodes, {n} UAVs"
+        if self.mission_seed is not None:
+            name = f"{name}, mission {self.mission_seed}"
         self.domain_spec = graph.state_spec(f"UAVMission({name})")
         high = self.domain_spec.high.copy()
         for table in (adjacency, node_table, layout, high):
@@ -246,6 +258,12 @@ class UAVMission(ActionMasking, NoisyDomain):
         self._set_action_space()
 
     def _read_graph(self) -> MissionGraph:
+        graph = self._given_graph()
+        if self.mission_seed is None:
+            return graph
+        return sample_mission(np.random.default_rng(self.mission_seed), graph)
+
+    def _given_graph(self) -> MissionGraph:
         if self.graph is None:
             return SCENARIOS[self.scenario]()
         _check_joint_actions(self.graph)  # before the graph's Θ(N³) distances
