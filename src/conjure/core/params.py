@@ -18,6 +18,10 @@ from typing import Any, ClassVar
 from conjure.core.errors import InvalidParameterError
 
 __all__ = [
+    "EPISODE_STEPS",
+    "INT_MAX",
+    "NEXT_SAMPLES",
+    "SAMPLES",
     "AnyOf",
     "Configurable",
     "Constraint",
@@ -27,6 +31,10 @@ __all__ = [
     "Predicate",
     "did_you_mean",
 ]
+
+
+#: The largest int an `Interval` without an upper bound accepts: what an int64 array holds.
+INT_MAX = 2**63 - 1
 
 
 class Constraint:
@@ -63,6 +71,11 @@ class AnyOf(Constraint):
 class Interval(Constraint):
     """A real or integer number in an interval; ``closed`` is 'both', 'left', 'right' or 'neither'.
 
+    A missing bound is open, so it excludes infinity: ``Interval(float, 0, None)`` prints
+    ``[0, inf)`` and refuses ``inf``. An int without an upper bound must fit an int64
+    (`INT_MAX`, printed ``2^63``); a component whose count drives a loop or an allocation
+    declares its own, smaller bound.
+
     Examples
     --------
     >>> Interval(float, 0, 1, closed="right").describe()
@@ -85,7 +98,9 @@ class Interval(Constraint):
         if isinstance(value, bool):
             return False
         wanted = numbers.Integral if self.kind is int else numbers.Real
-        if not isinstance(value, wanted) or (self.kind is float and math.isnan(value)):
+        if not isinstance(value, wanted) or (self.kind is float and not math.isfinite(value)):
+            return False
+        if self.kind is int and self.high is None and not -INT_MAX - 1 <= value <= INT_MAX:
             return False
         if self.low is not None:
             if value < self.low or (value == self.low and self.closed in ("right", "neither")):
@@ -102,7 +117,7 @@ class Interval(Constraint):
         left = "[" if self.closed in ("both", "left") and self.low is not None else "("
         right = "]" if self.closed in ("both", "right") and self.high is not None else ")"
         low = "-inf" if self.low is None else f"{self.low:g}"
-        high = "inf" if self.high is None else f"{self.high:g}"
+        high = ("2^63" if self.kind is int else "inf") if self.high is None else f"{self.high:g}"
         return f"{noun} in {left}{low}, {high}{right}"
 
 
@@ -152,6 +167,16 @@ class Predicate(Constraint):
 
     def describe(self) -> str:
         return self.description
+
+
+#: Sense bounds on counts that size a loop or an array (Choice: far above any thesis setting,
+#: well below what would run for hours or allocate gigabytes). A horizon bounds each greedy
+#: policy check, which may never end an episode before it.
+EPISODE_STEPS = Interval(int, 1, 10**6)
+#: Samples a sampled planner draws per iteration (Algorithms 5-9: the thesis used hundreds).
+SAMPLES = Interval(int, 1, 10**7)
+#: Next states drawn per sampled state-action pair (the thesis used 1).
+NEXT_SAMPLES = Interval(int, 1, 10**4)
 
 
 def did_you_mean(name: str, known: Iterable[str]) -> str:

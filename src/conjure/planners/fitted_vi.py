@@ -9,7 +9,7 @@ import scipy.sparse as sp
 
 from conjure.core.interfaces import Representation
 from conjure.core.linalg import solve_regularized
-from conjure.core.params import InstanceOf, Interval
+from conjure.core.params import NEXT_SAMPLES, SAMPLES, InstanceOf, Interval
 from conjure.planners import _kernels
 from conjure.planners._sampling import Sampling, weight_change
 from conjure.planners.base import Plan, Planner
@@ -78,8 +78,8 @@ class FittedValueIteration(Planner):
     is_sampled = True
     parameter_constraints = {
         "representation": InstanceOf((Representation, type(None)), "a Representation or None"),
-        "num_samples": Interval(int, 1, None),
-        "num_next_samples": Interval(int, 1, None),
+        "num_samples": SAMPLES,
+        "num_next_samples": NEXT_SAMPLES,
         "epsilon": Interval(float, 0.0, 1.0),
         "regularization": Interval(float, 0.0, None),
         "tolerance": Interval(float, 0.0, None, closed="neither"),
