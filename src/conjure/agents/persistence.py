@@ -418,6 +418,9 @@ class NpzArrays(Mapping[str, np.ndarray]):
                 ) from None
         return self._cache[name]
 
+    def __contains__(self, name: object) -> bool:
+        return name in self._headers
+
     def __iter__(self) -> Iterator[str]:
         return iter(self._headers)
 

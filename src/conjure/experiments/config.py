@@ -63,7 +63,7 @@ from conjure.experiments.limits import (
     parse_seeds,
 )
 from conjure.experiments.loop import CURVE_COLUMNS
-from conjure.experiments.memory import parse_memory_size
+from conjure.experiments.memory import parse_memory_limit
 
 __all__ = [
     "CURVE_COLUMNS",
@@ -226,8 +226,8 @@ PolicyChecks = Annotated[int, Field(strict=True, ge=1, le=MAX_POLICY_CHECKS)]
 EvalEpisodes = Annotated[int, Field(strict=True, ge=1, le=MAX_EVAL_EPISODES)]
 #: Seeds: a count, a list, or a range ``"START..END"`` (inclusive), `limits.parse_seeds`.
 Seeds = Annotated[int | list[int], BeforeValidator(parse_seeds)]
-#: A memory size in bytes, written as ``4GiB``, ``512MiB`` or a byte count (`parse_memory_size`).
-MemorySize = Annotated[int | None, BeforeValidator(parse_memory_size)]
+#: A memory size in bytes, ``4GiB`` or a byte count, at least 1 GiB (`parse_memory_limit`).
+MemorySize = Annotated[int | None, BeforeValidator(parse_memory_limit)]
 
 
 class ExperimentConfig(BaseModel):
