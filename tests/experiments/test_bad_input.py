@@ -234,3 +234,19 @@ def test_an_edited_run_file_is_redone_and_a_quiet_resume_says_so(tmp_path, capsy
     assert again.num_skipped == 1
     redone = read_run(path)["curve"].drop(columns=list(TIMING_COLUMNS))
     pd.testing.assert_frame_equal(redone, original.drop(columns=list(TIMING_COLUMNS)))
+
+
+def test_a_garbled_npy_header_is_one_error_naming_the_file(tmp_path):
+    # Found by tests/test_fuzz.py: numpy's header parser raised a raw tokenize.TokenError.
+    directory = _saved_agent(tmp_path)
+    npz = directory / "arrays.npz"
+    with zipfile.ZipFile(npz) as archive:
+        members = {name: archive.read(name) for name in archive.namelist()}
+    weights = bytearray(members["weights.npy"])
+    weights[60] ^= 1
+    members["weights.npy"] = bytes(weights)
+    with zipfile.ZipFile(npz, "w") as archive:
+        for name, data in members.items():
+            archive.writestr(name, data)
+    with pytest.raises(InvalidParameterError, match=r"arrays.npz' is damaged"):
+        SARSA.restore(directory)

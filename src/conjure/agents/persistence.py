@@ -38,7 +38,6 @@ import math
 import os
 import tempfile
 import zipfile
-import zlib
 from collections.abc import Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass
@@ -363,8 +362,9 @@ class NpzArrays(Mapping[str, np.ndarray]):
                     self._check_member(archive, info, archive_size)
         except FileNotFoundError:
             raise damaged(ARRAYS_FILE, "the file is missing") from None
-        except (zipfile.BadZipFile, OSError, ValueError, EOFError, zlib.error) as exc:
-            raise damaged(ARRAYS_FILE, f"it cannot be read ({str(exc)[:200]})") from None
+        except Exception as exc:
+            problem = f"{type(exc).__name__}: {str(exc)[:200]}"
+            raise damaged(ARRAYS_FILE, f"it cannot be read ({problem})") from None
 
     def _check_member(self, archive: zipfile.ZipFile, info: zipfile.ZipInfo, size: int) -> None:
         name = info.filename.removesuffix(".npy")
@@ -412,7 +412,7 @@ class NpzArrays(Mapping[str, np.ndarray]):
             try:
                 with np.load(self.path, allow_pickle=False) as data:
                     self._cache[name] = data[name]
-            except (zipfile.BadZipFile, OSError, ValueError, EOFError, zlib.error) as exc:
+            except Exception as exc:
                 raise self._damaged(
                     ARRAYS_FILE, f"array {name!r} cannot be read ({str(exc)[:200]})"
                 ) from None
