@@ -71,7 +71,7 @@ class GymnasiumDomain(Domain):
     discount : float, default=0.99
         γ in [0, 1].
     max_episode_steps : int or None, default=None
-        Episode cap in [1, inf); ``None`` takes the registered ``max_episode_steps``.
+        Episode cap in [1, 10^6]; ``None`` takes the registered ``max_episode_steps``.
 
     Attributes
     ----------

@@ -42,7 +42,7 @@ class SampledQAPI1(Planner):
     evaluation : {"lstd", "brm"}, default "lstd"
         Eqs. 2.23-2.24 or Eqs. 2.25-2.26.
     num_samples : int, default 300
-        L₁, samples per iteration, in [1, inf).
+        L₁, samples per iteration, in [1, 10^7].
     epsilon : float, default 0.1
         ε of the sampling policy π^ε, in [0, 1] (ε > 0 keeps the samples ergodic, Fig. 2-5).
     regularization : float, default 1e-8
@@ -176,9 +176,9 @@ class SampledQAPI2(Planner):
     evaluation : {"lstd", "brm"}, default "lstd"
         Eqs. 2.23-2.24 or Eqs. 2.25-2.26.
     num_samples : int, default 300
-        L₁, samples per iteration, in [1, inf).
+        L₁, samples per iteration, in [1, 10^7].
     num_next_samples : int, default 1
-        L₂, successor draws per sample, in [1, inf).
+        L₂, successor draws per sample, in [1, 10^4].
     epsilon : float, default 0.1
         ε of the sampling policy π^ε, in [0, 1].
     regularization : float, default 1e-8

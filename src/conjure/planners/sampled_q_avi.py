@@ -29,9 +29,9 @@ class SampledQAVI(Planner):
     representation : Representation or None, default None
         φ(s), copied per action (Eq. 2.11); ``None`` means `Tabular`.
     num_samples : int, default 300
-        L₁, samples per iteration, in [1, inf).
+        L₁, samples per iteration, in [1, 10^7].
     num_next_samples : int, default 1
-        L₂, successor draws per sample, in [1, inf).
+        L₂, successor draws per sample, in [1, 10^4].
     epsilon : float, default 0.1
         ε of the sampling policy π^ε, in [0, 1].
     step_size : float, default 0.5
