@@ -5,7 +5,8 @@ saved agents must each end in a finished load / build / restore / run, or in a `
 of one line (exit status 2 on the command line). Every case runs under a wall-clock bound
 (`FUZZ_CASE_SECONDS`); a case past it is a hang and fails the test.
 
-The CI size is a few hundred cases. ``--fuzz N`` (or ``CONJURE_FUZZ=N``) runs N in-process
+The CI size is a few hundred cases, the same ones every time (derandomized); the long mode
+draws from ``--hypothesis-seed``. ``--fuzz N`` (or ``CONJURE_FUZZ=N``) runs N in-process
 cases in all (15% configs, 45% component parameters, 40% saves) and N // 40 end-to-end
 ``conjure run`` cases, for release checks::
 
@@ -225,7 +226,7 @@ def test_fuzzed_config_files_load_or_fail_in_one_line(request, tmp_path_factory,
     @settings(
         max_examples=_cases(60, request.config, 0.15),
         deadline=None,
-        derandomize=True,
+        derandomize=not request.config.getoption("--fuzz"),
         suppress_health_check=list(HealthCheck),
         database=None,
     )
@@ -277,7 +278,7 @@ def test_fuzzed_component_parameters_validate_or_fail_in_one_line(request, compo
     @settings(
         max_examples=_cases(150, request.config, 0.45),
         deadline=None,
-        derandomize=True,
+        derandomize=not request.config.getoption("--fuzz"),
         suppress_health_check=list(HealthCheck),
         database=None,
     )
@@ -342,7 +343,7 @@ def test_fuzzed_saves_restore_or_fail_in_one_line(request, tmp_path_factory, sav
     @settings(
         max_examples=_cases(100, request.config, 0.40),
         deadline=None,
-        derandomize=True,
+        derandomize=not request.config.getoption("--fuzz"),
         suppress_health_check=list(HealthCheck),
         database=None,
     )
@@ -399,7 +400,7 @@ def test_fuzzed_conjure_run_finishes_or_fails_in_one_line(request, tmp_path_fact
     @settings(
         max_examples=max(total // 40, 1) if total else 4,
         deadline=None,
-        derandomize=True,
+        derandomize=not request.config.getoption("--fuzz"),
         suppress_health_check=list(HealthCheck),
         database=None,
     )

@@ -27,6 +27,7 @@ from conjure.models.approximate_model import ApproximateModel
 from conjure.planners import FittedValueIteration
 from conjure.reporting.report import _selection_table
 from conjure.representations import OnlineIFDD, Tabular
+from conjure.sweeps.sweep import load_sweep
 
 TINY = textwrap.dedent(
     """\
@@ -250,3 +251,11 @@ def test_a_garbled_npy_header_is_one_error_naming_the_file(tmp_path):
             archive.writestr(name, data)
     with pytest.raises(InvalidParameterError, match=r"arrays.npz' is damaged"):
         SARSA.restore(directory)
+
+
+def test_a_sweep_whose_component_params_are_not_a_mapping_is_one_line(tmp_path):
+    # Found by tests/test_fuzz.py: a grid key into `params: true` raised a raw TypeError.
+    text = TINY + "grid: {agents.q.params.representation.params.num_buckets: [2, 3]}\n"
+    path = _write(tmp_path, text.replace("{kind: Tabular}", "{kind: Tabular, params: true}"))
+    with pytest.raises(InvalidParameterError, match=r"params` must be a mapping of parameters"):
+        load_sweep(path)

@@ -512,6 +512,10 @@ def set_component_value(node: Any, keys: list[str], value: Any, override: str, w
     params = node.get("params")
     if params is None:
         params = node["params"] = {}
+    if not isinstance(params, dict):
+        raise InvalidParameterError(
+            f"--set {override!r}: `{where}.params` must be a mapping of parameters; got {params!r}."
+        )
     name, rest = rest[0], rest[1:]
     known = cls.param_names()
     if name not in known:
