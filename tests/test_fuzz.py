@@ -29,7 +29,7 @@ from typing import Any
 import pytest
 import yaml
 from click.testing import CliRunner
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, Phase, given, settings
 from hypothesis import strategies as st
 
 from conjure.agents import SARSA
@@ -91,6 +91,19 @@ ODD_VALUES = [
     {"kind": "Tabular"},
     {"kind": "Nope", "params": {}},
 ]
+
+
+def _settings(request: pytest.FixtureRequest, max_examples: int) -> Any:
+    """Hypothesis settings of a fuzz property: no deadline (the alarm bounds a case), no example
+    database, and no explain phase (its line tracing slows a case tenfold)."""
+    return settings(
+        max_examples=max_examples,
+        deadline=None,
+        derandomize=not request.config.getoption("--fuzz"),
+        suppress_health_check=list(HealthCheck),
+        database=None,
+        phases=[Phase.explicit, Phase.reuse, Phase.generate, Phase.shrink],
+    )
 
 
 def _cases(ci: int, config: pytest.Config, share: float) -> int:
@@ -223,13 +236,7 @@ def shipped_trees() -> list[tuple[Path, Any]]:
 def test_fuzzed_config_files_load_or_fail_in_one_line(request, tmp_path_factory, shipped_trees):
     folder = tmp_path_factory.mktemp("configs")
 
-    @settings(
-        max_examples=_cases(60, request.config, 0.15),
-        deadline=None,
-        derandomize=not request.config.getoption("--fuzz"),
-        suppress_health_check=list(HealthCheck),
-        database=None,
-    )
+    @_settings(request, _cases(60, request.config, 0.15))
     @given(data=st.data())
     def check(data: st.DataObject) -> None:
         index = data.draw(st.integers(0, len(shipped_trees) - 1), label="config")
@@ -275,13 +282,7 @@ def component_specs(shipped_trees) -> list[dict[str, Any]]:
 
 
 def test_fuzzed_component_parameters_validate_or_fail_in_one_line(request, component_specs):
-    @settings(
-        max_examples=_cases(150, request.config, 0.45),
-        deadline=None,
-        derandomize=not request.config.getoption("--fuzz"),
-        suppress_health_check=list(HealthCheck),
-        database=None,
-    )
+    @_settings(request, _cases(150, request.config, 0.45))
     @given(data=st.data())
     def check(data: st.DataObject) -> None:
         spec = copy.deepcopy(data.draw(st.sampled_from(component_specs), label="spec"))
@@ -340,13 +341,7 @@ def _mutate_save(directory: Path, data: st.DataObject) -> None:
 def test_fuzzed_saves_restore_or_fail_in_one_line(request, tmp_path_factory, saved_agents):
     folder = tmp_path_factory.mktemp("mutated")
 
-    @settings(
-        max_examples=_cases(100, request.config, 0.40),
-        deadline=None,
-        derandomize=not request.config.getoption("--fuzz"),
-        suppress_health_check=list(HealthCheck),
-        database=None,
-    )
+    @_settings(request, _cases(100, request.config, 0.40))
     @given(data=st.data())
     def check(data: st.DataObject) -> None:
         source = saved_agents[data.draw(st.integers(0, len(saved_agents) - 1), label="save")]
@@ -397,13 +392,7 @@ def test_fuzzed_conjure_run_finishes_or_fails_in_one_line(request, tmp_path_fact
     folder = tmp_path_factory.mktemp("runs")
     total = request.config.getoption("--fuzz")
 
-    @settings(
-        max_examples=max(total // 40, 1) if total else 4,
-        deadline=None,
-        derandomize=not request.config.getoption("--fuzz"),
-        suppress_health_check=list(HealthCheck),
-        database=None,
-    )
+    @_settings(request, max(total // 40, 1) if total else 4)
     @given(data=st.data())
     def check(data: st.DataObject) -> None:
         tree = _mutate_tree(SMALL, data)
