@@ -236,7 +236,7 @@ def shipped_trees() -> list[tuple[Path, Any]]:
 def test_fuzzed_config_files_load_or_fail_in_one_line(request, tmp_path_factory, shipped_trees):
     folder = tmp_path_factory.mktemp("configs")
 
-    @_settings(request, _cases(60, request.config, 0.15))
+    @_settings(request, _cases(40, request.config, 0.15))
     @given(data=st.data())
     def check(data: st.DataObject) -> None:
         index = data.draw(st.integers(0, len(shipped_trees) - 1), label="config")
