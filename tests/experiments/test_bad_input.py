@@ -228,6 +228,11 @@ def test_an_edited_run_file_is_redone_and_a_quiet_resume_says_so(tmp_path, capsy
     with pytest.raises(InvalidParameterError, match="checksum mismatch"):
         read_run(path)
     assert load_results(tmp_path).attrs["damaged_runs"] == [path.stem]
+    reported = CliRunner().invoke(main, ["report", str(tmp_path)])
+    assert reported.exit_code == 0 and "Left out 1 run file(s) that fail their checksum" in (
+        reported.output
+    )
+    assert "fail their checksum and are left out" in (tmp_path / "report.md").read_text()
     capsys.readouterr()
     again = run_experiment(config, tmp_path, max_workers=1, progress=False)
     said = capsys.readouterr().out
