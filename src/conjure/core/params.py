@@ -202,7 +202,7 @@ class Configurable:
     >>> Thing(size=0).validate_params()
     Traceback (most recent call last):
     ...
-    conjure.core.errors.InvalidParameterError: `Thing.size` must be an int in [1, inf); got 0.
+    conjure.core.errors.InvalidParameterError: `Thing.size` must be an int in [1, 2^63); got 0.
     """
 
     parameter_constraints: ClassVar[dict[str, Constraint]] = {}
