@@ -343,12 +343,20 @@ _MAX_DEFLATE_RATIO = 1032
 
 
 class NpzArrays(Mapping[str, np.ndarray]):
-    """The arrays of an ``arrays.npz``: every header checked on opening, each array read on use.
+    """A saved learner's arrays (Algorithms 10-16), read from ``arrays.npz`` as they are used.
 
     Opening reads only the zip directory and each member's ``.npy`` header, and refuses a
     member whose declared shape and dtype do not match the bytes it stores, or whose stored
     size is more than deflate can expand its compressed bytes to. So a forged header never
     allocates, and a member the agent does not ask for is never read.
+
+    Parameters
+    ----------
+    path : Path
+        The ``arrays.npz`` file.
+    damaged : callable
+        ``(file, problem) -> InvalidParameterError``, the error naming the save
+        (`SavedAgent.damaged`).
     """
 
     def __init__(self, path: Path, damaged: Any):

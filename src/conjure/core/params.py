@@ -72,7 +72,8 @@ class Interval(Constraint):
     """A real or integer number in an interval; ``closed`` is 'both', 'left', 'right' or 'neither'.
 
     A missing bound is open, so it excludes infinity: ``Interval(float, 0, None)`` prints
-    ``[0, inf)`` and refuses ``inf``. An int without an upper bound must fit an int64
+    ``[0, inf)`` and refuses ``inf``; ``Interval(float, 0, math.inf)`` prints ``[0, inf]`` and
+    accepts it. An int without an upper bound must fit an int64
     (`INT_MAX`, printed ``2^63``); a component whose count drives a loop or an allocation
     declares its own, smaller bound.
 
@@ -98,8 +99,11 @@ class Interval(Constraint):
         if isinstance(value, bool):
             return False
         wanted = numbers.Integral if self.kind is int else numbers.Real
-        if not isinstance(value, wanted) or (self.kind is float and not math.isfinite(value)):
+        if not isinstance(value, wanted) or (self.kind is float and math.isnan(value)):
             return False
+        if self.kind is float and math.isinf(value):  # only at a bound that is infinite, closed
+            bound, closed = (self.high, "right") if value > 0 else (self.low, "left")
+            return bound == value and self.closed in ("both", closed)
         if self.kind is int and self.high is None and not -INT_MAX - 1 <= value <= INT_MAX:
             return False
         if self.low is not None:
