@@ -86,8 +86,9 @@ def test_feature_normalized_step_size_hand_checked():
 
 
 def test_divergence_stops_with_clear_error():
+    # The largest step size accepted (an absurd one such as 1e300 is refused before any run).
     domain = ChainMDP(num_states=4, num_actions=1)
-    agent = SARSA(representation=Tabular(), step_size=1e300, initial_weight=1e300)
+    agent = SARSA(representation=Tabular(), step_size=10.0, initial_weight=1e300)
     agent.setup(domain.domain_spec, seed=0)
     with pytest.raises(DivergenceError, match="step size"):
         _rollout(domain, agent, 100, seed=0)

@@ -379,7 +379,7 @@ def test_failures_are_counted_like_the_python_path():
 def test_divergence_raises_at_the_same_step_on_both_paths():
     def build():
         domain = ChainMDP(num_states=5, discount=1.0)
-        agent = QLearning(representation=Tabular(), step_size=1e300, initial_weight=1e300)
+        agent = QLearning(representation=Tabular(), step_size=10.0, initial_weight=1e300)
         return domain, agent.setup(domain.domain_spec, 0)
 
     domain, agent = build()

@@ -256,7 +256,7 @@ def test_bad_params_name_the_param(params, name):
 def test_num_tilings_message():
     with pytest.raises(InvalidParameterError) as info:
         TileCoding(num_tilings=0).setup(PENDULUM, seed=0)
-    assert str(info.value) == "`TileCoding.num_tilings` must be an int in [1, inf); got 0."
+    assert str(info.value) == "`TileCoding.num_tilings` must be an int in [1, 2^63); got 0."
 
 
 def test_out_of_range_group_message_names_value():

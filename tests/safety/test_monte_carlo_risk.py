@@ -140,14 +140,15 @@ def test_absurd_rollout_counts_and_horizons_are_refused_with_the_bound(params, p
 
 
 def test_a_horizon_taken_from_an_absurd_episode_cap_is_refused_at_setup():
-    domain = GridWorld.from_grid(CORRIDOR, noise=0.4, max_episode_steps=10**9)
-    analyser = MonteCarloRiskAnalyzer()
+    # The largest episode cap a domain accepts (10^6) times 200 rollouts.
+    domain = GridWorld.from_grid(CORRIDOR, noise=0.4, max_episode_steps=10**6)
+    analyser = MonteCarloRiskAnalyzer(num_rollouts=200)
     analyser.validate_params()  # 𝓗 is not known before setup
     with pytest.raises(
-        InvalidParameterError, match=r"5 × 1,000,000,000 \(GridWorld's max_episode_steps\) = 5e"
+        InvalidParameterError, match=r"200 × 1,000,000 \(GridWorld's max_episode_steps\) = 2e"
     ):
-        analyser_on(domain)
-    assert analyser_on(domain, horizon=1000).horizon_ == 1000  # an explicit 𝓗 is what counts
+        analyser_on(domain, num_rollouts=200)
+    assert analyser_on(domain, num_rollouts=200, horizon=1000).horizon_ == 1000  # 𝓗 given
 
 
 def test_uav_rollouts_follow_cbba_and_match_the_exact_crash_probability():

@@ -54,16 +54,14 @@ from conjure.core.interfaces import (
     check_is_set_up,
 )
 from conjure.core.params import InstanceOf, Interval
-from conjure.core.schedules import ConstantStepSize, StepSizeSchedule
+from conjure.core.schedules import ALPHA_0, ConstantStepSize, StepSizeSchedule
 from conjure.core.seeding import make_rng, rng_from_state, rng_state, split_seed
 from conjure.policies import EpsilonGreedy, greedy_action
 from conjure.representations.weights import expansion_parents, initial_weights, with_room
 
 __all__ = ["STEP_SIZE", "LinearTDAgent", "state_key"]
 
-STEP_SIZE = Interval(float, 0, None, closed="neither") | InstanceOf(
-    StepSizeSchedule, "a StepSizeSchedule"
-)
+STEP_SIZE = ALPHA_0 | InstanceOf(StepSizeSchedule, "a StepSizeSchedule")
 _FLOAT64 = np.dtype(np.float64)
 _NDARRAY = np.ndarray
 _q_values = _kernels.q_values

@@ -20,9 +20,11 @@ Loading trusts nothing in the files:
   foreign class) is refused before its module is imported;
 - every array is checked against what the agent, set up from the saved spec and parameters,
   expects: its shape, its dtype and, for floats, that it is finite (`SavedAgent.array`);
-- a damaged save (truncated ``arrays.npz``, broken ``agent.json``, missing keys or arrays)
-  raises one `InvalidParameterError` naming the file, never a raw ``BadZipFile`` or
-  ``JSONDecodeError``.
+- each ``.npy`` header in ``arrays.npz`` is checked against the bytes the member stores before
+  any array is read, and an array is read only when the agent asks for it (`NpzArrays`);
+- a damaged save (truncated ``arrays.npz``, broken or too deeply nested ``agent.json``,
+  missing keys or arrays, a forged header) raises one `InvalidParameterError` naming the file,
+  never a raw ``BadZipFile``, ``JSONDecodeError``, ``RecursionError`` or ``MemoryError``.
 
 Agents implement ``state_metadata()``, ``state_arrays()`` and ``load_state(saved)`` and
 delegate ``save`` and ``restore`` to `save_agent` and `restore_agent`.
@@ -32,10 +34,11 @@ from __future__ import annotations
 
 import importlib
 import json
+import math
 import os
 import tempfile
 import zipfile
-from collections.abc import Iterator, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
@@ -51,6 +54,7 @@ __all__ = [
     "COMPONENT_PACKAGES",
     "FORMAT",
     "VERSION",
+    "NpzArrays",
     "SavedAgent",
     "component_from_dict",
     "component_to_dict",
@@ -197,7 +201,7 @@ class SavedAgent:
 
     directory: Path
     document: dict[str, Any]
-    arrays: dict[str, np.ndarray]
+    arrays: Mapping[str, np.ndarray]
 
     @property
     def state(self) -> dict[str, Any]:
@@ -230,7 +234,9 @@ class SavedAgent:
         """
         if name not in self.arrays:
             raise self.damaged(ARRAYS_FILE, f"array {name!r} is missing")
-        value = self.arrays[name]
+        header = getattr(self.arrays, "header", None)
+        # The shape and dtype its header declares are checked before the array is read.
+        value = header(name) if header is not None else self.arrays[name]
         wanted = tuple(shape)
         fits = value.ndim == len(wanted) and all(
             want is None or have == want for have, want in zip(value.shape, wanted, strict=True)
@@ -243,6 +249,7 @@ class SavedAgent:
                 f"array {name!r} is {value.dtype} of shape {value.shape}, but the agent set up "
                 f"from the saved spec and parameters expects {np.dtype(dtype)} of shape {shown}",
             )
+        value = self.arrays[name]
         if is_finite and value.dtype.kind == "f" and not np.all(np.isfinite(value)):
             raise self.damaged(ARRAYS_FILE, f"array {name!r} holds NaN or infinite values")
         return np.array(value, copy=True)
@@ -274,13 +281,22 @@ class SavedAgent:
             yield
         except IncompatibleComponentsError:
             raise
-        except (InvalidParameterError, KeyError, TypeError, ValueError, IndexError) as exc:
+        except (
+            InvalidParameterError,
+            KeyError,
+            TypeError,
+            ValueError,
+            IndexError,
+            OverflowError,
+            MemoryError,
+            RecursionError,
+        ) as exc:
             if str(self.directory) in str(exc):
                 raise
             raise InvalidParameterError(
                 f"The saved agent in {str(self.directory)!r} ({METADATA_FILE}, {ARRAYS_FILE}) "
-                f"cannot be loaded: {type(exc).__name__}: {exc}"
-            ) from exc
+                f"cannot be loaded: {type(exc).__name__}: {str(exc)[:300]}"
+            ) from None
 
 
 def write(path: str | Path, metadata: dict[str, Any], arrays: dict[str, np.ndarray]) -> Path:
@@ -310,6 +326,8 @@ def read(path: str | Path) -> SavedAgent:
         document = json.loads(metadata_path.read_text())
     except (UnicodeDecodeError, json.JSONDecodeError) as exc:
         raise saved.damaged(METADATA_FILE, f"it is not valid JSON ({exc})") from exc
+    except RecursionError:
+        raise saved.damaged(METADATA_FILE, "its JSON is nested too deeply") from None
     if not isinstance(document, dict):
         raise saved.damaged(METADATA_FILE, "it is not a JSON object")
     if document.get("format") != FORMAT or document.get("version") != VERSION:
@@ -317,14 +335,105 @@ def read(path: str | Path) -> SavedAgent:
             f"{str(metadata_path)!r} is not a conjure agent of format version {VERSION}; "
             f"got format {document.get('format')!r} version {document.get('version')!r}."
         )
-    try:
-        with np.load(directory / ARRAYS_FILE, allow_pickle=False) as data:
-            arrays = {name: data[name] for name in data.files}
-    except FileNotFoundError as exc:
-        raise saved.damaged(ARRAYS_FILE, "the file is missing") from exc
-    except (zipfile.BadZipFile, OSError, ValueError, EOFError) as exc:
-        raise saved.damaged(ARRAYS_FILE, f"it cannot be read ({exc})") from exc
-    return SavedAgent(directory, document, arrays)
+    return SavedAgent(directory, document, NpzArrays(directory / ARRAYS_FILE, saved.damaged))
+
+
+#: Deflate expands at most 1032-fold; a member declaring more bytes than that is forged.
+_MAX_DEFLATE_RATIO = 1032
+
+
+class NpzArrays(Mapping[str, np.ndarray]):
+    """A saved learner's arrays (Algorithms 10-16), read from ``arrays.npz`` as they are used.
+
+    Opening reads only the zip directory and each member's ``.npy`` header, and refuses a
+    member whose declared shape and dtype do not match the bytes it stores, or whose stored
+    size is more than deflate can expand its compressed bytes to. So a forged header never
+    allocates, and a member the agent does not ask for is never read.
+
+    Parameters
+    ----------
+    path : Path
+        The ``arrays.npz`` file.
+    damaged : callable
+        ``(file, problem) -> InvalidParameterError``, the error naming the save
+        (`SavedAgent.damaged`).
+    """
+
+    def __init__(self, path: Path, damaged: Any):
+        self.path, self._damaged = path, damaged
+        self._headers: dict[str, np.ndarray] = {}
+        self._cache: dict[str, np.ndarray] = {}
+        try:
+            archive_size = path.stat().st_size
+            with zipfile.ZipFile(path) as archive:
+                for info in archive.infolist():
+                    self._check_member(archive, info, archive_size)
+        except FileNotFoundError:
+            raise damaged(ARRAYS_FILE, "the file is missing") from None
+        except Exception as exc:
+            problem = f"{type(exc).__name__}: {str(exc)[:200]}"
+            raise damaged(ARRAYS_FILE, f"it cannot be read ({problem})") from None
+
+    def _check_member(self, archive: zipfile.ZipFile, info: zipfile.ZipInfo, size: int) -> None:
+        name = info.filename.removesuffix(".npy")
+        if name == info.filename:
+            raise ValueError(f"member {info.filename!r} is not a .npy array")
+        stored = info.compress_size
+        if stored > size or (
+            info.file_size > _MAX_DEFLATE_RATIO * stored + 1024
+            if info.compress_type != zipfile.ZIP_STORED
+            else info.file_size != stored
+        ):
+            raise ValueError(
+                f"member {info.filename!r} declares {info.file_size:,} bytes from {stored:,} "
+                f"stored bytes"
+            )
+        with archive.open(info) as handle:
+            version = np.lib.format.read_magic(handle)
+            if version == (1, 0):
+                shape, _fortran, dtype = np.lib.format.read_array_header_1_0(handle)
+            elif version == (2, 0):
+                shape, _fortran, dtype = np.lib.format.read_array_header_2_0(handle)
+            else:
+                raise ValueError(f"member {info.filename!r} has .npy version {version}")
+            header_bytes = handle.tell()
+        if dtype.hasobject:
+            raise ValueError(f"array {name!r} holds Python objects")
+        declared = math.prod(shape) * dtype.itemsize
+        if declared != info.file_size - header_bytes:
+            raise ValueError(
+                f"array {name!r} declares shape {shape} of {dtype} ({declared:,} bytes) but "
+                f"stores {info.file_size - header_bytes:,} bytes"
+            )
+        self._headers[name] = np.lib.stride_tricks.as_strided(
+            np.zeros(1, dtype=dtype), shape=shape, strides=(0,) * len(shape)
+        )
+
+    def header(self, name: str) -> np.ndarray:
+        """A zero-byte stand-in with the shape and dtype member ``name`` declares."""
+        return self._headers[name]
+
+    def __getitem__(self, name: str) -> np.ndarray:
+        if name not in self._cache:
+            if name not in self._headers:
+                raise KeyError(name)
+            try:
+                with np.load(self.path, allow_pickle=False) as data:
+                    self._cache[name] = data[name]
+            except Exception as exc:
+                raise self._damaged(
+                    ARRAYS_FILE, f"array {name!r} cannot be read ({str(exc)[:200]})"
+                ) from None
+        return self._cache[name]
+
+    def __contains__(self, name: object) -> bool:
+        return name in self._headers
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self._headers)
+
+    def __len__(self) -> int:
+        return len(self._headers)
 
 
 def write_agent(

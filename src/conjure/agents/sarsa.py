@@ -31,7 +31,7 @@ class SARSA(LinearTDAgent):
     policy : Policy or None, default None
         The behaviour policy π^ε; ``None`` means ``EpsilonGreedy(epsilon=0.1)`` (Section 4.1.4).
     step_size : float or StepSizeSchedule, default 0.1
-        α in (0, inf), or a schedule such as `FeatureNormalizedDecay` (Section 4.1.4).
+        α in (0, 10], or a schedule such as `FeatureNormalizedDecay` (Section 4.1.4).
     trace_decay : float, default 0.0
         λ in [0, 1]; 0 is Algorithm 11 as written, > 0 adds eligibility traces (SARSA(λ)).
     trace_kind : {"replacing", "accumulating"}, default "replacing"

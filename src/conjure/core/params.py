@@ -18,6 +18,10 @@ from typing import Any, ClassVar
 from conjure.core.errors import InvalidParameterError
 
 __all__ = [
+    "EPISODE_STEPS",
+    "INT_MAX",
+    "NEXT_SAMPLES",
+    "SAMPLES",
     "AnyOf",
     "Configurable",
     "Constraint",
@@ -27,6 +31,10 @@ __all__ = [
     "Predicate",
     "did_you_mean",
 ]
+
+
+#: The largest int an `Interval` without an upper bound accepts: what an int64 array holds.
+INT_MAX = 2**63 - 1
 
 
 class Constraint:
@@ -63,6 +71,12 @@ class AnyOf(Constraint):
 class Interval(Constraint):
     """A real or integer number in an interval; ``closed`` is 'both', 'left', 'right' or 'neither'.
 
+    A missing bound is open, so it excludes infinity: ``Interval(float, 0, None)`` prints
+    ``[0, inf)`` and refuses ``inf``; ``Interval(float, 0, math.inf)`` prints ``[0, inf]`` and
+    accepts it. An int without an upper bound must fit an int64
+    (`INT_MAX`, printed ``2^63``); a component whose count drives a loop or an allocation
+    declares its own, smaller bound.
+
     Examples
     --------
     >>> Interval(float, 0, 1, closed="right").describe()
@@ -87,6 +101,11 @@ class Interval(Constraint):
         wanted = numbers.Integral if self.kind is int else numbers.Real
         if not isinstance(value, wanted) or (self.kind is float and math.isnan(value)):
             return False
+        if self.kind is float and math.isinf(value):  # only at a bound that is infinite, closed
+            bound, closed = (self.high, "right") if value > 0 else (self.low, "left")
+            return bound == value and self.closed in ("both", closed)
+        if self.kind is int and self.high is None and not -INT_MAX - 1 <= value <= INT_MAX:
+            return False
         if self.low is not None:
             if value < self.low or (value == self.low and self.closed in ("right", "neither")):
                 return False
@@ -102,7 +121,7 @@ class Interval(Constraint):
         left = "[" if self.closed in ("both", "left") and self.low is not None else "("
         right = "]" if self.closed in ("both", "right") and self.high is not None else ")"
         low = "-inf" if self.low is None else f"{self.low:g}"
-        high = "inf" if self.high is None else f"{self.high:g}"
+        high = ("2^63" if self.kind is int else "inf") if self.high is None else f"{self.high:g}"
         return f"{noun} in {left}{low}, {high}{right}"
 
 
@@ -154,6 +173,16 @@ class Predicate(Constraint):
         return self.description
 
 
+#: Sense bounds on counts that size a loop or an array (Choice: far above any thesis setting,
+#: well below what would run for hours or allocate gigabytes). A horizon bounds each greedy
+#: policy check, which may never end an episode before it.
+EPISODE_STEPS = Interval(int, 1, 10**6)
+#: Samples a sampled planner draws per iteration (Algorithms 5-9: the thesis used hundreds).
+SAMPLES = Interval(int, 1, 10**7)
+#: Next states drawn per sampled state-action pair (the thesis used 1).
+NEXT_SAMPLES = Interval(int, 1, 10**4)
+
+
 def did_you_mean(name: str, known: Iterable[str]) -> str:
     """Return ' Did you mean 'x'?' for the closest known name, or an empty string."""
     matches = difflib.get_close_matches(name, list(known), n=1, cutoff=0.6)
@@ -177,7 +206,7 @@ class Configurable:
     >>> Thing(size=0).validate_params()
     Traceback (most recent call last):
     ...
-    conjure.core.errors.InvalidParameterError: `Thing.size` must be an int in [1, inf); got 0.
+    conjure.core.errors.InvalidParameterError: `Thing.size` must be an int in [1, 2^63); got 0.
     """
 
     parameter_constraints: ClassVar[dict[str, Constraint]] = {}

@@ -18,6 +18,8 @@ from typing import ClassVar, NamedTuple
 from conjure.core.params import Configurable, Interval
 
 __all__ = [
+    "ALPHA_0",
+    "MAX_ALPHA_0",
     "ConstantStepSize",
     "EpisodicDecay",
     "FeatureNormalizedDecay",
@@ -26,6 +28,13 @@ __all__ = [
     "episodic_rate",
     "feature_normalized_rate",
 ]
+
+#: The largest α_0 accepted. Choice: the thesis searched α_0 in {0.01, 0.1, 1} (Section 4.1.4);
+#: with binary features a TD update by α_0 >= 2 on a single active feature overshoots its
+#: target, so far beyond that a step size can only diverge.
+MAX_ALPHA_0 = 10.0
+#: α_0 of every schedule (and a learner's plain float step size): a float in (0, 10].
+ALPHA_0 = Interval(float, 0, MAX_ALPHA_0, closed="right")
 
 #: Schedule kinds of `ScheduleKernel`.
 CONSTANT, FEATURE_NORMALIZED, EPISODIC = 0, 1, 2
@@ -71,7 +80,7 @@ class ConstantStepSize(StepSizeSchedule):
     Parameters
     ----------
     alpha_0 : float, default 0.1
-        The step size α_0, in (0, inf).
+        The step size α_0, in (0, 10] (`MAX_ALPHA_0`).
 
     Examples
     --------
@@ -79,7 +88,7 @@ class ConstantStepSize(StepSizeSchedule):
     0.5
     """
 
-    parameter_constraints = {"alpha_0": Interval(float, 0, None, closed="neither")}
+    parameter_constraints = {"alpha_0": ALPHA_0}
     uses_num_active = False
 
     def __init__(self, *, alpha_0: float = 0.1):
@@ -100,7 +109,7 @@ class FeatureNormalizedDecay(StepSizeSchedule):
     Parameters
     ----------
     alpha_0 : float, default 0.1
-        α_0 in (0, inf); the thesis searched {0.01, 0.1, 1}.
+        α_0 in (0, 10]; the thesis searched {0.01, 0.1, 1}.
     n_0 : float, default 1000
         N_0 in [0, inf); the thesis searched {100, 1000, 1e6}.
 
@@ -118,7 +127,7 @@ class FeatureNormalizedDecay(StepSizeSchedule):
     """
 
     parameter_constraints = {
-        "alpha_0": Interval(float, 0, None, closed="neither"),
+        "alpha_0": ALPHA_0,
         "n_0": Interval(float, 0, None),
     }
 
@@ -143,7 +152,7 @@ class EpisodicDecay(StepSizeSchedule):
     Parameters
     ----------
     alpha_0 : float, default 0.1
-        α_0 in (0, inf).
+        α_0 in (0, 10].
     n_0 : float, default 1000
         N_0 in [0, inf).
 
@@ -154,7 +163,7 @@ class EpisodicDecay(StepSizeSchedule):
     """
 
     parameter_constraints = {
-        "alpha_0": Interval(float, 0, None, closed="neither"),
+        "alpha_0": ALPHA_0,
         "n_0": Interval(float, 0, None),
     }
     uses_num_active = False

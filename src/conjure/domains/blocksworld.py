@@ -10,7 +10,7 @@ from gymnasium import spaces
 
 from conjure.core.errors import InvalidParameterError
 from conjure.core.interfaces import Domain, DomainSpec
-from conjure.core.params import Constraint, Interval
+from conjure.core.params import EPISODE_STEPS, Constraint, Interval
 from conjure.domains._blocks_kernels import (
     BlocksConstants,
     blocks_fill_legal_mask,
@@ -125,7 +125,7 @@ class BlocksWorld(ActionMasking, Domain):
         "step_reward": Interval(float, None, None),
         "goal_reward": Interval(float, None, None),
         "discount": Interval(float, 0.0, 1.0),
-        "max_episode_steps": Interval(int, 1, None),
+        "max_episode_steps": EPISODE_STEPS,
         **ActionMasking.masking_constraints,
     }
 

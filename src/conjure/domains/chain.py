@@ -8,7 +8,7 @@ import numpy as np
 from gymnasium import spaces
 
 from conjure.core.interfaces import Domain, DomainSpec
-from conjure.core.params import Constraint, Interval, Options
+from conjure.core.params import EPISODE_STEPS, Constraint, Interval, Options
 from conjure.domains._kernels import chain_move
 from conjure.domains.compiled_domain import CHAIN, ChainConstants, DomainKernel, domain_kernel
 
@@ -73,7 +73,7 @@ class ChainMDP(Domain):
         "step_reward": Interval(float, None, None),
         "slip": Interval(float, 0.0, 1.0, closed="left"),
         "discount": Interval(float, 0.0, 1.0),
-        "max_episode_steps": Interval(int, 1, None),
+        "max_episode_steps": EPISODE_STEPS,
     }
 
     def __init__(

@@ -12,7 +12,14 @@ from gymnasium import spaces
 from conjure.core.cooperative import NoisyDomain
 from conjure.core.errors import InvalidParameterError
 from conjure.core.interfaces import DomainSpec
-from conjure.core.params import Constraint, InstanceOf, Interval, Options, did_you_mean
+from conjure.core.params import (
+    EPISODE_STEPS,
+    Constraint,
+    InstanceOf,
+    Interval,
+    Options,
+    did_you_mean,
+)
 from conjure.domains._kernels import GW_COUNT, GW_MOVES, GW_NOISY, gridworld_move
 from conjure.domains.compiled_domain import GRIDWORLD, DomainKernel, GridConstants, domain_kernel
 
@@ -230,7 +237,7 @@ class GridWorld(NoisyDomain):
         "noise": Interval(float, 0.0, 1.0),
         "noise_cells": Options(("all", "windy")),
         "discount": Interval(float, 0.0, 1.0),
-        "max_episode_steps": Interval(int, 1, None),
+        "max_episode_steps": EPISODE_STEPS,
     }
 
     def __init__(

@@ -12,7 +12,14 @@ from gymnasium import spaces
 
 from conjure.core.errors import IncompatibleComponentsError, InvalidParameterError
 from conjure.core.interfaces import Domain, DomainSpec
-from conjure.core.params import Constraint, InstanceOf, Interval, Predicate, did_you_mean
+from conjure.core.params import (
+    EPISODE_STEPS,
+    Constraint,
+    InstanceOf,
+    Interval,
+    Predicate,
+    did_you_mean,
+)
 from conjure.domains.compiled_domain import DomainKernel, callback_kernel
 
 __all__ = ["DEFAULT_BOUNDS", "GymnasiumDomain", "from_gymnasium"]
@@ -64,7 +71,7 @@ class GymnasiumDomain(Domain):
     discount : float, default=0.99
         γ in [0, 1].
     max_episode_steps : int or None, default=None
-        Episode cap in [1, inf); ``None`` takes the registered ``max_episode_steps``.
+        Episode cap in [1, 10^6]; ``None`` takes the registered ``max_episode_steps``.
 
     Attributes
     ----------
@@ -99,7 +106,7 @@ class GymnasiumDomain(Domain):
             _is_bounds, "None or a list with one (low, high) or None per observation dimension"
         ),
         "discount": Interval(float, 0.0, 1.0),
-        "max_episode_steps": Interval(int, 1, None) | InstanceOf(type(None)),
+        "max_episode_steps": EPISODE_STEPS | InstanceOf(type(None)),
     }
 
     def __init__(

@@ -9,7 +9,7 @@ from gymnasium import spaces
 
 from conjure.core.errors import InvalidParameterError
 from conjure.core.interfaces import Domain, DomainSpec
-from conjure.core.params import Constraint, InstanceOf, Interval
+from conjure.core.params import EPISODE_STEPS, Constraint, InstanceOf, Interval
 from conjure.domains._uav_kernels import (
     NUM_LOCATIONS,
     PSTConstants,
@@ -150,7 +150,7 @@ class PersistentSurveillance(ActionMasking, Domain):
         "failure_probability": Interval(float, 0.0, 1.0),
         "max_fuel": Interval(int, 1, 100),
         "discount": Interval(float, 0.0, 1.0),
-        "max_episode_steps": Interval(int, 1, None),
+        "max_episode_steps": EPISODE_STEPS,
         **ActionMasking.masking_constraints,
     }
 

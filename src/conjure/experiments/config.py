@@ -26,7 +26,9 @@ at load time with the field path. `resolve` fills in every default.
 Notes
 -----
 - Choice: YAML is read with a `yaml.SafeLoader` subclass that also reads ``1e-3`` as a float
-  (plain YAML 1.1 reads it as a string, a classic trap for step sizes); nothing else differs.
+  (plain YAML 1.1 reads it as a string, a classic trap for step sizes), and refuses a key given
+  twice, nesting deeper than 100 levels and integer literals over 40 characters; a file must be
+  UTF-8. Each failure is one line naming the file.
 """
 
 from __future__ import annotations
@@ -40,18 +42,37 @@ from pathlib import Path
 from typing import Annotated, Any
 
 import yaml
-from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, ValidationError, field_validator
+from pydantic import (
+    BaseModel,
+    BeforeValidator,
+    ConfigDict,
+    Field,
+    ValidationError,
+    field_validator,
+    model_validator,
+)
 
 from conjure.core.errors import InvalidParameterError
 from conjure.core.params import Configurable, did_you_mean
 from conjure.experiments import registry
+from conjure.experiments.limits import (
+    MAX_BUDGET_STEPS,
+    MAX_EVAL_EPISODES,
+    MAX_POLICY_CHECKS,
+    check_checks_within_budget,
+    parse_seeds,
+)
 from conjure.experiments.loop import CURVE_COLUMNS
-from conjure.experiments.memory import parse_memory_size
+from conjure.experiments.memory import parse_memory_limit
 
 __all__ = [
     "CURVE_COLUMNS",
+    "BudgetSteps",
     "ComponentConfig",
+    "EvalEpisodes",
     "ExperimentConfig",
+    "PolicyChecks",
+    "Seeds",
     "apply_overrides",
     "check_not_a_sweep",
     "config_hash",
@@ -60,6 +81,7 @@ __all__ = [
     "load_yaml",
     "parse_config",
     "parse_overridden",
+    "read_config_text",
     "resolve",
     "resolve_run",
     "set_component_value",
@@ -69,10 +91,66 @@ __all__ = [
 _NAME_PATTERN = r"^[A-Za-z0-9][A-Za-z0-9_.\-]*$"
 
 
+#: The deepest nesting of YAML collections a config may have; PyYAML composes recursively.
+MAX_YAML_DEPTH = 100
+#: The longest integer literal read, in characters (int64 needs 19 digits and a sign).
+MAX_INT_DIGITS = 40
+
+
 class _SafeLoader(yaml.SafeLoader):
-    """`yaml.SafeLoader` that also resolves ``1e-3`` and ``1E5`` as floats."""
+    """`yaml.SafeLoader` that reads ``1e-3`` as a float and refuses what it cannot read safely.
+
+    Refused: a key given twice in one mapping, collections nested deeper than
+    `MAX_YAML_DEPTH`, and integer literals longer than `MAX_INT_DIGITS` characters.
+    """
+
+    def __init__(self, stream: str) -> None:
+        super().__init__(stream)
+        self._depth = 0
+
+    def compose_node(self, parent: Any, index: Any) -> Any:
+        self._depth += 1
+        try:
+            if self._depth > MAX_YAML_DEPTH:
+                raise yaml.composer.ComposerError(
+                    None,
+                    None,
+                    f"collections nested deeper than {MAX_YAML_DEPTH} levels",
+                    self.peek_event().start_mark,
+                )
+            return super().compose_node(parent, index)
+        finally:
+            self._depth -= 1
+
+    def construct_mapping(self, node: Any, deep: bool = False) -> Any:
+        if isinstance(node, yaml.MappingNode):
+            seen: set[Any] = set()
+            for key_node, _ in node.value:
+                key = self.construct_object(key_node, deep=True)
+                try:
+                    repeated = key in seen
+                    seen.add(key)
+                except TypeError:  # an unhashable key; SafeLoader reports it below
+                    continue
+                if repeated:
+                    raise yaml.constructor.ConstructorError(
+                        None, None, f"key {key!r} is given twice", key_node.start_mark
+                    )
+        return super().construct_mapping(node, deep=deep)
+
+    def construct_yaml_int(self, node: Any) -> int:
+        if len(str(node.value)) > MAX_INT_DIGITS:
+            raise yaml.constructor.ConstructorError(
+                None,
+                None,
+                f"an integer literal of {len(str(node.value)):,} characters (at most "
+                f"{MAX_INT_DIGITS})",
+                node.start_mark,
+            )
+        return super().construct_yaml_int(node)
 
 
+_SafeLoader.add_constructor("tag:yaml.org,2002:int", _SafeLoader.construct_yaml_int)
 _SafeLoader.add_implicit_resolver(
     "tag:yaml.org,2002:float",
     re.compile(r"^[-+]?(?:[0-9][0-9_]*)(?:\.[0-9_]*)?[eE][-+]?[0-9]+$"),
@@ -81,7 +159,7 @@ _SafeLoader.add_implicit_resolver(
 
 
 def load_yaml(text: str, *, source: str = "<string>") -> Any:
-    """Parse YAML safely; a syntax error becomes `InvalidParameterError` naming file and line."""
+    """Parse YAML safely; any failure becomes one `InvalidParameterError` naming file and line."""
     try:
         return yaml.load(text, Loader=_SafeLoader)  # a SafeLoader subclass: safe
     except yaml.YAMLError as exc:
@@ -90,7 +168,26 @@ def load_yaml(text: str, *, source: str = "<string>") -> Any:
         problem = getattr(exc, "problem", None) or str(exc)
         context = getattr(exc, "context", None)
         detail = f"{problem} ({context})" if context else problem
-        raise InvalidParameterError(f"{where}: malformed YAML: {detail}.") from exc
+        raise InvalidParameterError(f"{where}: malformed YAML: {detail}.") from None
+    except (RecursionError, MemoryError, ValueError, OverflowError) as exc:
+        raise InvalidParameterError(
+            f"{source}: unreadable YAML: {type(exc).__name__}: {str(exc)[:200]}."
+        ) from None
+
+
+def read_config_text(path: Path, what: str = "config") -> str:
+    """Return the text of a config file; an unreadable or non-UTF-8 file raises one line."""
+    try:
+        data = path.read_bytes()
+    except OSError as exc:
+        raise InvalidParameterError(f"Cannot read {what} {str(path)!r}: {exc.strerror}.") from None
+    try:
+        return data.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise InvalidParameterError(
+            f"{path}: not a UTF-8 text file (byte 0x{data[exc.start]:02x} at offset "
+            f"{exc.start:,}); a config is YAML text."
+        ) from None
 
 
 def dump_yaml(data: Any) -> str:
@@ -123,8 +220,14 @@ class ComponentConfig(BaseModel):
 
 
 PositiveInt = Annotated[int, Field(strict=True, ge=1)]
-#: A memory size in bytes, written as ``4GiB``, ``512MiB`` or a byte count (`parse_memory_size`).
-MemorySize = Annotated[int | None, BeforeValidator(parse_memory_size)]
+#: The sense bounds of `conjure.experiments.limits` as field types.
+BudgetSteps = Annotated[int, Field(strict=True, ge=1, le=MAX_BUDGET_STEPS)]
+PolicyChecks = Annotated[int, Field(strict=True, ge=1, le=MAX_POLICY_CHECKS)]
+EvalEpisodes = Annotated[int, Field(strict=True, ge=1, le=MAX_EVAL_EPISODES)]
+#: Seeds: a count, a list, or a range ``"START..END"`` (inclusive), `limits.parse_seeds`.
+Seeds = Annotated[int | list[int], BeforeValidator(parse_seeds)]
+#: A memory size in bytes, ``4GiB`` or a byte count, at least 1 GiB (`parse_memory_limit`).
+MemorySize = Annotated[int | None, BeforeValidator(parse_memory_limit)]
 
 
 class ExperimentConfig(BaseModel):
@@ -135,10 +238,10 @@ class ExperimentConfig(BaseModel):
     name: Annotated[str, Field(pattern=_NAME_PATTERN)]
     domain: ComponentConfig
     agents: Annotated[dict[str, ComponentConfig], Field(min_length=1)]
-    budget_steps: PositiveInt
-    num_policy_checks: PositiveInt = 10
-    eval_episodes: PositiveInt = 1
-    seeds: int | list[int] = 1
+    budget_steps: BudgetSteps
+    num_policy_checks: PolicyChecks = 10
+    eval_episodes: EvalEpisodes = 1
+    seeds: Seeds = 1
     max_workers: PositiveInt | None = None
     max_memory: MemorySize = None
     metric: str = "return"
@@ -164,24 +267,10 @@ class ExperimentConfig(BaseModel):
                 )
         return agents
 
-    @field_validator("seeds", mode="before")
-    @classmethod
-    def _check_seeds(cls, value: Any) -> Any:
-        def is_int(v: Any) -> bool:
-            return isinstance(v, int) and not isinstance(v, bool)
-
-        if is_int(value):
-            if value < 1:
-                raise ValueError(f"a seed count must be >= 1; got {value!r}")
-            return value
-        if isinstance(value, list) and value and all(is_int(v) and v >= 0 for v in value):
-            if len(set(value)) != len(value):
-                raise ValueError(f"seeds must be distinct; got {value!r}")
-            return value
-        raise ValueError(
-            "seeds must be a count (int >= 1, seeds 0..N-1) or a non-empty list of distinct "
-            f"ints >= 0; got {value!r}"
-        )
+    @model_validator(mode="after")
+    def _checks_within_budget(self) -> ExperimentConfig:
+        check_checks_within_budget(self.num_policy_checks, self.budget_steps)
+        return self
 
     def seed_list(self) -> list[int]:
         """Return the seeds: ``0 .. N-1`` for a count, else the list given."""
@@ -212,7 +301,7 @@ def _format_validation_error(exc: ValidationError, source: str) -> str:
         elif error["type"] == "missing":
             messages.append(f"{where}: required field is missing.")
         else:
-            message = error["msg"].removeprefix("Value error, ")
+            message = error["msg"].removeprefix("Value error, ").rstrip(".")
             got = repr(error.get("input"))
             if " got " in message or len(got) > 120:  # the validator already named the value
                 messages.append(f"{where}: {message}.")
@@ -274,11 +363,7 @@ def load_config(path: str | Path, overrides: Sequence[str] = ()) -> ExperimentCo
     ExperimentConfig
     """
     path = Path(path)
-    try:
-        text = path.read_text()
-    except OSError as exc:
-        raise InvalidParameterError(f"Cannot read config {str(path)!r}: {exc.strerror}.") from None
-    data = load_yaml(text, source=str(path))
+    data = load_yaml(read_config_text(path), source=str(path))
     check_not_a_sweep(data, str(path))
     if not overrides:
         return parse_config(data, source=str(path))
@@ -427,6 +512,10 @@ def set_component_value(node: Any, keys: list[str], value: Any, override: str, w
     params = node.get("params")
     if params is None:
         params = node["params"] = {}
+    if not isinstance(params, dict):
+        raise InvalidParameterError(
+            f"--set {override!r}: `{where}.params` must be a mapping of parameters; got {params!r}."
+        )
     name, rest = rest[0], rest[1:]
     known = cls.param_names()
     if name not in known:

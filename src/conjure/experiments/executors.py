@@ -82,7 +82,7 @@ from conjure.experiments.memory import (
     check_memory_limit,
     format_memory_size,
     limit_memory,
-    parse_memory_size,
+    parse_memory_limit,
 )
 
 __all__ = [
@@ -176,7 +176,7 @@ class Executor(ABC):
                 f"`{type(self).__name__}.max_retries` must be an int >= 0; got {max_retries!r}."
             )
         try:
-            self.max_memory = parse_memory_size(max_memory)
+            self.max_memory = parse_memory_limit(max_memory)
         except InvalidParameterError as exc:
             raise InvalidParameterError(f"`{type(self).__name__}.max_memory`: {exc}.") from None
         self.max_workers = max_workers

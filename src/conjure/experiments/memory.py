@@ -36,8 +36,15 @@ __all__ = [
     "format_memory_size",
     "limit_memory",
     "memory_limit",
+    "parse_memory_limit",
     "parse_memory_size",
 ]
+
+#: The smallest run memory limit accepted: a worker maps about 0.75 GiB before any run and
+#: numba's compiler can abort under about 0.9 GiB (see the notes above).
+MIN_MEMORY_LIMIT = 2**30
+#: The largest: 1 EiB, far above any machine and within what ``RLIMIT_AS`` holds.
+MAX_MEMORY_LIMIT = 2**60
 
 _UNITS = {
     "": 1,
@@ -88,6 +95,31 @@ def parse_memory_size(value: Any) -> int | None:
         raise InvalidParameterError(
             f"a memory size must be positive, a number of bytes or a number with a unit "
             f"(KiB, MiB, GiB, TiB; kB, MB, GB, TB), e.g. 4GiB; got {value!r}"
+        )
+    return size
+
+
+def parse_memory_limit(value: Any) -> int | None:
+    """Return a run's memory limit in bytes (`parse_memory_size`), refused outside [1 GiB, 1 EiB].
+
+    Examples
+    --------
+    >>> parse_memory_limit("2GiB")
+    2147483648
+    >>> parse_memory_limit("64MiB")  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    conjure.core.errors.InvalidParameterError: a run's memory limit must be at least 1 GiB ...
+    """
+    size = parse_memory_size(value)
+    if size is not None and size < MIN_MEMORY_LIMIT:
+        raise InvalidParameterError(
+            f"a run's memory limit must be at least 1 GiB (a worker maps about 0.75 GiB before "
+            f"any run); got {value!r} = {format_memory_size(size)}"
+        )
+    if size is not None and size > MAX_MEMORY_LIMIT:
+        raise InvalidParameterError(
+            f"a run's memory limit must be at most 1 EiB (2^60 bytes); got {str(value)[:40]!r}"
         )
     return size
 

@@ -16,7 +16,7 @@ from typing import Any
 import click
 
 from conjure.core.errors import InvalidParameterError
-from conjure.experiments.memory import parse_memory_size
+from conjure.experiments.memory import parse_memory_limit
 
 __all__ = ["max_memory_option", "out_dir_option", "overrides_option"]
 
@@ -57,7 +57,7 @@ def overrides_option(help_text: str) -> Callable[[Any], Any]:
 
 def _parse_memory(context: click.Context, parameter: click.Parameter, value: Any) -> int | None:
     try:
-        return parse_memory_size(value)
+        return parse_memory_limit(value)
     except InvalidParameterError as exc:
         raise click.BadParameter(str(exc)) from None
 

@@ -32,6 +32,7 @@ from __future__ import annotations
 import functools
 import math
 import time
+from collections import Counter
 from collections.abc import Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass, field
@@ -59,11 +60,13 @@ from conjure.experiments.numbers import format_interval, format_value, readable_
 from conjure.experiments.preflight import check_runs
 from conjure.experiments.results import (
     RESOLVED_FILE,
+    RUNS_DIR,
     error_path,
     is_run_done,
     load_results,
     make_out_dir,
     remove_stale_temporaries,
+    run_file_problem,
     run_id,
     run_path,
     save_run,
@@ -105,11 +108,15 @@ class RunsReport:
         Runs found finished and not rerun.
     errors : dict
         ``run_id -> one-line message`` for the runs that failed this time.
+    redone : dict
+        ``run_id -> reason`` for the runs whose file was present but unusable (a checksum
+        mismatch, `conjure.experiments.results.run_file_problem`) and which were run again.
     """
 
     run_ids: list[str]
     num_skipped: int = 0
     errors: dict[str, str] = field(default_factory=dict)
+    redone: dict[str, str] = field(default_factory=dict)
 
 
 @dataclass
@@ -264,8 +271,19 @@ def execute_runs(
     by_id: dict[str, dict[str, Any]] = {}
     for spec in runs:
         by_id.setdefault(run_id(spec), spec)
-    todo = [(i, spec) for i, spec in by_id.items() if not is_run_done(out_dir, spec)]
-    report = RunsReport(list(by_id), num_skipped=len(by_id) - len(todo))
+    problems = {i: run_file_problem(out_dir, spec) for i, spec in by_id.items()}
+    todo = [(i, spec) for i, spec in by_id.items() if problems[i] is not None]
+    redone = {i: p for i, p in problems.items() if p not in (None, "missing")}
+    report = RunsReport(list(by_id), num_skipped=len(by_id) - len(todo), redone=redone)
+    if redone:  # printed even with --quiet: a resume never silently replaces a result
+        reasons = ", ".join(f"{n} {r}" for r, n in Counter(redone.values()).most_common())
+        console = console or Console()
+        console.print(
+            f"Resume: redoing {len(redone)} run(s) whose file in {out_dir / RUNS_DIR} was "
+            f"unusable ({reasons}).",
+            highlight=False,
+            soft_wrap=True,
+        )
     if not todo:
         return report
     executor = executor or LocalExecutor()

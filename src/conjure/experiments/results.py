@@ -11,14 +11,20 @@ Layout of a results folder (an experiment or a sweep)::
     OUT/summary.csv                 per method: final metric, its 95% CI, features, steps/s
 
 A run's id is `run_id` (the `config_hash` of its resolved config), so a run is finished if and
-only if ``runs/<run_id>.json`` exists: resume needs no other bookkeeping, a changed config
-gets a new id, and no run can be stored twice. Every file is written atomically (temporary
-file, fsync, ``os.replace``, fsync of the folder), so killing the process at any moment loses
-no finished run and never leaves a half-written file under its real name.
+only if ``runs/<run_id>.json`` exists and is intact: resume needs no other bookkeeping, a
+changed config gets a new id, and no run can be stored twice. Every file is written atomically
+(temporary file, fsync, ``os.replace``, fsync of the folder), so killing the process at any
+moment loses no finished run and never leaves a half-written file under its real name.
+
+Each run file carries ``checksum``, the SHA-256 of its other fields (`run_checksum`). A run
+file whose checksum does not match (edited by hand, damaged on disk, or written before run
+files had one) is not a finished run: a resume redoes it and says so (`run_file_problem`),
+and `load_results` leaves it out and lists it in ``attrs["damaged_runs"]``.
 """
 
 from __future__ import annotations
 
+import hashlib
 import json
 import math
 import os
@@ -63,6 +69,8 @@ __all__ = [
     "read_run_ids",
     "remove_stale_temporaries",
     "results_name",
+    "run_checksum",
+    "run_file_problem",
     "run_id",
     "run_path",
     "save_run",
@@ -212,17 +220,30 @@ def error_path(out_dir: str | Path, identifier: str) -> Path:
     return Path(out_dir) / ERRORS_DIR / f"{identifier}.txt"
 
 
+def run_checksum(record: Mapping[str, Any]) -> str:
+    """The SHA-256 of a run record's fields other than ``checksum`` (canonical JSON)."""
+    fields = {key: value for key, value in record.items() if key != "checksum"}
+    text = json.dumps(fields, sort_keys=True, default=_jsonable)
+    return hashlib.sha256(text.encode()).hexdigest()
+
+
 def read_run(path: str | Path) -> dict[str, Any]:
     """Read a run file: ``{"run_id", "config", "curve" (DataFrame), "meta"}``.
 
     Raises
     ------
     InvalidParameterError
-        If the file is not a complete run record.
+        If the file is not a complete run record or its checksum does not match its content.
     """
     path = Path(path)
     try:
         record = json.loads(path.read_text())
+        if not isinstance(record, dict) or record.get("checksum") != run_checksum(record):
+            problem = "checksum missing" if "checksum" not in record else "checksum mismatch"
+            raise InvalidParameterError(
+                f"{str(path)!r} fails its checksum ({problem}): its content was changed after "
+                f"the run wrote it."
+            )
         curve = pd.DataFrame(record["curve"])
         return {
             "run_id": record["run_id"],
@@ -230,21 +251,34 @@ def read_run(path: str | Path) -> dict[str, Any]:
             "curve": curve,
             "meta": record.get("meta", {}),
         }
-    except (OSError, ValueError, KeyError, TypeError) as exc:
+    except (OSError, ValueError, KeyError, TypeError, RecursionError) as exc:
+        if isinstance(exc, InvalidParameterError):
+            raise
         raise InvalidParameterError(f"{str(path)!r} is not a run record: {exc}.") from None
 
 
-def is_run_done(out_dir: str | Path, run_spec: Mapping[str, Any]) -> bool:
-    """Whether ``out_dir`` holds the finished run of exactly ``run_spec``."""
+def run_file_problem(out_dir: str | Path, run_spec: Mapping[str, Any]) -> str | None:
+    """Why ``out_dir`` holds no intact finished run of ``run_spec``: "missing", a reason, or None.
+
+    A present but unusable run file (checksum mismatch, not a run record, another run's
+    config) gets a one-line reason; the run is then redone.
+    """
     identifier = run_id(run_spec)
     path = run_path(out_dir, identifier)
     if not path.is_file():
-        return False
+        return "missing"
     try:
         record = read_run(path)
-    except InvalidParameterError:  # cannot happen with atomic writes; rerun to be safe
-        return False
-    return run_id(record["config"]) == identifier
+    except InvalidParameterError as exc:
+        return "checksum mismatch" if "checksum" in str(exc) else "not a run record"
+    if run_id(record["config"]) != identifier:
+        return "another run's config"
+    return None
+
+
+def is_run_done(out_dir: str | Path, run_spec: Mapping[str, Any]) -> bool:
+    """Whether ``out_dir`` holds the intact finished run of exactly ``run_spec``."""
+    return run_file_problem(out_dir, run_spec) is None
 
 
 def save_run(
@@ -256,12 +290,15 @@ def save_run(
     """Write a finished run to ``OUT/runs/<run_id>.json`` and clear its old error files."""
     identifier = run_id(run_spec)
     columns = curve.to_dict(orient="list") if isinstance(curve, pd.DataFrame) else dict(curve)
-    record = {
+    record: dict[str, Any] = {
         "run_id": identifier,
         "config": dict(run_spec),
         "curve": columns,
         "meta": dict(meta or {}),
     }
+    # Round-trip through JSON first, so the checksum is of exactly what is read back.
+    record = json.loads(json.dumps(record, default=_jsonable))
+    record["checksum"] = run_checksum(record)
     path = write_atomic(run_path(out_dir, identifier), json.dumps(record, default=_jsonable))
     error = error_path(out_dir, identifier)
     error.unlink(missing_ok=True)
@@ -432,6 +469,9 @@ def load_results(out_dir: str | Path, run_ids: Iterable[str] | None = None) -> p
     run_ids : iterable of str, optional
         Which runs to read (missing ones are skipped); default the ids in ``run_ids.txt``, or
         every run file if there is none.
+
+    A run file that fails its checksum is left out; the ids of those are in
+    ``attrs["damaged_runs"]``.
     """
     out_dir = Path(out_dir)
     if run_ids is None:
@@ -440,11 +480,15 @@ def load_results(out_dir: str | Path, run_ids: Iterable[str] | None = None) -> p
         paths = sorted((out_dir / RUNS_DIR).glob("*.json"))
     else:
         paths = [run_path(out_dir, i) for i in dict.fromkeys(run_ids)]
-    frames, param_rows = [], []
+    frames, param_rows, damaged = [], [], []
     for path in paths:
         if not path.is_file():
             continue
-        record = read_run(path)
+        try:
+            record = read_run(path)
+        except InvalidParameterError:
+            damaged.append(path.stem)
+            continue
         config, curve = record["config"], record["curve"]
         leading: dict[str, Any] = {"run_id": record["run_id"]}
         if "domain_label" in config:
@@ -466,7 +510,9 @@ def load_results(out_dir: str | Path, run_ids: Iterable[str] | None = None) -> p
         frames.append(curve)
         param_rows.append((len(curve), params))
     if not frames:
-        return pd.DataFrame(columns=["run_id", "label", "seed"])
+        empty = pd.DataFrame(columns=["run_id", "label", "seed"])
+        empty.attrs["damaged_runs"] = damaged
+        return empty
     keys: list[str] = []
     for _, params in param_rows:
         keys.extend(k for k in params if k not in keys)
@@ -477,7 +523,9 @@ def load_results(out_dir: str | Path, run_ids: Iterable[str] | None = None) -> p
     extra = pd.DataFrame(columns, index=table.index)
     for key in keys:
         extra[key] = _normalize_column(extra[key])
-    return pd.concat([table, extra], axis=1)
+    combined = pd.concat([table, extra], axis=1)
+    combined.attrs["damaged_runs"] = damaged
+    return combined
 
 
 def group_columns(results: pd.DataFrame) -> list[str]:

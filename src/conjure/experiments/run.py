@@ -46,6 +46,7 @@ import numpy as np
 from conjure.core.errors import DivergenceError, InvalidParameterError, raise_if_interrupted
 from conjure.core.interfaces import Agent, Domain
 from conjure.core.seeding import seed_to_int, split_seed
+from conjure.experiments.limits import MAX_COMPILE_STEPS, check_count, check_run_counts
 from conjure.experiments.loop import CURVE_COLUMNS, greedy_episodes, learning_stepper
 from conjure.experiments.memory import explain_memory_error
 from conjure.experiments.metric_ranges import domain_bounds
@@ -153,12 +154,6 @@ def _format_rate(value: float) -> str:
     return "n/a" if not math.isfinite(value) else f"{value:,.0f}"
 
 
-def _check_count(name: str, value: Any, low: int) -> int:
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < low:
-        raise InvalidParameterError(f"`run.{name}` must be an int in [{low}, inf); got {value!r}.")
-    return int(value)
-
-
 def checked_value_bounds(domain: Domain) -> tuple[float, float] | None:
     """Return the domain's (worst, best) expected returns, checked, or ``None``.
 
@@ -224,11 +219,12 @@ def run(
     agent : Agent
         The learner; ``setup`` is called here, so it is trained in place.
     budget_steps : int
-        Learning steps, >= 1 (exact, even if the last episode is cut short).
+        Learning steps in [1, 10^12] (exact, even if the last episode is cut short).
     seed : int
         Split into domain, evaluation and agent seeds (`conjure.core.seeding.split_seed`).
     num_policy_checks : int, default 10
-        Greedy evaluations after the first one at step 0, evenly spaced in steps.
+        Greedy evaluations after the first one at step 0, evenly spaced in steps; at most
+        ``budget_steps`` and 10^6 (`conjure.experiments.limits`).
     eval_episodes : int, default 1
         Greedy episodes per policy check (their mean is recorded).
     config : dict or None
@@ -236,7 +232,8 @@ def run(
     compile_steps : int or None
         The learning steps a cold compile of the loop is weighed against
         (`conjure.experiments.loop.learning_stepper`); None: ``budget_steps``. A sweep's
-        warm-up run passes the whole sweep's steps, so that it compiles for all its runs.
+        warm-up run passes the whole sweep's steps, so that it compiles for all its runs; an int
+        in [1, 2^62].
 
     Returns
     -------
@@ -247,9 +244,11 @@ def run(
     DivergenceError
         If the agent diverges; its ``partial_result`` holds the curve recorded so far.
     """
-    budget_steps = _check_count("budget_steps", budget_steps, 1)
-    num_policy_checks = _check_count("num_policy_checks", num_policy_checks, 1)
-    eval_episodes = _check_count("eval_episodes", eval_episodes, 1)
+    budget_steps, num_policy_checks, eval_episodes = check_run_counts(
+        budget_steps, num_policy_checks, eval_episodes, prefix="run."
+    )
+    if compile_steps is not None:
+        compile_steps = check_count("run.compile_steps", compile_steps, 1, MAX_COMPILE_STEPS)
     bounds = checked_value_bounds(domain)
     seeds = split_seed(seed, SEED_STREAMS)
     agent.setup(domain.domain_spec, seeds["agent"])

@@ -50,7 +50,6 @@ from typing import Any
 
 import click
 import numpy as np
-import yaml
 from rich.console import Console
 from rich.table import Table
 
@@ -59,6 +58,7 @@ from conjure.core.errors import ConjureError, IncompatibleComponentsError, Inval
 from conjure.core.interfaces import Domain
 from conjure.core.params import did_you_mean
 from conjure.experiments import registry
+from conjure.experiments.config import load_yaml, read_config_text
 from conjure.experiments.loop import run_episode
 from conjure.models.approximate_model import ApproximateModel
 from conjure.models.tabular_model import TabularModel
@@ -83,10 +83,7 @@ _PLANNER_LAYERS = ("planner", "cooperative_planner")
 
 
 def _load(config: Path) -> dict[str, Any]:
-    try:
-        data = yaml.safe_load(Path(config).read_text())
-    except (OSError, yaml.YAMLError) as exc:
-        raise InvalidParameterError(f"Cannot read solve config {config}: {exc}") from exc
+    data = load_yaml(read_config_text(Path(config), "solve config"), source=str(config))
     if not isinstance(data, dict) or not {"domain", "planner"} <= set(data):
         raise InvalidParameterError(
             f"A solve config needs `domain: {{kind, params}}` and `planner: {{kind, params}}` "

@@ -9,7 +9,7 @@ import scipy.sparse as sp
 
 from conjure.core.interfaces import Representation
 from conjure.core.linalg import solve_regularized
-from conjure.core.params import InstanceOf, Interval
+from conjure.core.params import NEXT_SAMPLES, SAMPLES, InstanceOf, Interval
 from conjure.planners import _kernels
 from conjure.planners._sampling import Sampling, weight_change
 from conjure.planners.base import Plan, Planner
@@ -29,9 +29,9 @@ class FittedValueIteration(Planner):
     representation : Representation or None, default None
         φ(s), copied per action (Eq. 2.11); ``None`` means `Tabular`.
     num_samples : int, default 300
-        L₁, samples per iteration, in [1, inf).
+        L₁, samples per iteration, in [1, 10^7].
     num_next_samples : int, default 1
-        L₂, successor draws per sample, in [1, inf).
+        L₂, successor draws per sample, in [1, 10^4].
     epsilon : float, default 0.1
         ε of the sampling policy π^ε, in [0, 1].
     regularization : float, default 1e-8
@@ -78,8 +78,8 @@ class FittedValueIteration(Planner):
     is_sampled = True
     parameter_constraints = {
         "representation": InstanceOf((Representation, type(None)), "a Representation or None"),
-        "num_samples": Interval(int, 1, None),
-        "num_next_samples": Interval(int, 1, None),
+        "num_samples": SAMPLES,
+        "num_next_samples": NEXT_SAMPLES,
         "epsilon": Interval(float, 0.0, 1.0),
         "regularization": Interval(float, 0.0, None),
         "tolerance": Interval(float, 0.0, None, closed="neither"),

@@ -8,7 +8,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from conjure.core.interfaces import Representation
-from conjure.core.params import InstanceOf, Interval, Options
+from conjure.core.params import NEXT_SAMPLES, SAMPLES, InstanceOf, Interval, Options
 from conjure.models.generative import ModelSampler
 from conjure.planners import _kernels
 from conjure.planners._sampling import Sampling, solve_q_weights
@@ -19,7 +19,7 @@ __all__ = ["SampledQAPI1", "SampledQAPI2"]
 _CONSTRAINTS = {
     "representation": InstanceOf((Representation, type(None)), "a Representation or None"),
     "evaluation": Options(("lstd", "brm")),
-    "num_samples": Interval(int, 1, None),
+    "num_samples": SAMPLES,
     "epsilon": Interval(float, 0.0, 1.0),
     "regularization": Interval(float, 0.0, None),
     "max_iterations": Interval(int, 1, None),
@@ -42,7 +42,7 @@ class SampledQAPI1(Planner):
     evaluation : {"lstd", "brm"}, default "lstd"
         Eqs. 2.23-2.24 or Eqs. 2.25-2.26.
     num_samples : int, default 300
-        L₁, samples per iteration, in [1, inf).
+        L₁, samples per iteration, in [1, 10^7].
     epsilon : float, default 0.1
         ε of the sampling policy π^ε, in [0, 1] (ε > 0 keeps the samples ergodic, Fig. 2-5).
     regularization : float, default 1e-8
@@ -176,9 +176,9 @@ class SampledQAPI2(Planner):
     evaluation : {"lstd", "brm"}, default "lstd"
         Eqs. 2.23-2.24 or Eqs. 2.25-2.26.
     num_samples : int, default 300
-        L₁, samples per iteration, in [1, inf).
+        L₁, samples per iteration, in [1, 10^7].
     num_next_samples : int, default 1
-        L₂, successor draws per sample, in [1, inf).
+        L₂, successor draws per sample, in [1, 10^4].
     epsilon : float, default 0.1
         ε of the sampling policy π^ε, in [0, 1].
     regularization : float, default 1e-8
@@ -221,7 +221,7 @@ class SampledQAPI2(Planner):
     """
 
     is_sampled = True
-    parameter_constraints = {**_CONSTRAINTS, "num_next_samples": Interval(int, 1, None)}
+    parameter_constraints = {**_CONSTRAINTS, "num_next_samples": NEXT_SAMPLES}
 
     def __init__(
         self,

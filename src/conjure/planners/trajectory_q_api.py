@@ -7,7 +7,7 @@ from typing import Any
 import numpy as np
 
 from conjure.core.interfaces import Representation
-from conjure.core.params import InstanceOf, Interval
+from conjure.core.params import SAMPLES, InstanceOf, Interval
 from conjure.planners import _kernels
 from conjure.planners._sampling import Sampling, solve_q_weights, weight_change
 from conjure.planners.base import Plan, Planner
@@ -28,7 +28,7 @@ class TrajectoryQAPI(Planner):
     representation : Representation or None, default None
         φ(s), copied per action (Eq. 2.11); ``None`` means `Tabular`.
     num_samples : int, default 1000
-        L₁, samples per iteration, in [1, inf).
+        L₁, samples per iteration, in [1, 10^7].
     epsilon : float, default 0.1
         ε of the sampling policy π^ε, in [0, 1].
     regularization : float, default 1e-8
@@ -77,7 +77,7 @@ class TrajectoryQAPI(Planner):
     }
     parameter_constraints = {
         "representation": InstanceOf((Representation, type(None)), "a Representation or None"),
-        "num_samples": Interval(int, 1, None),
+        "num_samples": SAMPLES,
         "epsilon": Interval(float, 0.0, 1.0),
         "regularization": Interval(float, 0.0, None),
         "tolerance": Interval(float, 0.0, None, closed="neither"),

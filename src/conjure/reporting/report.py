@@ -44,6 +44,7 @@ from conjure.experiments.results import (
     make_out_dir,
     missing_runs,
     read_resolved,
+    read_run,
     results_name,
     t_confidence,
     write_atomic,
@@ -146,6 +147,20 @@ def collect(results_dir: str | Path) -> pd.DataFrame:
     return table
 
 
+def damaged_runs(results_dir: Path, present: set[str]) -> list[str]:
+    """The ids of run files in ``results_dir`` that `collect` left out (failed checksum)."""
+    absent = [p for p in sorted((results_dir / RUNS_DIR).glob("*.json")) if p.stem not in present]
+    return [p.stem for p in absent if not _reads(p)]
+
+
+def _reads(path: Path) -> bool:
+    try:
+        read_run(path)
+    except InvalidParameterError:
+        return False
+    return True
+
+
 def completeness(results_dir: Path, results: pd.DataFrame) -> tuple[str, pd.DataFrame | None]:
     """``"6 of 12 runs present"`` and the methods still missing runs (``planned.csv``)."""
     present = set(results["run_id"])
@@ -165,6 +180,18 @@ def _missing_lines(results_dir: Path, results: pd.DataFrame) -> list[str]:
     lines += ["", "Methods with missing runs:", ""]
     lines += [f"- {_incomplete(row)}" for row in missing.to_dict("records")]
     return [*lines, ""]
+
+
+def _damaged_lines(results: pd.DataFrame) -> list[str]:
+    """The report's warning on run files left out because they fail their checksum."""
+    damaged = results.attrs.get("damaged_runs") or []
+    if not damaged:
+        return []
+    return [
+        f"**{len(damaged)} run file(s) fail their checksum and are left out** "
+        f"({', '.join(damaged)}); run the command that wrote these results again to redo them.",
+        "",
+    ]
 
 
 def _incomplete(row: dict[str, Any]) -> str:
@@ -281,6 +308,7 @@ def write_report(
         f"# Report: {name}",
         "",
         *_missing_lines(results_dir, results),
+        *_damaged_lines(results),
         f"{results['run_id'].nunique()} finished runs, "
         + (f"{len(errors)} failed (tracebacks in `{ERRORS_DIR}/`)" if errors else "none failed")
         + "; seeds per method shown as `n`. Curves are means over seeds with 95% confidence "
@@ -364,10 +392,11 @@ def _selection_table(selection: pd.DataFrame, results: pd.DataFrame, metric: str
     The setting's whole numbers get separators (`readable_setting`); the file keeps its key.
     """
     bounds = metric_range(results, metric)
-    scores = [
-        format_interval(mean, half, bounds)
-        for mean, half in zip(selection["score_mean"], selection["score_ci95"], strict=True)
-    ]
+    # Read as text (a setting may be empty): an empty half-width (one seed) becomes NaN.
+    means, halves = (
+        pd.to_numeric(selection[c], errors="coerce") for c in ("score_mean", "score_ci95")
+    )
+    scores = [format_interval(mean, half, bounds) for mean, half in zip(means, halves, strict=True)]
     table = selection.drop(columns=["score_mean", "score_ci95"])
     table["setting"] = table["setting"].astype(str).map(readable_setting)
     table.insert(table.columns.get_loc("criterion") + 1, "score ± 95% t", scores)
@@ -408,6 +437,13 @@ def report_command(results_dir: Path, metric: str | None, out_dir: Path | None) 
         kept = f"the runs in {Path(results_dir) / RUNS_DIR} are untouched."
         raise write_failure(exc, kept) from None
     present = pd.read_parquet(Path(results_dir) / RESULTS_FILE, columns=["run_id"])
+    damaged = damaged_runs(Path(results_dir), set(present["run_id"]))
+    if damaged:
+        click.echo(
+            f"Left out {len(damaged)} run file(s) that fail their checksum ("
+            f"{', '.join(damaged[:5])}{', ...' if len(damaged) > 5 else ''}); the command that "
+            f"wrote {results_dir} redoes them when run again."
+        )
     count, missing = completeness(Path(results_dir), present)
     if missing is not None:
         methods = "; ".join(_incomplete(row) for row in missing.to_dict("records"))

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from conjure.core.errors import InvalidParameterError
@@ -143,7 +145,7 @@ class ARiFDD(OnlineIFDD):
         "initial_tiles_per_dim": positive_ints(),
         "discovery_threshold": Interval(float, 0, None),
         "relevance": Options(tuple(_RELEVANCES)),
-        "split_threshold": Interval(float, 0, None),
+        "split_threshold": Interval(float, 0, math.inf),
         "min_tile_fraction": Interval(float, 0, 1, closed="right"),
         "max_features": OPTIONAL_MAX_FEATURES,
     }

@@ -46,21 +46,35 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any, Literal
 
 import click
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
+from pydantic import (
+    BaseModel,
+    BeforeValidator,
+    ConfigDict,
+    Field,
+    ValidationError,
+    field_validator,
+    model_validator,
+)
 
 from conjure.core.errors import InvalidParameterError, write_failure
 from conjure.core.params import did_you_mean
 from conjure.experiments.config import (
+    BudgetSteps,
     ComponentConfig,
+    EvalEpisodes,
     ExperimentConfig,
     MemorySize,
+    PolicyChecks,
+    Seeds,
     apply_overrides,
     load_yaml,
     parse_config,
     parse_overridden,
+    read_config_text,
     resolve_run,
     set_component_value,
 )
+from conjure.experiments.limits import check_checks_within_budget, parse_seeds
 from conjure.experiments.numbers import format_value
 from conjure.experiments.options import max_memory_option, out_dir_option, overrides_option
 from conjure.experiments.parallel import (
@@ -107,7 +121,9 @@ class SelectionConfig(BaseModel):
 
     criterion: Literal["auc", "final"] = "auc"
     mode: Literal["max", "min"] = "max"
-    fresh_seeds: int | list[int] = 30
+    fresh_seeds: Annotated[
+        int | list[int], BeforeValidator(functools.partial(parse_seeds, allow_zero=True))
+    ] = 30
 
 
 def _check_values_read_apart(key: str, values: list[Any]) -> None:
@@ -135,14 +151,19 @@ class SweepConfig(BaseModel):
     agents: Annotated[dict[str, ComponentConfig], Field(min_length=1)]
     grid: dict[str, list[Any]] = Field(default_factory=dict)
     domain_grids: dict[str, dict[str, list[Any]]] = Field(default_factory=dict)
-    budget_steps: PositiveInt
-    num_policy_checks: PositiveInt = 10
-    eval_episodes: PositiveInt = 1
-    seeds: int | list[int] = 1
+    budget_steps: BudgetSteps
+    num_policy_checks: PolicyChecks = 10
+    eval_episodes: EvalEpisodes = 1
+    seeds: Seeds = 1
     max_workers: PositiveInt | None = None
     max_memory: MemorySize = None
     metric: str = "return"
     selection: SelectionConfig | None = None
+
+    @model_validator(mode="after")
+    def _checks_within_budget(self) -> SweepConfig:
+        check_checks_within_budget(self.num_policy_checks, self.budget_steps)
+        return self
 
     @field_validator("grid")
     @classmethod
@@ -384,10 +405,7 @@ def read_sweep_data(path: str | Path) -> dict[str, Any]:
         When the file cannot be read, is not YAML, or does not hold a mapping.
     """
     path = Path(path)
-    try:
-        text = path.read_text()
-    except OSError as exc:
-        raise InvalidParameterError(f"Cannot read sweep {str(path)!r}: {exc.strerror}.") from None
+    text = read_config_text(path, "sweep")
     data = load_yaml(text, source=str(path))
     if not isinstance(data, Mapping):
         raise InvalidParameterError(f"{path}: a sweep config must be a mapping.")

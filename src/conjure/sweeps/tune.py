@@ -50,7 +50,7 @@ from rich.console import Console
 
 from conjure.core.errors import InvalidParameterError
 from conjure.core.params import did_you_mean
-from conjure.experiments.config import dump_yaml, load_yaml
+from conjure.experiments.config import dump_yaml, load_yaml, read_config_text
 from conjure.experiments.executors import Executor, LocalExecutor
 from conjure.experiments.numbers import format_number, format_value
 from conjure.experiments.options import max_memory_option, out_dir_option
@@ -157,10 +157,7 @@ def parse_tune(data: Any, *, source: str = "<tune>") -> TuneConfig:
 def load_tune(path: str | Path) -> TuneConfig:
     """Read and validate a tuning YAML."""
     path = Path(path)
-    try:
-        text = path.read_text()
-    except OSError as exc:
-        raise InvalidParameterError(f"Cannot read config {str(path)!r}: {exc.strerror}.") from None
+    text = read_config_text(path, "config")
     return parse_tune(load_yaml(text, source=str(path)), source=str(path))
 
 
