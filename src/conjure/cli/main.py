@@ -132,15 +132,19 @@ def run_command(
     max_memory: int | None,
     quiet: bool,
 ) -> None:
-    """Run the experiment CONFIG (a YAML file); finished runs in the folder are reused."""
+    """Run the experiment CONFIG (a YAML file); finished runs in the folder are reused.
+
+    CONFIG that names no file is looked up among the shipped examples (e.g. `pendulum`).
+    """
     from rich.console import Console
 
     from conjure.experiments.config import load_config
     from conjure.experiments.parallel import run_experiment
+    from conjure.experiments.shipped import find_config
     from conjure.reporting.plots import curve_file_name, plot_learning_curves
 
     overrides = (*overrides, *((f"seeds={seeds}",) if seeds is not None else ()))
-    experiment = load_config(config, overrides)
+    experiment = load_config(find_config(config), overrides)
     out_dir = out_dir or Path("results") / experiment.name
     console = Console()
     outcome = run_experiment(

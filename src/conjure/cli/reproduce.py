@@ -22,8 +22,8 @@ Notes
 - Choice: at the thesis scale the comparison uses the fresh-seed rerun of the selected settings
   (``DIR/selected``), as docs/reproduction.md does; ``DIR/summary.csv`` then replaces the
   sweep's per-setting search summary (the choice is in ``DIR/selection.csv``).
-- Choice: the shipped configs are looked up under the current folder, else under the checkout
-  the package was imported from.
+- Choice: the configs are looked up under the current folder's ``examples/reproduction``,
+  else among the configs shipped in the package (`conjure.experiments.shipped`).
 """
 
 from __future__ import annotations
@@ -46,13 +46,10 @@ CONFIG_DIR = Path("examples") / "reproduction"
 
 
 def reproduction_root() -> Path:
-    """The folder that holds ``examples/reproduction`` (the current one, else the checkout)."""
-    for root in (Path.cwd(), Path(__file__).resolve().parents[3]):
-        if (root / CONFIG_DIR).is_dir():
-            return root
-    raise InvalidParameterError(
-        f"No {CONFIG_DIR} folder here or in the conjure checkout; run from the repository."
-    )
+    """The folder that holds ``examples/reproduction``: the current one, else the package's."""
+    from conjure.experiments.shipped import EXAMPLES_DIR
+
+    return Path.cwd() if (Path.cwd() / CONFIG_DIR).is_dir() else EXAMPLES_DIR.parent
 
 
 def default_out_dir(name: str, scale: str) -> Path:

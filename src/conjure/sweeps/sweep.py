@@ -475,8 +475,9 @@ def sweep_command(
     from rich.console import Console
 
     from conjure.experiments.executors import make_executor
+    from conjure.experiments.shipped import find_config
 
-    sweep = load_sweep(config, overrides)
+    sweep = load_sweep(find_config(config), overrides)
     out_dir = out_dir or Path("results") / sweep.name
     console = Console()
     engine = make_executor(
