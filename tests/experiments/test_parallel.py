@@ -20,7 +20,7 @@ from sweep_fakes import fail_writes, isolated_fakes, run_with_fakes
 from test_loop import FakeAgent, FakeWalk
 
 from conjure.cli.main import main
-from conjure.core.errors import ResultsWriteError, RunsInterruptedError
+from conjure.core.errors import ResultsWriteError, RunsFailedError, RunsInterruptedError
 from conjure.experiments import claims, parallel, registry
 from conjure.experiments.config import resolve_run
 from conjure.experiments.executors import LocalExecutor
@@ -143,6 +143,13 @@ def test_a_failing_run_records_error_and_others_finish(fakes, tmp_path):
     # A rerun retries the failed runs only.
     again = run_experiment(config, tmp_path, max_workers=1, progress=False)
     assert again.num_skipped == 2 and len(again.errors) == 4
+
+
+def test_an_experiment_with_no_finished_run_raises(fakes, tmp_path):
+    config = fake_config(broken={"fail_in_setup": True})
+    with pytest.raises(RunsFailedError, match=r"No run of fake finished: 2 of 2 failed .*setup"):
+        run_experiment(config, tmp_path, max_workers=1, progress=False)
+    assert len(list((tmp_path / "errors").glob("*.txt"))) == 2
 
 
 def test_process_pool_matches_in_process_runs(tmp_path):

@@ -50,7 +50,7 @@ from rich.progress import (
 )
 from rich.table import Table
 
-from conjure.core.errors import RunsInterruptedError, write_failure
+from conjure.core.errors import RunsFailedError, RunsInterruptedError, write_failure
 from conjure.experiments.claims import Claims, Owner
 from conjure.experiments.config import ExperimentConfig, dump_yaml, parse_config, resolve_run
 from conjure.experiments.executors import NOT_CLAIMED, Executor, LocalExecutor, TaskFailure
@@ -608,6 +608,8 @@ def run_experiment(
     Returns
     -------
     ExperimentResult
+        Some runs may have failed (``errors``); when none finished, `RunsFailedError` is
+        raised instead, naming the first failure.
     """
     experiment = parse_config(config)
     out_dir = make_out_dir(out_dir)
@@ -626,7 +628,7 @@ def run_experiment(
         max_memory=max_memory or experiment.max_memory,
         run_fn=run_fn,
     ) as engine:
-        return run_batch(
+        outcome = run_batch(
             runs,
             out_dir,
             executor=engine,
@@ -636,6 +638,13 @@ def run_experiment(
             console=console,
             description=experiment.name,
         )
+    if outcome.results.empty:
+        first = next(iter(outcome.errors.values()), "no run was recorded")
+        raise RunsFailedError(
+            f"No run of {experiment.name} finished: {len(outcome.errors)} of {len(runs)} failed "
+            f"(first: {first}); the tracebacks are in {out_dir / 'errors'}."
+        )
+    return outcome
 
 
 def _path_lines(results: pd.DataFrame) -> list[str]:
