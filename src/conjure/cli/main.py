@@ -37,7 +37,12 @@ from typing import Any
 import click
 
 from conjure.core.errors import ConjureError, InvalidParameterError, RunsInterruptedError
-from conjure.experiments.options import max_memory_option, out_dir_option, overrides_option
+from conjure.experiments.options import (
+    max_memory_option,
+    max_workers_option,
+    out_dir_option,
+    overrides_option,
+)
 
 __all__ = ["LAZY_COMMANDS", "main"]
 
@@ -117,12 +122,19 @@ def main() -> None:
 
 @main.command("run")
 @click.argument("config", type=click.Path(dir_okay=False, path_type=Path))
-@click.option("--seeds", type=click.IntRange(min=1), default=None, help="Run seeds 0..N-1.")
+@click.option(
+    "--seeds",
+    type=click.IntRange(min=1),
+    default=None,
+    help="Run seeds 0..N-1 (default: the config's seeds).",
+)
 @out_dir_option("Experiment folder (default results/<config name>).")
-@overrides_option("Override a config value, e.g. agents.sarsa.params.step_size=0.05 (repeatable).")
-@click.option("--max-workers", type=click.IntRange(min=1), default=None, help="Worker processes.")
+@overrides_option(
+    "Override a config value, e.g. agents.sarsa.params.step_size=0.05 (repeatable; default: none)."
+)
+@max_workers_option
 @max_memory_option
-@click.option("--quiet", is_flag=True, help="No progress bar or summary table.")
+@click.option("--quiet", is_flag=True, help="No progress bar or summary table (default: shown).")
 def run_command(
     config: Path,
     seeds: int | None,
@@ -169,7 +181,11 @@ def run_command(
 
 @main.command("list")
 @click.argument("layer", required=False)
-@click.option("--search", default=None, help="Only kinds or parameters containing this text.")
+@click.option(
+    "--search",
+    default=None,
+    help="Only kinds or parameters containing this text (default: all).",
+)
 def list_command(layer: str | None, search: str | None) -> None:
     """List the components: layers with their kinds, or one LAYER's (or --search's) parameters."""
     from rich.console import Console

@@ -34,7 +34,13 @@ from typing import TYPE_CHECKING, Any
 import click
 
 from conjure.core.errors import InvalidParameterError
-from conjure.experiments.options import max_memory_option, out_dir_option, overrides_option
+from conjure.experiments.options import (
+    max_memory_option,
+    max_workers_option,
+    out_dir_option,
+    overrides_option,
+)
+from conjure.sweeps.reproduction import SCALES
 
 if TYPE_CHECKING:
     from rich.console import Console
@@ -59,19 +65,24 @@ def default_out_dir(name: str, scale: str) -> Path:
 
 @click.command("reproduce")
 @click.argument("figures", nargs=-1)
-@click.option("--list", "show_list", is_flag=True, help="List the figures, configs and costs.")
-@click.option("--all", "run_all", is_flag=True, help="Run every figure.")
+@click.option(
+    "--list", "show_list", is_flag=True, help="List the figures, configs and costs (default: off)."
+)
+@click.option("--all", "run_all", is_flag=True, help="Run every figure (default: off).")
 @click.option(
     "--scale",
+    type=click.Choice(SCALES),
     default="quick",
     show_default=True,
     help="quick (3 seeds, the selected settings) or thesis (the config as shipped).",
 )
 @out_dir_option("Results folder (default runs/reproduce/FIG, or FIG_quick at the quick scale).")
-@click.option("--max-workers", type=click.IntRange(min=1), default=None, help="Worker processes.")
+@max_workers_option
 @max_memory_option
-@overrides_option("Override a config value after the scale, as `conjure sweep --set` (repeatable).")
-@click.option("--quiet", is_flag=True, help="No progress bar or summary table.")
+@overrides_option(
+    "Override a config value after the scale, as `conjure sweep --set` (repeatable; default: none)."
+)
+@click.option("--quiet", is_flag=True, help="No progress bar or summary table (default: shown).")
 def reproduce_command(
     figures: tuple[str, ...],
     show_list: bool,
@@ -90,10 +101,9 @@ def reproduce_command(
     """
     from rich.console import Console
 
-    from conjure.sweeps.reproduction import FIGURES, check_scale, figure_names
+    from conjure.sweeps.reproduction import FIGURES, figure_names
 
     console = Console()
-    check_scale(scale)
     if show_list:
         console.print(_figures_table())
         console.print(_list_notes(), markup=False)

@@ -62,7 +62,12 @@ from conjure.experiments.config import (
     set_component_value,
 )
 from conjure.experiments.numbers import format_value
-from conjure.experiments.options import max_memory_option, out_dir_option, overrides_option
+from conjure.experiments.options import (
+    max_memory_option,
+    max_workers_option,
+    out_dir_option,
+    overrides_option,
+)
 from conjure.experiments.parallel import (
     ExperimentResult,
     open_executor,
@@ -455,12 +460,13 @@ def apply_sweep_overrides(data: Mapping[str, Any], overrides: Sequence[str]) -> 
 @click.option(
     "--address", default=None, help="A Dask scheduler or Ray cluster address (default: local)."
 )
-@click.option("--max-workers", type=click.IntRange(min=1), default=None, help="Worker processes.")
+@max_workers_option
 @max_memory_option
 @overrides_option(
-    "Override a config value, e.g. seeds=3 or agents.sarsa.params.step_size=0.05 (repeatable)."
+    "Override a config value, e.g. seeds=3 or agents.sarsa.params.step_size=0.05 (repeatable; "
+    "default: none)."
 )
-@click.option("--quiet", is_flag=True, help="No progress bar or summary table.")
+@click.option("--quiet", is_flag=True, help="No progress bar or summary table (default: shown).")
 def sweep_command(
     config: Path,
     out_dir: Path | None,
