@@ -145,6 +145,18 @@ def test_a_failing_run_records_error_and_others_finish(fakes, tmp_path):
     assert again.num_skipped == 2 and len(again.errors) == 4
 
 
+def test_failures_are_listed_one_line_per_method_and_setting(fakes, tmp_path):
+    config = fake_config(good={}, broken={"fail_in_setup": True})
+    stream = io.StringIO()
+    console = Console(file=stream, width=60)
+    run_experiment(config, tmp_path, max_workers=1, progress=True, console=console)
+    lines = stream.getvalue().splitlines()
+    listed = [line for line in lines if line.startswith("  broken: ")]
+    assert listed == [listed[0]] and listed[0].startswith("  broken: 2 failed: ")
+    assert len(listed[0]) <= 60 and "2 run(s) failed" in stream.getvalue()
+    assert sum("failed:" in line for line in lines) == 3  # two as they fail, one summed up
+
+
 def test_an_experiment_with_no_finished_run_raises(fakes, tmp_path):
     config = fake_config(broken={"fail_in_setup": True})
     with pytest.raises(RunsFailedError, match=r"No run of fake finished: 2 of 2 failed .*setup"):

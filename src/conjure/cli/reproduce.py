@@ -15,6 +15,9 @@ claim: the thesis's value, the measured value with its 95% interval, and whether
 
 Notes
 -----
+- Choice: the command exits 0 once a figure's claims are computed, even where runs failed
+  (grid settings that diverge, listed one line per setting; their tracebacks are in the
+  ``errors`` folders); a figure with no finished run is an error (exit status 2).
 - Choice: the default folder is ``runs/reproduce/FIG`` at the thesis scale and
   ``runs/reproduce/FIG_quick`` at the quick scale, so the two scales never share a
   ``summary.csv``; ``--out DIR`` is the figure's folder for one figure and holds one folder per
@@ -114,16 +117,13 @@ def reproduce_command(
             "--list` shows them."
         )
     names = list(FIGURES) if run_all else figure_names(figures)
-    failed = False
     for name in names:
         out = default_out_dir(name, scale) if out_dir is None else out_dir
         if out_dir is not None and len(names) > 1:
             out = out_dir / name
-        failed |= _reproduce(
+        _reproduce(
             name, scale, out, overrides, max_workers, max_memory, quiet=quiet, console=console
         )
-    if failed:
-        raise click.exceptions.Exit(1)
 
 
 def _reproduce(
@@ -136,8 +136,13 @@ def _reproduce(
     *,
     quiet: bool,
     console: Console,
-) -> bool:
-    """Run one figure into ``out`` and write its outputs; return whether a run failed."""
+) -> None:
+    """Run one figure into ``out`` and write its outputs.
+
+    Failed runs (e.g. grid settings that diverge) do not fail the figure once its claims are
+    computed from the runs that finished: the sweep lists them, one line per setting, and
+    their tracebacks are in ``out/errors``. A figure with no finished run raises.
+    """
     from conjure.experiments.executors import make_executor
     from conjure.experiments.results import has_finite_values, write_atomic
     from conjure.reporting.plots import plot_learning_curves
@@ -177,13 +182,16 @@ def _reproduce(
     skipped = outcome.num_skipped + (outcome.selected.num_skipped if outcome.selected else 0)
     ran = len(outcome.runs) + (len(outcome.selected.runs) if outcome.selected else 0) - skipped
     if not quiet:
-        console.print(comparison, markup=False)
+        from rich.markdown import Markdown
+
+        console.print(Markdown(comparison))
+    failed = len(outcome.errors) + (len(outcome.selected.errors) if outcome.selected else 0)
     console.print(
-        f"{name} ({scale}): {ran} runs run, {skipped} already finished; comparison.md, "
-        f"summary.csv and {len(plots)} plots in {out}.",
+        f"{name} ({scale}): {ran} runs run, {skipped} already finished"
+        + (f", {failed} failed (tracebacks in the errors folders under {out})" if failed else "")
+        + f"; comparison.md, summary.csv and {len(plots)} plots in {out}.",
         markup=False,
     )
-    return bool(outcome.errors)
 
 
 def _figures_table() -> Any:
