@@ -280,8 +280,13 @@ def _components_table(rows: list[tuple[str, str, Any]]) -> Any:
     default=None,
     help="Curve column to plot (default: the metric the experiment's config chose).",
 )
-def plot_command(results_dir: Path, metric: str | None) -> None:
+@click.option(
+    "--panels",
+    is_flag=True,
+    help="One panel per method, for overlapping bands (default: off, one axes).",
+)
+def plot_command(results_dir: Path, metric: str | None, panels: bool) -> None:
     """Plot learning curves of the experiment in RESULTS_DIR (mean ± 95% CI over seeds)."""
     from conjure.reporting.plots import plot_results_dir
 
-    click.echo(f"Wrote {plot_results_dir(results_dir, metric=metric)}")
+    click.echo(f"Wrote {plot_results_dir(results_dir, metric=metric, panels=panels)}")
