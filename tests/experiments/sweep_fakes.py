@@ -19,7 +19,8 @@ import numpy as np
 import pytest
 from test_loop import FakeAgent, FakeWalk
 
-from conjure.experiments import registry, results
+from conjure.core import files
+from conjure.experiments import registry
 from conjure.experiments.run import run_resolved
 
 
@@ -196,4 +197,4 @@ def fail_writes(monkeypatch: pytest.MonkeyPatch, name: str, code: int) -> None:
             raise OSError(code, os.strerror(code))
         return handle
 
-    monkeypatch.setattr(results, "open", failing_open, raising=False)
+    monkeypatch.setattr(files, "open", failing_open, raising=False)

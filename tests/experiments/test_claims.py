@@ -51,7 +51,18 @@ def test_a_claim_is_held_by_one_driver_until_released(tmp_path):
         first.release("r1")
         assert second.take("r1")
         assert not first.take("r1")
-    assert not list((tmp_path / CLAIMS_DIR).iterdir())  # every claim released on exit
+    assert not (tmp_path / CLAIMS_DIR).exists()  # every claim released, the folder removed
+
+
+def test_the_last_driver_out_removes_the_empty_claims_folder(tmp_path):
+    with Claims(tmp_path) as first:
+        with Claims(tmp_path) as second:
+            assert first.take("r1") and second.take("r2")
+        assert (tmp_path / CLAIMS_DIR / "r1.claim").is_file()
+        (tmp_path / CLAIMS_DIR / "r1.claim").unlink()  # as if released elsewhere
+        (tmp_path / CLAIMS_DIR).rmdir()  # a driver that left removed the emptied folder
+        assert first.take("r3")
+    assert not (tmp_path / CLAIMS_DIR).exists()
 
 
 def test_claims_of_dead_or_silent_owners_are_taken_over(tmp_path):
@@ -102,7 +113,7 @@ def test_a_claim_that_cannot_be_written_is_not_left_empty(tmp_path, monkeypatch)
         with pytest.raises(OSError) as caught:
             claims.take("r")
     assert caught.value.filename == str(tmp_path / CLAIMS_DIR / "r.claim")
-    assert not list((tmp_path / CLAIMS_DIR).iterdir())
+    assert not (tmp_path / CLAIMS_DIR).exists()
 
 
 def test_the_held_runs_line_counts_from_one_look_at_the_claims(tmp_path):
@@ -178,4 +189,4 @@ def test_two_drivers_on_one_folder_split_the_runs(tmp_path):
     assert len(by_driver) == 2, by_driver  # both drivers worked
     assert all("RESULTS 12" in text for text in outputs)  # each reports all 12 runs
     assert len(list((out / RUNS_DIR).glob("*.json"))) == 12
-    assert not list((out / CLAIMS_DIR).iterdir())
+    assert not (out / CLAIMS_DIR).exists()

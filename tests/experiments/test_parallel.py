@@ -20,7 +20,7 @@ from sweep_fakes import fail_writes, isolated_fakes, run_with_fakes
 from test_loop import FakeAgent, FakeWalk
 
 from conjure.cli.main import main
-from conjure.core.errors import ResultsWriteError, RunsInterruptedError
+from conjure.core.errors import ResultsWriteError, RunsFailedError, RunsInterruptedError
 from conjure.experiments import claims, parallel, registry
 from conjure.experiments.config import resolve_run
 from conjure.experiments.executors import LocalExecutor
@@ -143,6 +143,25 @@ def test_a_failing_run_records_error_and_others_finish(fakes, tmp_path):
     # A rerun retries the failed runs only.
     again = run_experiment(config, tmp_path, max_workers=1, progress=False)
     assert again.num_skipped == 2 and len(again.errors) == 4
+
+
+def test_failures_are_listed_one_line_per_method_and_setting(fakes, tmp_path):
+    config = fake_config(good={}, broken={"fail_in_setup": True})
+    stream = io.StringIO()
+    console = Console(file=stream, width=60)
+    run_experiment(config, tmp_path, max_workers=1, progress=True, console=console)
+    lines = stream.getvalue().splitlines()
+    listed = [line for line in lines if line.startswith("  broken: ")]
+    assert listed == [listed[0]] and listed[0].startswith("  broken: 2 failed: ")
+    assert len(listed[0]) <= 60 and "2 run(s) failed" in stream.getvalue()
+    assert sum("failed:" in line for line in lines) == 3  # two as they fail, one summed up
+
+
+def test_an_experiment_with_no_finished_run_raises(fakes, tmp_path):
+    config = fake_config(broken={"fail_in_setup": True})
+    with pytest.raises(RunsFailedError, match=r"No run of fake finished: 2 of 2 failed .*setup"):
+        run_experiment(config, tmp_path, max_workers=1, progress=False)
+    assert len(list((tmp_path / "errors").glob("*.txt"))) == 2
 
 
 def test_process_pool_matches_in_process_runs(tmp_path):
@@ -335,7 +354,7 @@ def test_ctrl_c_inside_a_run_stops_the_batch_and_is_not_a_failure(fakes, tmp_pat
     assert str(caught.value).startswith(f"Interrupted: 1 of 4 runs are saved in {tmp_path}")
     assert "the same command resumes" in str(caught.value)
     assert not (tmp_path / "errors").exists()
-    assert not list((tmp_path / "claims").iterdir())
+    assert not (tmp_path / "claims").exists()
 
 
 @pytest.mark.usefixtures(isolated_fakes.__name__)

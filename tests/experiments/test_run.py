@@ -407,3 +407,33 @@ def test_compile_steps_weighs_a_cold_compile_against_more_than_the_run(monkeypat
     timing = ["wall_time_s", "steps_per_second"]
     curves = [pd.DataFrame(r.rows).drop(columns=timing) for r in (compiled, python)]
     pd.testing.assert_frame_equal(*curves)  # the same steps either way (NaN equal to NaN)
+
+
+def test_a_restored_agent_is_evaluated_as_saved_and_learns_on_only_when_asked(tmp_path):
+    from conjure.experiments.run import evaluate
+
+    def chain():
+        return ChainMDP(num_states=6, num_actions=2)
+
+    def learn(agent, **options):
+        return run(domain=chain(), agent=agent, budget_steps=300, seed=3, **options)
+
+    agent = QLearning(representation=Tabular(), step_size=0.5)
+    trained = learn(agent, num_policy_checks=1)
+    agent.save(tmp_path / "agent")
+    restored = QLearning.restore(tmp_path / "agent")
+    scores = evaluate(domain=chain(), agent=restored, seed=5, num_episodes=2)
+    assert scores == evaluate(domain=chain(), agent=agent, seed=5, num_episodes=2)
+    assert set(scores) < set(CURVE_COLUMNS)
+    # Learning on: the first check sees the saved policy (the same evaluation seed), and the
+    # restored agent learns on exactly as the original does.
+    more = learn(restored, num_policy_checks=1, continue_learning=True)
+    assert more.rows[0]["return"] == trained.rows[-1]["return"]
+    learn(agent, num_policy_checks=1, continue_learning=True)
+    np.testing.assert_array_equal(restored.weights_, agent.weights_)
+    # Without it the agent starts afresh, and says so.
+    fresh = learn(QLearning(representation=Tabular(), step_size=0.5), num_policy_checks=1)
+    with pytest.warns(UserWarning, match="continue_learning=True"):
+        again = learn(restored, num_policy_checks=1)
+    assert again.rows == [dict(row, **{c: again.rows[i][c] for c in TIMING_COLUMNS})
+                          for i, row in enumerate(fresh.rows)]  # fmt: skip

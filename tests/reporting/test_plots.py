@@ -195,3 +195,18 @@ def test_the_legend_names_the_band_and_stays_off_the_curves():
     renderer = figure.canvas.get_renderer()
     box, plot_area = legend.get_window_extent(renderer), axes.get_window_extent(renderer)
     assert box.x0 >= plot_area.x1  # right of the axes: no curve is hidden under it
+
+
+def test_panels_draw_each_method_on_its_own_axes_over_the_others_in_grey(tmp_path):
+    from conjure.reporting.plots import panel_figure
+
+    frame = pd.concat([results_frame(), results_frame().assign(label=lambda f: f.label + "2")])
+    figure = panel_figure(frame, "return", "chain")
+    shown = [axes for axes in figure.axes if axes.get_visible()]
+    assert [axes.get_title() for axes in shown] == ["a (n=3)", "b (n=3)", "a2 (n=3)", "b2 (n=3)"]
+    assert len(figure.axes) == 6  # a 2 x 3 grid, the last two hidden
+    first = shown[0].get_lines()
+    assert len(first) == 4 and [line.get_color() for line in first[:3]] == ["0.7"] * 3
+    np.testing.assert_allclose(first[-1].get_ydata(), [1.0, 51.0, 101.0])  # a's mean
+    path = plot_learning_curves(frame, tmp_path / "panels.png", panels=True)
+    assert path.read_bytes().startswith(b"\x89PNG")

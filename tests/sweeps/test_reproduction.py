@@ -189,3 +189,16 @@ def test_a_methods_settings_are_listed_in_numeric_order():
     )
     rows = [line.split(" | ")[0] for line in finals_markdown(finals).splitlines()[2:]]
     assert rows == ["| b x=2", "| b x=10", "| a x=1"]  # methods as they come, numbers by value
+
+
+def test_a_relative_difference_is_printed_only_against_a_baseline_away_from_zero():
+    from conjure.sweeps.reproduction import above
+
+    def finals(baseline):
+        rows = [("better", v) for v in (1.0, 1.1, 0.9)] + [("base", v) for v in baseline]
+        return pd.DataFrame(rows, columns=["label", "return"])
+
+    away, _ = above("better", "base")(finals([0.5, 0.6, 0.4]))
+    assert away.endswith("(+100.0%)")
+    near, holds = above("better", "base")(finals([0.04, -0.05, 0.02]))
+    assert "%" not in near and holds

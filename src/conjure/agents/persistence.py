@@ -26,6 +26,8 @@ Loading trusts nothing in the files:
   missing keys or arrays, a forged header) raises one `InvalidParameterError` naming the file,
   never a raw ``BadZipFile``, ``JSONDecodeError``, ``RecursionError`` or ``MemoryError``.
 
+Both files are written by `conjure.core.files.write_atomic`, as results are (same mode).
+
 Agents implement ``state_metadata()``, ``state_arrays()`` and ``load_state(saved)`` and
 delegate ``save`` and ``restore`` to `save_agent` and `restore_agent`.
 """
@@ -33,10 +35,9 @@ delegate ``save`` and ``restore`` to `save_agent` and `restore_agent`.
 from __future__ import annotations
 
 import importlib
+import io
 import json
 import math
-import os
-import tempfile
 import zipfile
 from collections.abc import Iterator, Mapping, Sequence
 from contextlib import contextmanager
@@ -47,6 +48,7 @@ from typing import Any, TypeVar
 import numpy as np
 
 from conjure.core.errors import IncompatibleComponentsError, InvalidParameterError
+from conjure.core.files import write_atomic
 from conjure.core.interfaces import Agent, DomainSpec
 from conjure.core.params import Configurable
 
@@ -304,12 +306,10 @@ def write(path: str | Path, metadata: dict[str, Any], arrays: dict[str, np.ndarr
     directory = Path(path)
     directory.mkdir(parents=True, exist_ok=True)
     document = {"format": FORMAT, "version": VERSION, **metadata}
-    _atomic_write(directory / METADATA_FILE, json.dumps(document, indent=2).encode())
-    with tempfile.NamedTemporaryFile(dir=directory, suffix=".npz", delete=False) as handle:
-        np.savez(handle, **arrays)
-        handle.flush()
-        os.fsync(handle.fileno())
-    os.replace(handle.name, directory / ARRAYS_FILE)
+    write_atomic(directory / METADATA_FILE, json.dumps(document, indent=2))
+    buffer = io.BytesIO()
+    np.savez(buffer, **arrays)
+    write_atomic(directory / ARRAYS_FILE, buffer.getvalue())
     return directory
 
 
@@ -489,11 +489,3 @@ def restore_agent(cls: type[AgentType], path: str | Path) -> AgentType:
         agent.representation_.load_state_arrays(saved.with_prefix("representation."))
         agent.load_state(saved)
     return agent
-
-
-def _atomic_write(path: Path, payload: bytes) -> None:
-    with tempfile.NamedTemporaryFile(dir=path.parent, delete=False) as handle:
-        handle.write(payload)
-        handle.flush()
-        os.fsync(handle.fileno())
-    os.replace(handle.name, path)

@@ -37,7 +37,12 @@ from typing import Any
 import click
 
 from conjure.core.errors import ConjureError, InvalidParameterError, RunsInterruptedError
-from conjure.experiments.options import max_memory_option, out_dir_option, overrides_option
+from conjure.experiments.options import (
+    max_memory_option,
+    max_workers_option,
+    out_dir_option,
+    overrides_option,
+)
 
 __all__ = ["LAZY_COMMANDS", "main"]
 
@@ -117,12 +122,19 @@ def main() -> None:
 
 @main.command("run")
 @click.argument("config", type=click.Path(dir_okay=False, path_type=Path))
-@click.option("--seeds", type=click.IntRange(min=1), default=None, help="Run seeds 0..N-1.")
+@click.option(
+    "--seeds",
+    type=click.IntRange(min=1),
+    default=None,
+    help="Run seeds 0..N-1 (default: the config's seeds).",
+)
 @out_dir_option("Experiment folder (default results/<config name>).")
-@overrides_option("Override a config value, e.g. agents.sarsa.params.step_size=0.05 (repeatable).")
-@click.option("--max-workers", type=click.IntRange(min=1), default=None, help="Worker processes.")
+@overrides_option(
+    "Override a config value, e.g. agents.sarsa.params.step_size=0.05 (repeatable; default: none)."
+)
+@max_workers_option
 @max_memory_option
-@click.option("--quiet", is_flag=True, help="No progress bar or summary table.")
+@click.option("--quiet", is_flag=True, help="No progress bar or summary table (default: shown).")
 def run_command(
     config: Path,
     seeds: int | None,
@@ -132,15 +144,19 @@ def run_command(
     max_memory: int | None,
     quiet: bool,
 ) -> None:
-    """Run the experiment CONFIG (a YAML file); finished runs in the folder are reused."""
+    """Run the experiment CONFIG (a YAML file); finished runs in the folder are reused.
+
+    CONFIG that names no file is looked up among the shipped examples (e.g. `pendulum`).
+    """
     from rich.console import Console
 
     from conjure.experiments.config import load_config
     from conjure.experiments.parallel import run_experiment
+    from conjure.experiments.shipped import find_config
     from conjure.reporting.plots import curve_file_name, plot_learning_curves
 
     overrides = (*overrides, *((f"seeds={seeds}",) if seeds is not None else ()))
-    experiment = load_config(config, overrides)
+    experiment = load_config(find_config(config), overrides)
     out_dir = out_dir or Path("results") / experiment.name
     console = Console()
     outcome = run_experiment(
@@ -165,7 +181,11 @@ def run_command(
 
 @main.command("list")
 @click.argument("layer", required=False)
-@click.option("--search", default=None, help="Only kinds or parameters containing this text.")
+@click.option(
+    "--search",
+    default=None,
+    help="Only kinds or parameters containing this text (default: all).",
+)
 def list_command(layer: str | None, search: str | None) -> None:
     """List the components: layers with their kinds, or one LAYER's (or --search's) parameters."""
     from rich.console import Console
@@ -260,8 +280,13 @@ def _components_table(rows: list[tuple[str, str, Any]]) -> Any:
     default=None,
     help="Curve column to plot (default: the metric the experiment's config chose).",
 )
-def plot_command(results_dir: Path, metric: str | None) -> None:
+@click.option(
+    "--panels",
+    is_flag=True,
+    help="One panel per method, for overlapping bands (default: off, one axes).",
+)
+def plot_command(results_dir: Path, metric: str | None, panels: bool) -> None:
     """Plot learning curves of the experiment in RESULTS_DIR (mean ± 95% CI over seeds)."""
     from conjure.reporting.plots import plot_results_dir
 
-    click.echo(f"Wrote {plot_results_dir(results_dir, metric=metric)}")
+    click.echo(f"Wrote {plot_results_dir(results_dir, metric=metric, panels=panels)}")

@@ -48,6 +48,12 @@ class RunsInterruptedError(ConjureError):
     exit_status = 130
 
 
+class RunsFailedError(ConjureError, RuntimeError):
+    """No run of an experiment finished: every one failed (exit status 1)."""
+
+    exit_status = 1
+
+
 class ResultsWriteError(ConjureError, OSError):
     """A result file could not be written (disk full, file-size limit); exit status 2."""
 

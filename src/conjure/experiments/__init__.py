@@ -1,6 +1,7 @@
 """Experiments layer: the run loop, runs, configs, the registry, results and parallel execution.
 
-``run(domain=..., agent=..., budget_steps=..., seed=...)`` learns and records a learning curve;
+``run(domain=..., agent=..., budget_steps=..., seed=...)`` learns and records a learning curve
+(``continue_learning=True`` learns on from a restored agent; ``evaluate`` only evaluates it);
 ``run_experiment(load_config("examples/pendulum.yaml"), "results/pendulum")`` compares several
 agents over seeds in parallel; ``conjure run CONFIG`` does the same from the shell. Sweeps
 (`conjure.sweeps`), reports and plots (`conjure.reporting`) and the command line
@@ -34,6 +35,7 @@ _EXPORTS = {
     "load_results": "results",
     "summarize": "results",
     "Result": "run",
+    "evaluate": "run",
     "run": "run",
     "run_config": "run",
 }

@@ -21,6 +21,8 @@ Notes
   where ``/proc`` gives no process start (not Linux) or the claim names none.
 - Choice: a claim that cannot be written (disk full) is removed, never left empty, and the
   `OSError` names the claim file.
+- Choice: a driver removes the claims folder on exit when it is empty (a finished folder
+  keeps no empty ``claims/``); a driver that then finds it gone creates it again.
 """
 
 from __future__ import annotations
@@ -33,6 +35,7 @@ import threading
 import time
 import uuid
 from collections import Counter
+from contextlib import suppress
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -93,6 +96,8 @@ class Claims:
         self._stop.set()
         for identifier in list(self._held):
             self.release(identifier)
+        with suppress(OSError):  # left in place while another driver holds claims in it
+            self.folder.rmdir()
 
     def take(self, identifier: str) -> bool:
         """Claim run ``identifier``; ``False`` if a live driver holds it."""
@@ -145,8 +150,13 @@ class Claims:
 
         A claim that cannot be written is removed and the `OSError` names ``path``.
         """
+        flags = os.O_CREAT | os.O_EXCL | os.O_WRONLY
         try:
-            handle = os.open(path, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o644)
+            try:
+                handle = os.open(path, flags, 0o644)
+            except FileNotFoundError:  # another driver removed the emptied folder on its exit
+                path.parent.mkdir(parents=True, exist_ok=True)
+                handle = os.open(path, flags, 0o644)
         except FileExistsError:
             return False
         except OSError as exc:

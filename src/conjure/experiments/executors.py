@@ -42,6 +42,9 @@ Notes
   per worker in flight, so that two drivers on one folder split the runs between them.
 - Choice: the local pool reports each death it retries through ``on_retry``; Dask and Ray
   retry inside their schedulers, unseen.
+- Choice: the local pool refuses to start from a script's top level outside
+  ``if __name__ == "__main__":`` (`conjure.experiments.main_guard`): each worker imports the
+  script first and would run it again.
 - Choice: ``max_workers=1`` on the local executor runs every task in the calling process,
   with no pool (simplest to debug); there a task that kills its process kills the driver.
   With ``max_memory`` (or ``in_process=False``) it uses one worker process instead: the limit
@@ -78,6 +81,7 @@ from typing import Any, ClassVar
 
 from conjure.core.errors import InvalidParameterError, raise_if_interrupted
 from conjure.core.params import did_you_mean
+from conjure.experiments.main_guard import check_main_guarded
 from conjure.experiments.memory import (
     check_memory_limit,
     format_memory_size,
@@ -352,6 +356,7 @@ class _ProcessPool:
     """
 
     def __init__(self, num_workers: int, *, max_memory: int | None):
+        check_main_guarded()  # a worker imports __main__: an unguarded script would rerun
         methods = multiprocessing.get_all_start_methods()
         method = "forkserver" if "forkserver" in methods else "spawn"
         self._context = multiprocessing.get_context(method)

@@ -18,7 +18,7 @@ import click
 from conjure.core.errors import InvalidParameterError
 from conjure.experiments.memory import parse_memory_limit
 
-__all__ = ["max_memory_option", "out_dir_option", "overrides_option"]
+__all__ = ["max_memory_option", "max_workers_option", "out_dir_option", "overrides_option"]
 
 
 def out_dir_option(help_text: str) -> Callable[[Any], Any]:
@@ -70,4 +70,14 @@ max_memory_option = click.option(
     callback=_parse_memory,
     help="Each run's memory limit, e.g. 4GiB (default: the config's max_memory, else none). "
     "A run over it fails alone.",
+)
+
+
+#: The ``--max-workers N`` option of ``conjure run``, ``sweep``, ``tune`` and ``reproduce``.
+max_workers_option = click.option(
+    "--max-workers",
+    type=click.IntRange(min=1),
+    default=None,
+    help="Worker processes (default: the config's max_workers, else the CPU count); 1 runs "
+    "in this process.",
 )

@@ -51,7 +51,7 @@ from rich.progress import (
 )
 from rich.table import Table
 
-from conjure.core.errors import RunsInterruptedError, write_failure
+from conjure.core.errors import RunsFailedError, RunsInterruptedError, write_failure
 from conjure.experiments.claims import Claims, Owner
 from conjure.experiments.config import ExperimentConfig, dump_yaml, parse_config, resolve_run
 from conjure.experiments.executors import NOT_CLAIMED, Executor, LocalExecutor, TaskFailure
@@ -59,9 +59,9 @@ from conjure.experiments.loop import COMPILE_WORTH_STEPS
 from conjure.experiments.numbers import format_interval, format_value, readable_setting
 from conjure.experiments.preflight import check_runs
 from conjure.experiments.results import (
+    ERRORS_DIR,
     RESOLVED_FILE,
     RUNS_DIR,
-    error_path,
     is_run_done,
     load_results,
     make_out_dir,
@@ -421,7 +421,11 @@ class _Batch:
             return
         self.counts["failed"] += 1
         self.report.errors[identifier] = message
-        bar.console.print(f"[red]run {_describe(spec)} failed:[/red] {message}")
+        bar.console.print(
+            f"[red]run {escape(_describe(spec))} failed:[/red] {escape(_first_line(message))}",
+            no_wrap=True,
+            overflow="ellipsis",
+        )
 
     def _count_other(self, bar: Progress, task: Any) -> None:
         """A run another driver finished: reused, not run here."""
@@ -626,6 +630,8 @@ def run_experiment(
     Returns
     -------
     ExperimentResult
+        Some runs may have failed (``errors``); when none finished, `RunsFailedError` is
+        raised instead, naming the first failure.
     """
     experiment = parse_config(config)
     out_dir = make_out_dir(out_dir)
@@ -644,7 +650,7 @@ def run_experiment(
         max_memory=max_memory or experiment.max_memory,
         run_fn=run_fn,
     ) as engine:
-        return run_batch(
+        outcome = run_batch(
             runs,
             out_dir,
             executor=engine,
@@ -654,6 +660,13 @@ def run_experiment(
             console=console,
             description=experiment.name,
         )
+    if outcome.results.empty:
+        first = next(iter(outcome.errors.values()), "no run was recorded")
+        raise RunsFailedError(
+            f"No run of {experiment.name} finished: {len(outcome.errors)} of {len(runs)} failed "
+            f"(first: {first}); the tracebacks are in {out_dir / 'errors'}."
+        )
+    return outcome
 
 
 def _path_lines(results: pd.DataFrame) -> list[str]:
@@ -712,8 +725,31 @@ def print_summary(
         console.print(line)
     if outcome.num_skipped:
         console.print(f"{outcome.num_skipped} finished run(s) were reused (not rerun).")
+    _print_failures(outcome, console)
+
+
+def _first_line(message: str) -> str:
+    """A failure message's first line (the traceback stays in the run's error file)."""
+    return next(iter(message.strip().splitlines()), "")
+
+
+def _print_failures(outcome: ExperimentResult, console: Console) -> None:
+    """One line per method and setting with failed runs: how many, and the first message."""
+    if not outcome.errors:
+        return
+    specs = {run_id(spec): spec for spec in outcome.runs}
+    groups: dict[str, list[str]] = {}
     for identifier, message in outcome.errors.items():
+        spec = specs.get(identifier)
+        where = _describe(spec).rpartition("/seed_")[0] if spec else f"run {identifier}"
+        groups.setdefault(where, []).append(message)
+    console.print(
+        f"[red]{len(outcome.errors)} run(s) failed[/red]; their tracebacks are in "
+        f"{escape(str(outcome.out_dir / ERRORS_DIR))}/<run id>.txt:"
+    )
+    for where, messages in groups.items():
         console.print(
-            f"[red]failed:[/red] run {identifier}: {message} "
-            f"(see {error_path(outcome.out_dir, identifier)})"
+            f"  {escape(where)}: {len(messages)} failed: {escape(_first_line(messages[0]))}",
+            no_wrap=True,
+            overflow="ellipsis",
         )

@@ -13,8 +13,9 @@ Layout of a results folder (an experiment or a sweep)::
 A run's id is `run_id` (the `config_hash` of its resolved config), so a run is finished if and
 only if ``runs/<run_id>.json`` exists and is intact: resume needs no other bookkeeping, a
 changed config gets a new id, and no run can be stored twice. Every file is written atomically
-(temporary file, fsync, ``os.replace``, fsync of the folder), so killing the process at any
-moment loses no finished run and never leaves a half-written file under its real name.
+(`conjure.core.files.write_atomic`: temporary file, fsync, ``os.replace``, fsync of the
+folder), so killing the process at any moment loses no finished run and never leaves a
+half-written file under its real name.
 
 Each run file carries ``checksum``, the SHA-256 of its other fields (`run_checksum`). A run
 file whose checksum does not match (edited by hand, damaged on disk, or written before run
@@ -27,7 +28,6 @@ from __future__ import annotations
 import hashlib
 import json
 import math
-import os
 import socket
 import time
 import uuid
@@ -40,6 +40,8 @@ import pandas as pd
 from scipy import stats
 
 from conjure.core.errors import InvalidParameterError
+from conjure.core.files import TEMP_MARK as _TEMP_MARK
+from conjure.core.files import write_atomic
 from conjure.experiments.claims import process_exists
 from conjure.experiments.config import config_hash, dump_yaml, load_yaml
 from conjure.experiments.metric_ranges import DOMAIN_BOUND_COLUMNS, clip_interval, metric_range
@@ -94,7 +96,6 @@ SUMMARY_FILE = "summary.csv"
 SELECTED_DIR = "selected"
 #: The run-config keys that identify a method's setting, in grouping order (when present).
 GROUP_COLUMNS = ("domain_label", "label", "setting")
-_TEMP_MARK = ".tmp-"
 _FOREIGN_TEMP_SECONDS = 3600.0
 
 
@@ -133,46 +134,6 @@ def make_out_dir(out_dir: str | Path) -> Path:
             f"Cannot write results to {str(out_dir)!r}: {reason}."
         ) from None
     return out_dir
-
-
-def write_atomic(path: str | Path, data: str | bytes) -> Path:
-    """Write ``data`` to ``path`` via a fsynced temporary file and ``os.replace``.
-
-    The temporary name is unique per host, process and call, so concurrent writers (several
-    drivers, or nodes sharing a file system) never collide; the last complete write wins. An
-    `OSError` of the write (disk full, file-size limit) names ``path``, not the temporary.
-    """
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    unique = f"{socket.gethostname()}-{os.getpid()}-{uuid.uuid4().hex[:8]}"
-    temp = path.with_name(f".{path.name}{_TEMP_MARK}{unique}")
-    payload = data.encode() if isinstance(data, str) else data
-    try:
-        with open(temp, "wb") as handle:
-            handle.write(payload)
-            handle.flush()
-            os.fsync(handle.fileno())
-        os.replace(temp, path)
-    except OSError as exc:
-        exc.filename = str(path)
-        raise
-    finally:
-        temp.unlink(missing_ok=True)
-    _fsync_dir(path.parent)
-    return path
-
-
-def _fsync_dir(directory: Path) -> None:
-    try:
-        fd = os.open(directory, os.O_RDONLY)
-    except OSError:  # e.g. platforms without directory handles
-        return
-    try:
-        os.fsync(fd)
-    except OSError:
-        pass
-    finally:
-        os.close(fd)
 
 
 def remove_stale_temporaries(out_dir: str | Path) -> int:

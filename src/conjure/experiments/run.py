@@ -37,6 +37,7 @@ import os
 import socket
 import time
 import traceback
+import warnings
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
@@ -44,9 +45,14 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from conjure.core.errors import DivergenceError, InvalidParameterError, raise_if_interrupted
-from conjure.core.interfaces import Agent, Domain
+from conjure.core.interfaces import Agent, Domain, check_is_set_up
 from conjure.core.seeding import seed_to_int, split_seed
-from conjure.experiments.limits import MAX_COMPILE_STEPS, check_count, check_run_counts
+from conjure.experiments.limits import (
+    MAX_COMPILE_STEPS,
+    MAX_EVAL_EPISODES,
+    check_count,
+    check_run_counts,
+)
 from conjure.experiments.loop import CURVE_COLUMNS, greedy_episodes, learning_stepper
 from conjure.experiments.memory import explain_memory_error
 from conjure.experiments.metric_ranges import domain_bounds
@@ -61,6 +67,7 @@ __all__ = [
     "TIMING_COLUMNS",
     "Result",
     "checked_value_bounds",
+    "evaluate",
     "run",
     "run_config",
     "run_resolved",
@@ -199,6 +206,20 @@ def _evaluate(
     }
 
 
+def evaluate(*, domain: Domain, agent: Agent, seed: int, num_episodes: int = 1) -> dict[str, float]:
+    """Evaluate a set-up agent's greedy policy as a policy check does, without learning.
+
+    For a restored agent (``SARSA.restore(path)``) or one a `run` trained: ``agent`` is used as
+    it is (never set up again, its weights untouched); ``domain`` is reset with ``seed`` before
+    each of ``num_episodes`` greedy episodes. Returns the policy-check columns of
+    `CURVE_COLUMNS`: ``return``, ``discounted_return``, ``episode_length``, ``failure_rate``,
+    ``optimality`` and ``value_ratio``.
+    """
+    check_is_set_up(agent, "evaluate")
+    num_episodes = check_count("evaluate.num_episodes", num_episodes, 1, MAX_EVAL_EPISODES)
+    return _evaluate(domain, agent, num_episodes, seed, checked_value_bounds(domain))
+
+
 def run(
     *,
     domain: Domain,
@@ -209,6 +230,7 @@ def run(
     eval_episodes: int = 1,
     config: dict[str, Any] | None = None,
     compile_steps: int | None = None,
+    continue_learning: bool = False,
 ) -> Result:
     """Set up ``agent``, learn on ``domain`` for ``budget_steps`` steps and record a curve.
 
@@ -234,6 +256,11 @@ def run(
         (`conjure.experiments.loop.learning_stepper`); None: ``budget_steps``. A sweep's
         warm-up run passes the whole sweep's steps, so that it compiles for all its runs; an int
         in [1, 2^62].
+    continue_learning : bool, default False
+        Learn on from the agent's current state (a restored or already trained agent: its
+        weights, features and random stream) instead of setting it up afresh; the seed then
+        drives the domains only, and the curve's steps count from 0. With False, an agent
+        that is already set up is set up again, discarding what it learned, with a warning.
 
     Returns
     -------
@@ -251,7 +278,18 @@ def run(
         compile_steps = check_count("run.compile_steps", compile_steps, 1, MAX_COMPILE_STEPS)
     bounds = checked_value_bounds(domain)
     seeds = split_seed(seed, SEED_STREAMS)
-    agent.setup(domain.domain_spec, seeds["agent"])
+    if continue_learning:
+        check_is_set_up(agent, "run(continue_learning=True)")
+    else:
+        if getattr(agent, "is_set_up_", False):
+            warnings.warn(
+                f"run() sets {type(agent).__name__} up afresh, discarding its learned state; "
+                "pass continue_learning=True to learn on from it, or call evaluate() to "
+                "evaluate it as it is.",
+                UserWarning,
+                stacklevel=2,
+            )
+        agent.setup(domain.domain_spec, seeds["agent"])
     eval_domain = domain.clone()
     eval_seed = seed_to_int(seeds["evaluation"])
     loop = learning_stepper(

@@ -482,10 +482,20 @@ def _moves_table(domain: Domain, solution: Solution, seed: int) -> Table:
     "--render",
     type=click.Path(dir_okay=False, path_type=Path),
     default=None,
-    help="Draw a GridWorld's value function and policy to this PNG.",
+    help="Draw a GridWorld's value function and policy to this PNG (default: none).",
 )
-@click.option("--episodes", type=click.IntRange(min=1), default=None, help="Evaluation episodes.")
-@click.option("--seed", type=click.IntRange(min=0), default=None, help="Evaluation seed.")
+@click.option(
+    "--episodes",
+    type=click.IntRange(min=1),
+    default=None,
+    help="Evaluation episodes (default: the config's episodes, else 10).",
+)
+@click.option(
+    "--seed",
+    type=click.IntRange(min=0),
+    default=None,
+    help="Evaluation seed (default: the config's seed, else 0).",
+)
 def solve_command(
     config: Path, render: Path | None, episodes: int | None, seed: int | None
 ) -> None:

@@ -61,6 +61,7 @@ __all__ = [
     "curve_file_name",
     "learning_curve_figure",
     "method_labels",
+    "panel_figure",
     "plot_learning_curves",
     "plot_results_dir",
 ]
@@ -160,7 +161,11 @@ def _short_setting(setting: str) -> str:
 
 
 def plot_learning_curves(
-    results_frame: pd.DataFrame, path: str | Path, metric: str = "return", title: str = ""
+    results_frame: pd.DataFrame,
+    path: str | Path,
+    metric: str = "return",
+    title: str = "",
+    panels: bool = False,
 ) -> Path:
     """Plot ``metric`` against learning steps: mean over seeds and its 95% band, per label.
 
@@ -176,13 +181,17 @@ def plot_learning_curves(
         Any numeric curve column.
     title : str, default ""
         What the curves are of (a config's name); the plot is titled ``"<title>: <metric>"``.
+    panels : bool, default False
+        One panel per method, its band over the other methods' means in grey, for when the
+        bands overlap (`panel_figure`); False draws every method on one axes.
 
     Returns
     -------
     Path
         ``path``.
     """
-    figure = learning_curve_figure(results_frame, metric, title)
+    draw = panel_figure if panels else learning_curve_figure
+    figure = draw(results_frame, metric, title)
     image = io.BytesIO()
     figure.savefig(image, format="png", bbox_inches="tight")
     return write_atomic(path, image.getvalue())
@@ -241,6 +250,43 @@ def learning_curve_figure(results_frame: pd.DataFrame, metric: str, title: str =
     return figure
 
 
+def panel_figure(results_frame: pd.DataFrame, metric: str, title: str = "") -> Figure:
+    """One panel per method, up to 3 a row on shared axes, for overlapping bands.
+
+    Each panel draws its method's mean and 95% band in colour over the other methods' means
+    in grey; same checks and arguments as `learning_curve_figure`.
+    """
+    _check_plottable(results_frame, metric)
+    seeds = results_frame.groupby("label", sort=False)["seed"].nunique()
+    bands = curve_bands(results_frame, metric)
+    by_label = dict(tuple(bands.groupby("label", sort=False)))
+    columns = min(3, len(by_label))
+    rows = math.ceil(len(by_label) / columns)
+    figure = Figure(figsize=(4.0 * columns, 3.0 * rows + 0.8), dpi=120, layout="constrained")
+    FigureCanvasAgg(figure)
+    grid = figure.subplots(rows, columns, sharex=True, sharey=True, squeeze=False)
+    for index, (label, band) in enumerate(by_label.items()):
+        axes = grid.flat[index]
+        for other, theirs in by_label.items():
+            if other != label:
+                axes.plot(theirs["learning_steps"], theirs["mean"], color="0.7", linewidth=0.8)
+        steps, color = band["learning_steps"], f"C{index % 10}"
+        axes.plot(steps, band["mean"], color=color, marker=MARKERS[index % len(MARKERS)])
+        axes.fill_between(steps, band["low"], band["high"], color=color, alpha=0.25, linewidth=0)
+        axes.set_title(f"{label} (n={seeds[label]})", fontsize="medium")
+        axes.xaxis.set_major_formatter(StrMethodFormatter("{x:,.0f}"))
+        axes.grid(alpha=0.3)
+    for axes in grid.flat[len(by_label) :]:
+        axes.set_visible(False)
+    figure.suptitle(f"{title}: {metric}" if title else metric)
+    figure.supxlabel("Learning steps")
+    figure.supylabel(METRIC_LABELS.get(metric, metric))
+    band_text = _band_text(metric_range(results_frame, metric), seeds).replace("\n", " ")
+    figure.text(0.5, -0.01, f"{band_text}; grey: the other methods' means", ha="center",
+                va="top", fontsize="small")  # fmt: skip
+    return figure
+
+
 def _band_text(bounds: tuple[float, float], seeds: pd.Series) -> str:
     """The legend entry of the shaded band: what it is, over how many seeds, where it is cut."""
     over = f"{seeds.iloc[0]} seeds" if seeds.nunique() == 1 else "n seeds"
@@ -286,12 +332,14 @@ def _lay_out(figure: Figure, axes: Axes, legend: Legend) -> None:
     legend.set_bbox_to_anchor((1.0 + margin["gap"] / width, 1.0), transform=axes.transAxes)
 
 
-def plot_results_dir(results_dir: str | Path, metric: str | None = None) -> Path:
+def plot_results_dir(
+    results_dir: str | Path, metric: str | None = None, panels: bool = False
+) -> Path:
     """Plot ``results_dir/results.parquet`` to ``learning_curve_<metric>.png`` there.
 
     One line per method (``label [setting]``, `method_labels`); ``metric`` defaults to the
     one the experiment's config chose (``config.resolved.yaml``), else ``return``. The plot is
-    titled by the config's name.
+    titled by the config's name; ``panels`` as `plot_learning_curves`.
     """
     results_dir = Path(results_dir)
     table = results_dir / RESULTS_FILE
@@ -303,4 +351,6 @@ def plot_results_dir(results_dir: str | Path, metric: str | None = None) -> Path
     frame = pd.read_parquet(table)
     path = results_dir / curve_file_name(metric)
     frame = frame.assign(label=method_labels(frame))
-    return plot_learning_curves(frame, path, metric=metric, title=results_name(results_dir))
+    return plot_learning_curves(
+        frame, path, metric=metric, title=results_name(results_dir), panels=panels
+    )

@@ -273,6 +273,21 @@ def welch(a: np.ndarray, b: np.ndarray) -> tuple[float, float]:
     return difference, float(stats.t.ppf(0.975, dof) * np.sqrt(va + vb))
 
 
+def _away_from_zero(values: np.ndarray) -> bool:
+    """Whether the 95% t interval of ``values``' mean excludes 0 (so a ratio to it is read).
+
+    Choice: a relative difference is printed only against such a baseline; against one whose
+    interval holds 0 (a return near zero) a percentage would be noise ("+2542.5%").
+
+    Examples
+    --------
+    >>> _away_from_zero(np.array([0.21, 0.25, 0.19])), _away_from_zero(np.array([-0.1, 0.2, 0.0]))
+    (True, False)
+    """
+    mean, half = t_confidence(values)
+    return bool(abs(mean) > (0.0 if math.isnan(half) else half))
+
+
 def above(
     better: str, worse: str, metric: str = "return", *, by: float = 0.0, significant: bool = True
 ) -> Measure:
@@ -286,7 +301,7 @@ def above(
         a, b = values(finals, better, metric), values(finals, worse, metric)
         difference, half = welch(a, b)
         base = abs(b.mean())
-        relative = f" ({difference / base:+.1%})" if base > 0 else ""
+        relative = f" ({difference / base:+.1%})" if _away_from_zero(b) else ""
         text = f"{better} − {worse}: {format_interval(difference, half)}{relative}"
         if significant:
             return text, bool(difference - half > by * base)

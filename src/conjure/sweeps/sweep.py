@@ -76,7 +76,12 @@ from conjure.experiments.config import (
 )
 from conjure.experiments.limits import check_checks_within_budget, parse_seeds
 from conjure.experiments.numbers import format_value
-from conjure.experiments.options import max_memory_option, out_dir_option, overrides_option
+from conjure.experiments.options import (
+    max_memory_option,
+    max_workers_option,
+    out_dir_option,
+    overrides_option,
+)
 from conjure.experiments.parallel import (
     ExperimentResult,
     open_executor,
@@ -473,12 +478,13 @@ def apply_sweep_overrides(data: Mapping[str, Any], overrides: Sequence[str]) -> 
 @click.option(
     "--address", default=None, help="A Dask scheduler or Ray cluster address (default: local)."
 )
-@click.option("--max-workers", type=click.IntRange(min=1), default=None, help="Worker processes.")
+@max_workers_option
 @max_memory_option
 @overrides_option(
-    "Override a config value, e.g. seeds=3 or agents.sarsa.params.step_size=0.05 (repeatable)."
+    "Override a config value, e.g. seeds=3 or agents.sarsa.params.step_size=0.05 (repeatable; "
+    "default: none)."
 )
-@click.option("--quiet", is_flag=True, help="No progress bar or summary table.")
+@click.option("--quiet", is_flag=True, help="No progress bar or summary table (default: shown).")
 def sweep_command(
     config: Path,
     out_dir: Path | None,
@@ -493,8 +499,9 @@ def sweep_command(
     from rich.console import Console
 
     from conjure.experiments.executors import make_executor
+    from conjure.experiments.shipped import find_config
 
-    sweep = load_sweep(config, overrides)
+    sweep = load_sweep(find_config(config), overrides)
     out_dir = out_dir or Path("results") / sweep.name
     console = Console()
     engine = make_executor(

@@ -53,7 +53,7 @@ from conjure.core.params import did_you_mean
 from conjure.experiments.config import dump_yaml, load_yaml, read_config_text
 from conjure.experiments.executors import Executor, LocalExecutor
 from conjure.experiments.numbers import format_number, format_value
-from conjure.experiments.options import max_memory_option, out_dir_option
+from conjure.experiments.options import max_memory_option, max_workers_option, out_dir_option
 from conjure.experiments.parallel import execute_runs, prepare_executor
 from conjure.experiments.results import load_results, make_out_dir, write_atomic
 from conjure.experiments.run import RunFunction, run_resolved
@@ -364,7 +364,12 @@ def _isnan(value: Any) -> bool:
 @click.command("tune")
 @click.argument("config", type=click.Path(dir_okay=False, path_type=Path))
 @out_dir_option("Folder of optuna.db and the runs (default results/<name>-tune); reruns continue.")
-@click.option("--trials", type=click.IntRange(min=1), default=None, help="Trials per method.")
+@click.option(
+    "--trials",
+    type=click.IntRange(min=1),
+    default=None,
+    help="Trials per method (default: the config's search.num_trials).",
+)
 @click.option(
     "--executor",
     type=click.Choice(["local", "dask", "ray"]),
@@ -372,10 +377,14 @@ def _isnan(value: Any) -> bool:
     show_default=True,
     help="Where each trial's seeds run.",
 )
-@click.option("--address", default=None, help="A Dask scheduler or Ray cluster address.")
-@click.option("--max-workers", type=click.IntRange(min=1), default=None, help="Worker processes.")
+@click.option(
+    "--address",
+    default=None,
+    help="A Dask scheduler or Ray cluster address (default: local).",
+)
+@max_workers_option
 @max_memory_option
-@click.option("--quiet", is_flag=True, help="No per-trial lines.")
+@click.option("--quiet", is_flag=True, help="No per-trial lines (default: shown).")
 def tune_command(
     config: Path,
     out_dir: Path | None,
