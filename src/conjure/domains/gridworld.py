@@ -204,10 +204,8 @@ class GridWorld(NoisyDomain):
       (tests/domains/test_gridworld.py): the aggressive policy never enters the pit and is
       worth 0.783 (optimum 0.786), the conservative one 0.329; at η̂ = 0.272 the analyser
       (𝓜 = 5, ε = 0.2, rollouts following the conservative π^p) lets the seven steps from
-      (2, 16) to the right goal all pass with probability 0.05. Measured (3·10⁴ steps, 20
-      fresh seeds, docs/safe-exploration.md): AM-iCCA ends at −1.43 ± 1.38, stuck at the
-      filter (below its conservative planner), AM-iCCA with the extension
-      (``trusted_knownness``) at 0.730 ± 0.022, SARSA at 0.725 ± 0.032.
+      (2, 16) to the right goal all pass with probability 0.05. Results of AM-iCCA, with and
+      without Section 5.5.3's extension, on it: docs/reproduction/fig_5_14.md.
     - Caveat: with this noise model value iteration reproduces the thesis's ratio of planner to
       optimal value for GridWorld-1 (about 3), but not its success rates (29% → 80%); the
       thesis's exact noise model is unknown.

@@ -73,12 +73,8 @@ class AdaptiveCooperativeLearner(CooperativeLearner):
     - Choice: the risk analyser is told of every change of T̂ (`RiskAnalyzer.update`, with
       whether π^p changed too), not only of a new π^p; the Monte-Carlo analyser reads η̂ at
       each rollout and re-tabulates π^p only when it changed.
-    - Section 5.5.3's extension (``trusted_knownness``, `CooperativeLearner`). On GridWorld-3
-      (`GridWorld.gridworld_3`, 3·10⁴ steps, 20 fresh seeds) AM-iCCA ends at −1.43 ± 1.38,
-      stuck at the filter; with 0.1 (chosen by AUC on search seeds among 0.1, 0.3, 0.5, 1)
-      at 0.730 ± 0.022, with 0.5 at 0.686 ± 0.053, with 1 at −0.23 ± 0.28 (not yet past the
-      filter). The price is SARSA's pit entries while learning: 12.6 per run with 0.1, 4.1
-      with 1, 0.1 without. The 30-seed rerun is in docs/reproduction.md (GridWorld-3).
+    - Section 5.5.3's extension (``trusted_knownness``, `CooperativeLearner`) on GridWorld-3
+      (`GridWorld.gridworld_3`): its results are in docs/reproduction/fig_5_14.md.
 
     Complexity
     ----------
