@@ -254,7 +254,7 @@ def fig_4_11():
     write("fig_4_11", header, config)
 
 
-# investigations of the results that did not reproduce (docs/reproduction.md, "Why ...")
+# investigations of the results that did not reproduce (docs/reproduction/fig_4_5.md, "Why ...")
 INVESTIGATION_SEEDS = list(range(300, 320))
 XI = "params.discovery_threshold"
 # the Rescue Mission's initial features without the time step t (dimension 12): one tile
@@ -395,7 +395,7 @@ SELECTIONS = Path(__file__).resolve().parent / "chapter5"
 GRID_3 = {"map_name": "gridworld3", "step_reward": -0.01, "noise": 0.55, "noise_cells": "windy"}
 # Section 5.5.3's threshold: from this knownness on the learner's action skips the safety check
 # (multiples of 1/K; 0.1 = as soon as the learner is consulted). TRUSTED: the one selected by
-# AUC on seeds 0-4 (alpha_0 in {0.1, 1}, N_0 in {100, 1000}; docs/safe-exploration.md).
+# AUC on seeds 0-4 (alpha_0 in {0.1, 1}, N_0 in {100, 1000}; docs/tutorials/chapter-5.md).
 TRUSTED_KNOWNNESS = [0.1, 0.3, 0.5, 1.0]
 TRUSTED = 0.1
 
