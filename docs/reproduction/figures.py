@@ -173,25 +173,20 @@ def rendered(text: str) -> str:
             (f"claims:{name}", claims_block),
         ):
             start, end = f"<!-- {marker} -->", f"<!-- /{marker} -->"
-            if start not in text:
-                continue
-            head, rest = text.split(start, 1)
-            _, tail = rest.split(end, 1)
-            text = f"{head}{start}\n{make(name)}\n{end}{tail}"
+            if start in text:
+                text = replaced(text, start, end, f"{make(name)}\n")
     return text
 
 
 def figure_order(page: Path) -> tuple[int, ...]:
-    """Where a page sorts: by the thesis's figure number (Section 6.2.6 as 6-2), index first."""
-    if page.stem == "index":
-        return ()
+    """Where a page sorts: by the thesis's figure number (Section 6.2.6 as 6-2)."""
     numbers = re.findall(r"\d+", page.stem) or ["6", "2"]
     return tuple(int(number) for number in numbers)
 
 
-def pages(new: dict[Path, str]) -> list[Path]:
-    """The figure pages (with the ones ``render`` would create), in the thesis's order."""
-    found = {*HERE.glob("*.md"), *new} - {INDEX}
+def pages(texts: dict[Path, str]) -> list[Path]:
+    """The figure pages (those on disk and ``texts``'s), in the thesis's order."""
+    found = {*HERE.glob("*.md"), *texts} - {INDEX}
     return sorted(found, key=figure_order)
 
 
