@@ -48,6 +48,12 @@ COMMANDS: tuple[tuple[str, str, tuple[str, ...]], ...] = (
         ("benchmarks/ifdd_speed.py", "--paths-only", "--steps", "20000", "--repeats", "3"),
     ),
     (
+        "Safe exploration on GridWorld-2",
+        "SARSA alone against CSARSA and AM-iCCA with Algorithm 25's Monte-Carlo risk analyser, "
+        "its rollouts compiled or in Python.",
+        ("benchmarks/safety_speed.py", "--steps", "20000", "--repeats", "3"),
+    ),
+    (
         "The UAV mission",
         "`UAVMission.step`, `simulate`, the compiled mission step and the exact solution of "
         "UAV 7-2 by backward induction.",
