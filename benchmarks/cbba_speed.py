@@ -1,4 +1,4 @@
-"""CBBA planner speed on UAV 7-2 and 10-2 (issue 10): µs per uncached plan and per cached lookup.
+"""CBBA planner speed on UAV 7-2 and 10-2: µs per uncached plan and per cached lookup.
 
 Run: ``python benchmarks/cbba_speed.py [--episodes 200] [--repeats 5]``.
 

@@ -1,9 +1,8 @@
 """Learning steps per second: the compiled path vs the Python path vs a hand-written numba loop.
 
-Usage: ``python benchmarks/compiled_loop.py [--steps N] [--repeats R] [--no-compile-times]
-[--limit-loop PATH]``
+Usage: ``python benchmarks/compiled_loop.py [--steps N] [--repeats R] [--no-compile-times]``
 
-Workload (issue 11): SARSA + tile coding (8 tilings of 10x10) with ε-greedy (ε = 0.1) and a
+Workload: SARSA + tile coding (8 tilings of 10x10) with ε-greedy (ε = 0.1) and a
 constant step size on the inverted pendulum, measured three ways side by side, interleaved
 repeat by repeat with the RBF workload below (the machine is shared; the median of
 ``repeats`` is reported):
@@ -15,10 +14,11 @@ repeat by repeat with the RBF workload below (the machine is shared; the median 
   preallocated buffers and no library code: the limit the compiled path is compared against.
   It is given the compiled path's seeds and the same number of steps, and the run ends by
   saying whether the two left θ bit for bit equal (``tests/test_benchmarks.py`` checks it).
-- ``limit_loop.py`` (with ``--limit-loop PATH``): an outside reference, one plain numba
-  function ``loop(n, rng)`` doing comparable arithmetic (issue 22's yardstick), loaded from
-  PATH and timed in this process, interleaved with the others. Its step size decays and its
-  force noise differs, so it is a cost reference only (no θ comparison).
+- ``decaying α``: `decaying_reference_loop` below, a second hand-written numba function for
+  the same workload with the thesis's decaying step size (Section 4.1.4, α₀ = 1, N₀ = 100,
+  over the 8 active features) drawn from one generator: the practical limit of a learner with
+  that schedule, timed interleaved with the others. It draws differently from the compiled
+  path, so it is a cost reference only (no θ comparison).
 
 Second workload: SARSA + Gaussian RBF (3x3 centers plus a bias, real-valued φ) with the same
 policy and step size on the pendulum, ``python`` and ``compiled`` paths side by side (the
@@ -32,7 +32,6 @@ process).
 from __future__ import annotations
 
 import argparse
-import importlib.util
 import math
 import os
 import statistics
@@ -97,6 +96,22 @@ def _acceleration(theta: float, rate: float, force: float) -> float:
         - alpha * cos_theta * force
     )
     return numerator / (4.0 * 0.5 / 3.0 - alpha * 2.0 * 0.5 * cos_theta**2)
+
+
+@njit(cache=True, inline="always")
+def _rk4(theta: float, rate: float, force: float) -> tuple[float, float]:
+    # One 0.1 s RK4 step of (θ, θ̇); θ̇ clipped to [-2, 2] after it.
+    dt = 0.1
+    k1t, k1r = rate, _acceleration(theta, rate, force)
+    k2t = rate + 0.5 * dt * k1r
+    k2r = _acceleration(theta + 0.5 * dt * k1t, k2t, force)
+    k3t = rate + 0.5 * dt * k2r
+    k3r = _acceleration(theta + 0.5 * dt * k2t, k3t, force)
+    k4t = rate + dt * k3r
+    k4r = _acceleration(theta + dt * k3t, k4t, force)
+    theta += dt / 6.0 * (k1t + 2.0 * k2t + 2.0 * k3t + k4t)
+    rate = min(max(rate + dt / 6.0 * (k1r + 2.0 * k2r + 2.0 * k3r + k4r), -2.0), 2.0)
+    return theta, rate
 
 
 @njit(cache=True, inline="always")
@@ -173,16 +188,7 @@ def reference_loop(
             action = _choose(weights, active, q, agent_rng.random())
         force = 50.0 * (action - 1)
         force += FORCE_NOISE * (2.0 * domain_rng.random() - 1.0)
-        dt = 0.1
-        k1t, k1r = rate, _acceleration(theta, rate, force)
-        k2t = rate + 0.5 * dt * k1r
-        k2r = _acceleration(theta + 0.5 * dt * k1t, k2t, force)
-        k3t = rate + 0.5 * dt * k2r
-        k3r = _acceleration(theta + 0.5 * dt * k2t, k3t, force)
-        k4t = rate + dt * k3r
-        k4r = _acceleration(theta + dt * k3t, k4t, force)
-        theta += dt / 6.0 * (k1t + 2.0 * k2t + 2.0 * k3t + k4t)
-        rate = min(max(rate + dt / 6.0 * (k1r + 2.0 * k2r + 2.0 * k3r + k4r), -2.0), 2.0)
+        theta, rate = _rk4(theta, rate, force)
         length += 1
         terminated = not (-HALF_PI < theta < HALF_PI)
         next_action = 0
@@ -253,26 +259,66 @@ def hand_written(seed: int = 0, cap: int = CAP) -> tuple[Callable[[int], int], n
     return advance, weights
 
 
-def limit_loop(path: str) -> Callable[[int], float]:
-    """``loop(n, rng)`` of the file at ``path``, as an advance taking a step count."""
-    spec = importlib.util.spec_from_file_location("limit_loop", path)
-    if spec is None or spec.loader is None:
-        raise SystemExit(f"--limit-loop {path!r}: not a Python file")
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module  # numba's disk cache finds the module again by name
-    spec.loader.exec_module(module)
-    rng = np.random.default_rng(0)
-    return lambda num_steps: module.loop(num_steps, rng)
+@njit(cache=True)
+def decaying_reference_loop(num_steps: int, rng: np.random.Generator) -> float:
+    """Run ``num_steps`` SARSA steps from θ = 0 with a decaying step size; return Σ δ.
+
+    The step size of episode e is α₀/k · (N₀ + 1)/(N₀ + e^1.1) with α₀ = 1, N₀ = 100 and k = 8
+    active features (the thesis's schedule, Section 4.1.4); ε-greedy and the force noise draw
+    from ``rng``. The sum of TD errors is returned so that no step can be optimised away.
+    """
+    weights = np.zeros((_SIDE * _SIDE * NUM_TILINGS, 3))
+    active = np.empty(NUM_TILINGS, dtype=np.int64)
+    next_active = np.empty(NUM_TILINGS, dtype=np.int64)
+    q = np.empty(3)
+    theta = rate = 0.0
+    episode, length = 1, 0
+    _tiles(theta, rate, active)
+    action = _choose(weights, active, q, rng.random())
+    total = 0.0
+    for _ in range(num_steps):
+        force = 50.0 * (action - 1) + FORCE_NOISE * (2.0 * rng.random() - 1.0)
+        theta, rate = _rk4(theta, rate, force)
+        length += 1
+        terminated = not (-HALF_PI < theta < HALF_PI)
+        value = 0.0
+        for i in range(NUM_TILINGS):
+            value += weights[active[i], action]
+        next_action = 0
+        if terminated:
+            delta = -1.0 - value
+        else:
+            _tiles(theta, rate, next_active)
+            next_action = _choose(weights, next_active, q, rng.random())
+            delta = DISCOUNT * q[next_action] - value
+        step_size = 1.0 / NUM_TILINGS * 101.0 / (100.0 + episode**1.1)
+        for i in range(NUM_TILINGS):
+            weights[active[i], action] += step_size * delta
+        total += delta
+        if terminated or length >= CAP:
+            theta = rate = 0.0
+            episode, length = episode + 1, 0
+            _tiles(theta, rate, active)
+            action = _choose(weights, active, q, rng.random())
+        else:
+            active, next_active = next_active, active
+            action = next_action
+    return total
 
 
-def runners(num_steps: int, limit_path: str | None = None) -> tuple[dict, Callable[[], bool]]:
+def decaying(seed: int = 0) -> Callable[[int], float]:
+    """`decaying_reference_loop` as an advance taking a step count (fresh weights per call)."""
+    rng = np.random.default_rng(seed)
+    return lambda num_steps: decaying_reference_loop(num_steps, rng)
+
+
+def runners(num_steps: int) -> tuple[dict, Callable[[], bool]]:
     """Every measured path, keyed by (workload, path), and whether the tile paths' θ agree."""
     tiles, agent = _paths("tiles", num_steps)
     rbf, _ = _paths("rbf", num_steps)
     advance, weights = hand_written(0)
     paths = {**tiles, ("tiles", "hand-written"): (advance, num_steps)}
-    if limit_path is not None:
-        paths["tiles", "limit_loop.py"] = (limit_loop(limit_path), num_steps)
+    paths["tiles", "decaying α"] = (decaying(0), num_steps)
     paths.update(rbf)
     return paths, lambda: np.array_equal(agent.weights_, weights)
 
@@ -315,9 +361,8 @@ def main() -> None:
     parser.add_argument("--steps", type=int, default=2_000_000)
     parser.add_argument("--repeats", type=int, default=5)
     parser.add_argument("--no-compile-times", action="store_true")
-    parser.add_argument("--limit-loop", metavar="PATH", help="an outside reference loop file")
     args = parser.parse_args()
-    table, is_same_work = runners(args.steps, args.limit_loop)
+    table, is_same_work = runners(args.steps)
     for advance, _ in table.values():
         advance(2_000)  # warm-up: compilation or cache loading
     rates: dict[str, list[float]] = {name: [] for name in table}
@@ -339,9 +384,8 @@ def main() -> None:
             if kind == workload:
                 out.add_row(path, f"{rate:,.0f}", f"{1e6 / rate:.3f}", f"{reference / rate:.2f}")
         console.print(out)
-    if args.limit_loop is not None:
-        ratio = medians["tiles", "limit_loop.py"] / medians["tiles", "compiled"]
-        console.print(f"compiled path / limit_loop.py, µs per step: {ratio:.2f}x")
+    ratio = medians["tiles", "decaying α"] / medians["tiles", "compiled"]
+    console.print(f"compiled path / hand-written loop with decaying α, µs per step: {ratio:.2f}x")
     # Equal step counts (warm-up included): the same arithmetic gives the same θ bit for bit.
     same = "yes" if is_same_work() else "NO: the reference does other work"
     console.print(f"hand-written θ == compiled θ after the same steps: {same}")

@@ -1,4 +1,4 @@
-"""Per-step cost of the cooperative learners (Chapter 5) as a ratio to compiled SARSA (issue 23).
+"""Per-step cost of the cooperative learners (Chapter 5) as a ratio to compiled SARSA.
 
 Usage: ``python benchmarks/cooperative_speed.py [--steps N] [--repeats R]``
 
@@ -15,7 +15,7 @@ path is shown), one process, after numba's compilation (or cache load). Two cost
 
 Each ratio is that cost over the cost of compiled SARSA + tabular on GridWorld-1
 (`fig_5_8.yaml`'s ``sarsa``) timed in alternation with it, so both see the same machine
-(absolute speeds vary between machines; issue 23's targets are ratios of the run cost):
+(absolute speeds vary between machines; the targets are ratios of the run cost):
 
 =====================================================================  ===========  ======
 workload (config, agent label)                                          before       target

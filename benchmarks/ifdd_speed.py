@@ -24,7 +24,7 @@ compilation excluded), each the median of ``repeats`` runs:
    Persistent Surveillance, Actor-Critic + iFDD+ on BlocksWorld, SARSA + signed iFDD+ on the
    pendulum (``examples/reproduction/fig_4_8_pendulum_ifdd_plus.yaml``) and SARSA + iFDD at a
    fixed rate on Rescue Mission (``fig_4_7_rescue.yaml``) on the Python path
-   (`LearningLoop`) and on the compiled path (`conjure.compiled`, issue 11), the same 5 N
+   (`LearningLoop`) and on the compiled path (`conjure.compiled`), the same 5 N
    steps from the same seeds; the compiled kernels' first calls in this process (compile, or
    load from numba's disk cache) are timed separately and not in steps/s. ``--paths-only``
    runs only this table.
@@ -203,7 +203,7 @@ def domain_rate(make_domain, representation, steps: int, repeats: int) -> tuple[
     return statistics.median(rates), features
 
 
-#: The issue-3 workloads, with the thresholds of the examples/ configs.
+#: The workloads, with the thresholds of the examples/ configs.
 DOMAIN_WORKLOADS = (
     (
         "InvertedPendulum, 20 buckets/dim, iFDD xi = 0.5",
@@ -305,7 +305,7 @@ def rescue_ifdd_fixed_rate() -> tuple[RescueMission, SARSA]:
     return RescueMission(), agent
 
 
-#: (name, fresh (domain, learner)) of the Python vs compiled comparison (issue 11).
+#: (name, fresh (domain, learner)) of the Python vs compiled comparison.
 PATH_WORKLOADS = (
     ("BlocksWorld, SARSA + iFDD+ xi = 0.05 (examples/)", blocks_ifdd_plus),
     ("PersistentSurveillance, SARSA + iFDD+ xi = 200", surveillance_ifdd_plus),

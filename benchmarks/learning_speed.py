@@ -2,7 +2,7 @@
 
 Usage: ``python benchmarks/learning_speed.py [--steps N] [--repeats R] [--python]``
 
-Workloads (issue 2): SARSA + tile coding on InvertedPendulum and on GridWorld-1, iCCA's
+Workloads: SARSA + tile coding on InvertedPendulum and on GridWorld-1, iCCA's
 learner alone on GridWorld-1 (Fig. 5-5's ``actor_critic_advantage``: tabular Actor-Critic with
 a V critic and the log-policy actor), and SARSA and SARSA(λ) + tile coding on Gymnasium's
 MountainCar-v0 through ``from_gymnasium``. Each is
@@ -14,7 +14,7 @@ feature activation + action selection + TD update. A
 user's environment is usually the slow part, so the MountainCar rows are also given as a
 ratio to Gymnasium's own ``MountainCar-v0`` (``gymnasium.make``, its wrappers included)
 stepping with a fixed action and no learner, timed in alternation with them so that both see
-the same machine (issue 21: conjure's share should be small, at most 1.5x at λ = 0; the
+the same machine (conjure's share should be small, at most 1.5x at λ = 0; the
 λ = 0.9 row says what SARSA(λ)'s traces cost on top).
 """
 

@@ -1,4 +1,4 @@
-"""Planning speed: conjure's VI/PI on sparse GridWorlds and LSPI on 10^5 samples (issue 5).
+"""Planning speed: conjure's VI/PI on sparse GridWorlds and LSPI on 10^5 samples.
 
 Run: ``python benchmarks/planning_speed.py [--sizes 100 316 1000] [--skip-lspi]``.
 Side by side: a plain vectorised scipy value iteration (the bar) and, if installed,

@@ -8,7 +8,7 @@ seconds and CPU seconds (user + system: less sensitive to other processes on the
 ``repeats`` runs and the peak resident memory (``ru_maxrss`` of that child alone, from
 ``os.wait4``):
 
-- ``conjure --help`` (``python -m conjure.cli --help``; target under 0.5 s, issue 11);
+- ``conjure --help`` (``python -m conjure.cli --help``; target under 0.5 s);
 - ``import conjure`` (which must load no pandas, matplotlib or scipy.stats);
 - numba alone, importing it and compiling one trivial function: the floor under any run that
   calls a compiled kernel (LLVM's own memory);

@@ -15,8 +15,7 @@ the same config through the Python API, for notebooks and scripts that want the 
 ``run_experiment(config, out_dir)`` runs every agent over every seed in parallel and writes
 the results folder as ``conjure run`` does (the CLI then also plots).
 
-Run with:  python examples/python_api.py  (5,000 steps of the tile-coding agent; 2.6 s of wall
-time measured with numba's cache filled, 2026-11-23)
+Run with:  python examples/python_api.py  (5,000 steps of the tile-coding agent)
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""The benchmarks' hand-written reference does the library's arithmetic (issue 22).
+"""The benchmarks' hand-written references do the library's arithmetic.
 
 `benchmarks/compiled_loop.py` reports the compiled path's speed as a multiple of
 `reference_loop`, a hand-written numba loop; the ratio means something only if both do the
@@ -77,3 +77,11 @@ def test_reference_loop_continues_an_episode_across_calls():
     once, once_weights = benchmark.hand_written(0)
     assert advance(2_500) + advance(2_500) == once(5_000)
     np.testing.assert_array_equal(weights, once_weights)
+
+
+def test_the_decaying_step_size_reference_learns_deterministically_for_a_seed():
+    benchmark = load_benchmark()
+    first, second = benchmark.decaying(3), benchmark.decaying(3)
+    total = first(5_000)
+    assert np.isfinite(total) and total != 0.0
+    assert second(5_000) == total

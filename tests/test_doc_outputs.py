@@ -1,4 +1,4 @@
-"""Printed outputs in the docs are what their commands print today (issue 21).
+"""Printed outputs in the README and the site's pages are what their commands print today.
 
 A doc shows a command's output as ``<!-- output: COMMAND -->`` followed by a fenced block.
 This test runs COMMAND (``conjure`` as ``python -m conjure.cli``) and checks that every line
@@ -26,7 +26,7 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
-DOCS = [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]
+DOCS = [ROOT / "README.md", *sorted((ROOT / "docs").rglob("*.md"))]
 MARKER = re.compile(r"<!-- output: (?P<command>.+?) -->\n```[a-z]*\n(?P<block>.*?)\n```", re.S)
 TIMING = re.compile(r"wall time|steps/s|µs|seconds|\bETA\b|\d s\b|: learned on the ")
 
@@ -38,7 +38,9 @@ def shown_outputs() -> list:
             command = match["command"]
             learns = command.startswith(("conjure run", "conjure sweep"))  # a minute or so
             marks = [pytest.mark.slow] if learns else []
-            param = pytest.param(command, match["block"], id=f"{doc.name}: {command}", marks=marks)
+            param = pytest.param(
+                command, match["block"], id=f"{doc.relative_to(ROOT)}: {command}", marks=marks
+            )
             found.append(param)
     return found
 

@@ -39,3 +39,14 @@ def test_public_class_cites_the_thesis(cls):
 
 def test_package_has_a_version():
     assert re.fullmatch(r"\d+\.\d+\.\d+", conjure.__version__)
+
+
+def test_source_comments_and_docstrings_carry_no_dates_or_issue_numbers():
+    # Docstrings state what holds; dated history and issue numbers belong in CHANGELOG.md.
+    from pathlib import Path
+
+    dated = re.compile(r"\b20\d\d-\d\d-\d\d\b|\b[Ii]ssues? \d+|\bissue-\d+|\d\d:\d\d UTC")
+    source = Path(conjure.__file__).parent
+    for path in sorted(source.rglob("*.py")):
+        for number, line in enumerate(path.read_text().splitlines(), 1):
+            assert not dated.search(line), f"{path.relative_to(source)}:{number}: {line}"

@@ -76,7 +76,7 @@ def test_uav_icca_example_runs_every_agent_and_the_docs_show_its_table(tmp_path)
     root = EXAMPLE.parents[1]
     # The table shown is this config's; tests/test_doc_outputs.py checks its numbers.
     marker = "<!-- output: conjure run examples/uav_icca.yaml -->\n"
-    for doc in ("README.md", "docs/safe-exploration.md"):
+    for doc in ("docs/getting-started.md", "docs/tutorials/chapter-5.md"):
         text = (root / doc).read_text()
         table = text.split(marker, 1)[1].split("```", 2)[1]
         rows = [line.split("│") for line in table.splitlines() if line.startswith("│")]

@@ -1,4 +1,4 @@
-"""Why AM-iCCA stays near aggressive CBBA on the noisy UAV 7-2 (docs/reproduction.md, Fig. 5-13).
+"""Why AM-iCCA stays near aggressive CBBA on the noisy UAV 7-2 (docs/reproduction/fig_5_9_13.md).
 
     python docs/reproduction/am_icca_vetoes.py [--seed 101] [--risk-tolerance 0.2]
     python docs/reproduction/am_icca_vetoes.py --quick   # 2,000 steps, 3 episodes (a smoke run)

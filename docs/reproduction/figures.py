@@ -1,4 +1,4 @@
-"""The reproduced figures' stored results and the tables of docs/reproduction.md made from them.
+"""The reproduced figures' stored results and the documentation pages made from them.
 
     python docs/reproduction/figures.py store FIGURE DIR   # DIR: a finished sweep or reproduce
     python docs/reproduction/figures.py render [--check]
@@ -16,12 +16,15 @@ chapter, 4 or 5; Section 6.2.6 with chapter 5):
 
 and the learning-curve plots (``docs/reproduction/FIGURE_<metric>.png``).
 
-``render`` rewrites every block between ``<!-- chapterN:FIGURE -->`` and
-``<!-- /chapterN:FIGURE -->`` in docs/reproduction.md from the stored CSVs: the final table
-and the figure's claims, each with the thesis's value, the measured value and whether it holds;
-and every ``<!-- claims:FIGURE -->`` block (README.md's Reproduction section) with the claims
-alone. ``--check`` changes nothing and exits with status 1 if a document differs from what the
-CSVs give (tests/test_reproduction_docs.py runs it).
+``render`` rewrites, from the stored CSVs, every block between ``<!-- chapterN:FIGURE -->`` and
+``<!-- /chapterN:FIGURE -->`` in the pages docs/reproduction/*.md (the command, the selected
+settings, the final table, the figure's claims, each with the thesis's value, the measured
+value and whether it holds, and the plots) and every ``<!-- claims:FIGURE -->`` block
+(README.md) with the claims alone. A figure with stored results whose block is on no page gets
+a page of its own, ``docs/reproduction/FIGURE.md``; the list of figure pages in
+docs/reproduction/index.md and the site's navigation (mkdocs.yml) follow the pages. ``--check``
+changes nothing and exits with status 1 if a document differs from what the CSVs give
+(tests/test_reproduction_docs.py runs it).
 
 The figures, their claims and the tables come from the package's catalogue,
 `conjure.sweeps.reproduction`, which ``conjure reproduce`` uses too: a claim is defined once.
@@ -30,6 +33,7 @@ The figures, their claims and the tables come from the package's catalogue,
 from __future__ import annotations
 
 import argparse
+import re
 import shutil
 import sys
 from pathlib import Path
@@ -43,9 +47,12 @@ from conjure.sweeps.reproduction import claim_rows, curve_table, finals_markdown
 from conjure.sweeps.sweep import load_sweep
 
 HERE = Path(__file__).resolve().parent
-DOC = HERE.parent / "reproduction.md"
-#: The documents `render` rewrites.
-DOCUMENTS = (DOC, HERE.parents[1] / "README.md")
+ROOT = HERE.parents[1]
+#: The reproduction's index page: how the runs were made, the summary, the list of pages.
+INDEX = HERE / "index.md"
+#: The site's configuration, whose navigation lists the figure pages.
+SITE = ROOT / "mkdocs.yml"
+README = ROOT / "README.md"
 
 #: Every reproduced figure, from the package's catalogue (with its claims).
 FIGURES = reproduction.FIGURES
@@ -147,6 +154,9 @@ def block(name: str) -> str:
     ]
     if figure.claims:
         parts += ["", claim_rows(figure.claims, finals)]
+    for metric in figure.plots:
+        if (HERE / f"{name}_{metric}.png").is_file():
+            parts += ["", f"![{figure.title}: {metric}]({name}_{metric}.png)"]
     return "\n".join(parts)
 
 
@@ -163,25 +173,74 @@ def rendered(text: str) -> str:
             (f"claims:{name}", claims_block),
         ):
             start, end = f"<!-- {marker} -->", f"<!-- /{marker} -->"
-            if start not in text:
-                continue
-            head, rest = text.split(start, 1)
-            _, tail = rest.split(end, 1)
-            text = f"{head}{start}\n{make(name)}\n{end}{tail}"
+            if start in text:
+                text = replaced(text, start, end, f"{make(name)}\n")
     return text
 
 
+def figure_order(page: Path) -> tuple[int, ...]:
+    """Where a page sorts: by the thesis's figure number (Section 6.2.6 as 6-2)."""
+    numbers = re.findall(r"\d+", page.stem) or ["6", "2"]
+    return tuple(int(number) for number in numbers)
+
+
+def pages(texts: dict[Path, str]) -> list[Path]:
+    """The figure pages (those on disk and ``texts``'s), in the thesis's order."""
+    found = {*HERE.glob("*.md"), *texts} - {INDEX}
+    return sorted(found, key=figure_order)
+
+
+def new_pages(texts: dict[Path, str]) -> dict[Path, str]:
+    """A page for each figure with stored results whose block is on no page."""
+    created = {}
+    for name, figure in FIGURES.items():
+        marker = f"<!-- chapter{chapter(name)}:{name} -->"
+        stored = (store_dir(name) / f"{name}_finals.csv").is_file()
+        if stored and not any(marker in text for text in texts.values()):
+            created[HERE / f"{name}.md"] = (
+                f"# {figure.title}\n\n{marker}\n<!-- /chapter{chapter(name)}:{name} -->\n"
+            )
+    return created
+
+
+def page_title(text: str) -> str:
+    """A page's first heading."""
+    return text.split("\n", 1)[0].removeprefix("# ").strip()
+
+
+def replaced(text: str, start: str, end: str, body: str) -> str:
+    """``text`` with what lies between the lines ``start`` and ``end`` replaced by ``body``."""
+    head, rest = text.split(start, 1)
+    _, tail = rest.split(end, 1)
+    return f"{head}{start}\n{body}{end}{tail}"
+
+
+def documents() -> dict[Path, str]:
+    """Every document `render` writes, as it should read: path -> text."""
+    texts = {page: page.read_text() for page in HERE.glob("*.md")}
+    texts.update(new_pages(texts))
+    texts = {page: rendered(text) for page, text in texts.items()}
+    figure_pages = pages(texts)
+    listing = "".join(f"- [{page_title(texts[page])}]({page.name})\n" for page in figure_pages)
+    texts[INDEX] = replaced(
+        texts[INDEX], "<!-- figure-pages -->", "<!-- /figure-pages -->", listing
+    )
+    navigation = "".join(f"      - reproduction/{page.name}\n" for page in figure_pages)
+    site = SITE.read_text()
+    texts[SITE] = replaced(site, "      # figure pages", "      # /figure pages", navigation)
+    texts[README] = rendered(README.read_text())
+    return texts
+
+
 def render(check: bool) -> int:
-    """Rewrite `DOCUMENTS` (or, with ``check``, report whether they are up to date)."""
+    """Write every document `render` makes (or, with ``check``, report which differ)."""
     status = 0
-    for document in DOCUMENTS:
-        text = document.read_text()
-        new = rendered(text)
-        if new == text:
+    for document, new in documents().items():
+        if document.is_file() and document.read_text() == new:
             continue
         if check:
             print(
-                f"{document.name} differs from the stored results; run "
+                f"{document.relative_to(ROOT)} differs from the stored results; run "
                 "`python docs/reproduction/figures.py render`."
             )
             status = 1

@@ -256,7 +256,7 @@ def fig_4_11():
     write("fig_4_11", header, config)
 
 
-# investigations of the results that did not reproduce (docs/reproduction.md, "Why ...")
+# investigations of the results that did not reproduce (docs/reproduction/fig_4_5.md, "Why ...")
 INVESTIGATION_SEEDS = list(range(300, 320))
 XI = "params.discovery_threshold"
 # the Rescue Mission's initial features without the time step t (dimension 12): one tile

@@ -10,7 +10,7 @@ keyword arguments)``.
 Notes
 -----
 - The UAV missions' v0 ids keep spec 2.2's first reconstructions ("uav-7-2-spec",
-  "uav-10-2-spec"); v1 ids are the calibrated graphs of issue 19, the defaults since.
+  "uav-10-2-spec"); v1 ids are the calibrated graphs, the defaults.
   Gymnasium warns that a v0 id "is out of date" when made: the v1 graph is the one to use
   unless reproducing results of the first reconstruction.
 - Choice: registration skips ids already registered, so importing or calling it again is

@@ -147,7 +147,7 @@ def test_the_tabular_actor_is_the_critic_plus_the_bias_so_lambda_100_never_yield
     # increments αδ, so ρ(s, a) = Q(s, a) + λ·[a = π^p(s)] while no proposal is unsafe. On
     # GridWorld-1 |Q| <= ~1, so with λ = 100 the planner's action leads every other by ~98
     # (Gibbs at τ = 1: probability ~e^-98 of trying another) and the greedy policy is π^p:
-    # the mechanism behind iCCA staying at the planner's return (docs/reproduction.md).
+    # the mechanism behind iCCA staying at the planner's return (docs/reproduction/fig_5_5.md).
     from conjure.core.schedules import EpisodicDecay
     from conjure.experiments.loop import LearningLoop
     from conjure.models.approximate_model import ApproximateModel

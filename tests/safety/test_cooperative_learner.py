@@ -255,7 +255,7 @@ def test_a_veto_reward_that_is_not_a_finite_float_is_refused(reward):
 def test_static_model_icca_on_gridworld2_ends_at_the_conservative_policy():
     # Fig. 5-12's "iCCA": Algorithm 24 with the conservative policy and Algorithm 25 at a
     # static 40% noise, SARSA(0) at α₀ = 0.1, N₀ = 1000 (one of the two searched settings where
-    # the veto rule decides; docs/reproduction.md, Fig. 5-12). With the
+    # the veto rule decides; docs/reproduction/fig_5_12.md). With the
     # veto rule (the default) the learner stops proposing the moves toward the right goal the
     # analyser blocks and the greedy policy ends on the conservative route (V = 0.624, spec
     # 4.3); as printed, learner and planner pull the agent back and forth and the greedy

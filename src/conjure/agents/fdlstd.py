@@ -121,9 +121,8 @@ class FDLSTD(BatchAgent):
       "ifdd_plus" is RLPy's |Σδ| / √count (the names match `OnlineIFDD`'s relevances): the
       new weight of Theorem 3.2.6 may take either sign, so a conjunction where V is
       over-estimated can help as much as one where it is under-estimated, and the signed
-      argmax passes it over. On Fig. 3-15 (20 seeds, docs/reproduction.md) the magnitude
-      is ahead in the first iterations (RMSE 0.12-0.26 × 10⁻² lower at iteration 3) and
-      the two are tied from iteration 10 on (paired difference 0.03 ± 0.05 × 10⁻² at 20).
+      argmax passes it over. Fig. 3-15's page compares the two
+      (docs/reproduction/fig_3_15.md).
     - Choice: ties go to the pair (g, h) with the smallest g, then h.
     - Choice ("best"): the reference V is a given array (V at each sample's state), an object
       with ``values(states)``, or, by default, LSTD with a tabular representation on the

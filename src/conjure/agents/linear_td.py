@@ -10,7 +10,7 @@ activation, one Q evaluation and one update.
 Notes
 -----
 - Choice: the cache is keyed on the bytes of the state (`state_key`, an owned copy compared
-  by value, about 0.1 µs), never on the array object: a wrapper that reuses one observation
+  by value), never on the array object: a wrapper that reuses one observation
   buffer, or a cooperative learner that calls ``act`` on some states and ``learn`` on others,
   can never make ``learn`` use the features of another state. A miss just encodes again.
 - Choice: an imagined transition (`Transition.is_imagined`, e.g. a cooperative learner's

@@ -1,4 +1,4 @@
-"""The compiled path: whole learning loops in one numba function (issue 11).
+"""The compiled path: whole learning loops in one numba function.
 
 `for_combination` (domain, agent) returns a `CompiledStepper` when every part has a compiled
 kernel, else ``None`` (the caller keeps the Python path); `why_not_compiled` says which part

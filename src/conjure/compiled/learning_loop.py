@@ -30,7 +30,7 @@ between calls; an episode may span calls.
 
 Choice: the forms passed per step hold fewer than ten arrays each (iFDD's tables are one
 structref): numba counts a reference per array wherever a tuple of ten or more arrays is
-passed (it prunes the counts of smaller ones), which cost about 55 ns a call when measured.
+passed (it prunes the counts of smaller ones), a cost paid on every call.
 
 Compilation: one function serves every combination (the compiled forms have fixed field
 types), with a second compilation for real-valued φ (`RBF`), so binary φ never reads a value.

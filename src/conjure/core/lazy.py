@@ -3,7 +3,7 @@
 A layer's package (``conjure.agents``, ``conjure.planners``, ...) lists its public names and
 the submodule defining each; ``from conjure.agents import SARSA`` then imports
 ``conjure.agents.sarsa`` alone, not the batch learners and SciPy with it. This keeps
-``conjure --help`` and a run's memory to what the command uses (issue 11).
+``conjure --help`` and a run's memory to what the command uses.
 """
 
 from __future__ import annotations

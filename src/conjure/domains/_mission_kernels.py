@@ -255,7 +255,7 @@ def mission_step(
     """`mission_transition` with exactly 2n uniforms drawn from ``rng`` (for compiled loops).
 
     The draws equal ``rng.random(2 * n)``, so `UAVMission.step`, which draws them in Python
-    and calls `mission_transition` (a Generator crossing into numba costs ~18 µs per call),
+    and calls `mission_transition` (a Generator crossing into numba is costly per call),
     follows the same trajectory for the same generator state.
     """
     uniforms = np.empty(2 * layout[NUM_UAVS], dtype=np.float64)

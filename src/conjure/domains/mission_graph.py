@@ -44,8 +44,8 @@ __all__ = [
 ]
 
 UNREACHABLE = np.iinfo(np.int64).max // 4
-#: Most nodes a mission graph may have: Floyd-Warshall's N × N table and N³ steps (about 2 s
-#: and 8 MB at N = 1000; 10⁶ nodes would need 7.3 TiB).
+#: Most nodes a mission graph may have: Floyd-Warshall's N × N table and N³ steps (8 MB at
+#: N = 1000; 10⁶ nodes would need 7.3 TiB).
 MAX_NODES = 1000
 #: Spec 2.2's edges of UAV 7-2 (hops from the base 1, 1, 2, 2, 3, 3 for nodes 1-6).
 EDGES_7_2 = ((0, 1), (0, 2), (1, 2), (1, 3), (2, 4), (3, 4), (3, 5), (4, 6), (5, 6))
@@ -355,9 +355,8 @@ def uav_7_2_spec() -> MissionGraph:
     """[R] UAV 7-2 as spec 2.2 first reconstructed it: 7 nodes, fuel 6 and 6, horizon 8.
 
     Σ rewards 750. Kept for the results measured on it (scenario ``"uav-7-2-spec"``,
-    ``conjure/UAV-7-2-v0``); it misses spec 2.2's calibration targets: aggressive CBBA is
-    the optimum without noise, and at 5% traverse failures the optimum itself crashes 23% of
-    missions (``python docs/reproduction/uav_calibration.py --spec``).
+    ``conjure/UAV-7-2-v0``); it misses spec 2.2's calibration targets
+    (``python docs/reproduction/uav_calibration.py --spec`` prints how).
     """
     return MissionGraph.from_dict(
         {
@@ -380,7 +379,8 @@ def uav_10_2_spec() -> MissionGraph:
     """[R] UAV 10-2 as spec 2.2 first reconstructed it: 10 nodes, fuel 8 and 8, horizon 11.
 
     Σ rewards 1400. Kept for the results measured on it (scenario ``"uav-10-2-spec"``,
-    ``conjure/UAV-10-2-v0``); without noise aggressive CBBA is within 2% of the optimum.
+    ``conjure/UAV-10-2-v0``); it misses spec 2.2's calibration targets
+    (``python docs/reproduction/uav_calibration.py --spec`` prints how).
     """
     return MissionGraph.from_dict(
         {
@@ -405,8 +405,8 @@ def uav_7_2() -> MissionGraph:
     """[R] UAV 7-2 (Figure 5-4a), calibrated: 7 nodes, fuel 6 and 7, horizon 8, Σ rewards 1750.
 
     Spec 2.2's edges (hops from the base 1, 1, 2, 2, 3, 3 for nodes 1-6) with targets, fuel
-    and windows found by a search toward spec 2.2's calibration targets (issue 19;
-    ``python docs/reproduction/uav_calibration.py --search 7-2`` searches,
+    and windows found by a search toward spec 2.2's calibration targets
+    (``python docs/reproduction/uav_calibration.py --search 7-2`` searches,
     ``python docs/reproduction/uav_calibration.py`` prints the table). Targets (0-based):
 
     ====  ======  ====  ======
@@ -424,13 +424,8 @@ def uav_7_2() -> MissionGraph:
     0.4), which CBBA's one-UAV-per-task model cannot plan (Section 5.3.1): CBBA's only
     mistake without noise is its first joint action, where the learners of Chapter 5 meet it
     in every mission. |S × A| = 49 · 7 · 8 · 128 · 8 · 49 = 1.38e8 (thesis: "more than 100
-    million"). Measured exactly (V/V*; crash probability):
-
-    - η = 0: V* = 1373.3; aggressive CBBA 0.902 (the thesis's iCCA gains +10% over CBBA),
-      all of the gap at s₀.
-    - η = 0.05: V* = 1087.5 with 1.9% crashes; aggressive CBBA 0.758 with 21.0% crashes
-      (thesis: above 80% optimality on the worst-to-best scale, 25% crashes; here 0.908 on
-      that scale); conservative CBBA 0.714 with no crashes (thesis: 5% less, rare crashes).
+    million"). Its exact optimum and CBBA's values and crash probabilities, against the
+    thesis's, are printed by ``python docs/reproduction/uav_calibration.py``.
     """
     return MissionGraph.from_dict(
         {
@@ -454,7 +449,7 @@ def uav_10_2() -> MissionGraph:
     """[R] UAV 10-2 (Figure 5-4b), calibrated: 10 nodes, fuel 9 and 7, horizon 11, Σ 2700.
 
     Spec 2.2's edges (hops from the base 1, 1, 2, 2, 3, 3, 4, 4, 4 for nodes 1-9) with
-    targets, fuel and windows found as for `uav_7_2` (issue 19). Targets (0-based):
+    targets, fuel and windows found as for `uav_7_2`. Targets (0-based):
 
     ====  ======  ====  =======
     node  reward  p     window
@@ -470,12 +465,9 @@ def uav_10_2() -> MissionGraph:
 
     As in UAV 7-2, node 1 pays most to both UAVs at t = 1, and sending both there at s₀ is
     the whole of CBBA's noise-free gap. |S × A| = 100 · 10 · 8 · 1024 · 11 · 100 = 9.01e9
-    (thesis: "about 9 billion"). Measured exactly
-    (``python docs/reproduction/uav_calibration.py``; V/V*, crash probability):
-
-    - η = 0: V* = 1797.9; aggressive CBBA 0.890, all of the gap at s₀.
-    - η = 0.05 (Section 6.2.6's setting): V* = 1195.8 with 4.4% crashes; aggressive CBBA
-      0.761 with 20.8% crashes; conservative CBBA 0.696 with 0.7% crashes.
+    (thesis: "about 9 billion"). Its exact optimum and CBBA's values and crash probabilities,
+    without noise and at Section 6.2.6's 5% traverse failures, are printed by
+    ``python docs/reproduction/uav_calibration.py``.
     """
     return MissionGraph.from_dict(
         {

@@ -75,7 +75,7 @@ MAX_JOINT_ACTIONS = 1_000_000
 #: Largest time layer 2^m Π(F_i + 1) N^n `exact_solution` accepts (~33 bytes per key in memory).
 MAX_LAYER_KEYS = 20_000_000
 #: Largest H · 2^m Π(F_i + 1) N^n `exact_solution` accepts: it visits every key of every
-#: layer (UAV 10-2: 1.1e7 in about 4 s, so the limit is a few minutes).
+#: layer (UAV 10-2: 1.1e7 keys).
 MAX_SOLVE_KEYS = 500_000_000
 _SOLUTIONS: OrderedDict[tuple[str, float], MissionSolution] = OrderedDict()
 _CACHE_SIZE = 8

@@ -40,7 +40,7 @@ Notes
   otherwise agents receive ``legal_actions=None`` (every action).
 - Choice: on truncation (cap or a Gymnasium ``TimeLimit``) the agent still chooses a' for s' so
   that SARSA bootstraps from it; only termination zeroes the target.
-- Choice: the loop copies every observation it receives (about 0.2 µs): a domain or wrapper
+- Choice: the loop copies every observation it receives: a domain or wrapper
   may return one buffer overwritten in place, and s must survive ``domain.step`` for the
   `Transition` (and a batch learner's stored samples) to be right.
 """

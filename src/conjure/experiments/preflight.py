@@ -1,4 +1,4 @@
-"""Pre-flight: each agent set up on its domain once, before any run starts (issue 20).
+"""Pre-flight: each agent set up on its domain once, before any run starts.
 
 `conjure.experiments.config.parse_config` builds and validates every component on its own,
 so parts that cannot work together pass it: a `CBBAPlanner` inside a grid-world iCCA, a

@@ -10,7 +10,7 @@ Notes
 - Choice: no import-time registration decorators; to add a component, add one line here.
 - Choice: a line names the class by its import path (``"conjure.agents:SARSA"``) and the class
   is imported when a config first names it, so a SARSA run never imports the batch learners,
-  the planners or SciPy (issue 11: start-up time and memory).
+  the planners or SciPy (start-up time and memory).
 """
 
 from __future__ import annotations

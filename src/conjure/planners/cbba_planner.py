@@ -250,10 +250,9 @@ class CBBAPlanner(CooperativePlanner):
       mission) keeps its reserve. π^p is replanned at every step
       (Section 5.5.2) from the current fuel, so under the printed test alone ("empty_plan")
       a UAV without a plan regains the reserve and spends it on a target at the next replan,
-      and the reserve erodes to nothing: on spec 2.2's UAV 7-2 (``uav_7_2_spec``) at 5%
-      traverse failures that reading crashes 17.9% of missions for reserves 3, 4 and 5 alike
-      (exact evaluation, ``python docs/reproduction/uav_calibration.py --refuel``), where the
-      thesis reports "rare chances of crashing"; "home" crashes in under 0.1%.
+      and the reserve erodes to nothing, where the thesis reports "rare chances of
+      crashing" (both readings' exact crash probabilities on spec 2.2's UAV 7-2:
+      ``python docs/reproduction/uav_calibration.py --refuel``).
     - Choice: the score is Σ r_j p_j minus ρ·(hops from the UAV to each of its targets); this
       fuel term is constant per UAV-target pair, so marginal gains still diminish and CBBA
       still equals sequential greedy (the ACL code's device). Equal bids go to the lower UAV.
@@ -273,8 +272,8 @@ class CBBAPlanner(CooperativePlanner):
       cache (`planned_action`).
 
     Complexity: one CBBA run costs Θ(rounds·n·m·L²) with m <= N targets and paths of L <= m;
-    Algorithm 27 runs it at most 1 + n·reserve times. About 20-30 µs per uncached plan and
-    0.5 µs per cached one on UAV 7-2 and 10-2 (``benchmarks/cbba_speed.py``).
+    Algorithm 27 runs it at most 1 + n·reserve times (per-plan cost, uncached and cached:
+    ``python benchmarks/cbba_speed.py``).
 
     Examples
     --------

@@ -92,10 +92,8 @@ class ARiFDD(OnlineIFDD):
       the inputs; the test is strict (Ξ > ς). Ξ is never reset, so once a tile passes ς
       every later single-feature step at it suggests a split.
     - Choice (line 12): the candidates are ranked by σ² itself, as printed; ties go to the
-      lower dimension. Fig. 4-11's first run (16 seeds, docs/reproduction.md) ranked by
-      σ² / (high − low)²; its ARiFDD rerun (6 seeds, 1-6 tiles) used the printed rule and
-      found the normalised one no better (identical runs on 35 of 36 tile counts × seeds,
-      AUC difference 18 ± 47 steps in favour of σ²), so it was not kept as an option.
+      lower dimension. The normalised rank σ² / (high − low)² was compared with it on
+      Fig. 4-11 and found no better (docs/reproduction/fig_4_11.md), so it is not an option.
     - Choice (Section 4.2.1): line 12 ranks only the candidates whose split the coverage
       floor allows (a tile it blocks is skipped, rather than re-picked after a rejection);
       if it blocks every candidate nothing splits that step, as "all suggested splits were

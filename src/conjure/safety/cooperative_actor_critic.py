@@ -52,7 +52,7 @@ class CooperativeActorCritic(CooperativeAgent):
         The defaults, λ = 30 and N_b = 2 (the bias is below 1 after about 60 visits), are
         the setting Fig. 5-5's search selected on GridWorld-1 (seeds 0-4, by the area under
         the return curve, among λ ∈ {3, 10, 30} × N_b ∈ {2, 5, 20} × the thesis's step
-        sizes; docs/reproduction.md). Algorithm 23 as printed is ``bias=100.0,
+        sizes; docs/reproduction/fig_5_5.md). Algorithm 23 as printed is ``bias=100.0,
         bias_half_life=None`` with an ``ActorCritic(critic="q")``.
 
     Attributes
@@ -87,7 +87,7 @@ class CooperativeActorCritic(CooperativeAgent):
     - As printed (``bias_half_life=None``) with the thesis's Q critic (`ActorCritic`
       ``critic="q"``), a tabular actor stays the critic plus the bias, ρ(s, a) = Q(s, a) +
       λ·𝟙[a = π^p(s)]: with λ = 100 ≫ |Q| the actor never leaves π^p and iCCA *is* the
-      planner (docs/reproduction.md, chapter 5). What makes the actor learn past its planner,
+      planner (docs/reproduction/index.md, chapter 5). What makes the actor learn past its planner,
       as the thesis's Figures 5-5 to 5-7 show, is a fading bias (``bias_half_life``) and a
       learner that judges actions by their advantage: ``ActorCritic(critic="v",
       actor_update="log_policy")`` with eligibility traces (``trace_decay``) and an actor step
@@ -96,7 +96,7 @@ class CooperativeActorCritic(CooperativeAgent):
       UAV missions, where a mission is worth about 1,000, only the log-policy step (unmoved by
       a constant error in the critic, such as V = 0 in unseen states) leaves CBBA; the
       searches picked λ = 1 traces on UAV 7-2 (a new action judged by the episode's return)
-      and λ = 0 on 10-2 (docs/reproduction.md, Figs. 5-5 to 5-7). Both variants are kept;
+      and λ = 0 on 10-2 (docs/reproduction/fig_5_6.md, fig_5_7.md). Both variants are kept;
       which runs is named by these parameters and the learner's.
     - Choice: the fading bias is stored in ρ like the printed one. On the visit of s that
       finds n(s) = n earlier visits, ρ(s, π^p(s)) is moved to hold b(n) before the actor

@@ -130,15 +130,9 @@ class CooperativeLearner(CooperativeAgent):
       size. Unlike a λ-style penalty on ρ it needs no explicit actor, so it fits any learner
       (batch learners store the imagined sample with the real ones). With Algorithm 25's
       random verdicts Q(s, a′) mixes the vetoes with the real outcomes of approved
-      proposals. It applies only while learning (greedy acting learns nothing). Measured on
-      GridWorld-2 with the static 40% model (3·10⁴ steps, 10 fresh seeds, 95% intervals,
-      docs/safe-exploration.md): at the configs' base step size (α₀ = 0.1, N₀ = 1000) the
-      printed form ends at −4.35 ± 1.73 and the rule at 0.562 ± 0.093; at the one Section
-      5.3.5's search selects for both (α₀ = 1, N₀ = 100) at 0.606 ± 0.034 and
-      0.621 ± 0.003, the conservative policy's 0.621 ± 0.003; pit entries while learning
-      fall from 25.6 to 1.5 and from 4.0 to 0.4 per run. The default reward is the failure's
-      own (−1 on the grid worlds). A harsher −10 ends at 0.622 ± 0.003 already at the base
-      step size, but leaves AM-iCCA on GridWorld-3 at −3.22 ± 2.13 instead of −1.43 ± 1.38.
+      proposals. It applies only while learning (greedy acting learns nothing). The default
+      reward is the failure's own (−1 on the grid worlds). Its effect on GridWorld-2 is on
+      Fig. 5-12's page (docs/reproduction/fig_5_12.md).
 
     Complexity
     ----------

@@ -83,8 +83,8 @@ class MonteCarloRiskAnalyzer(RiskAnalyzer):
     - Two readings of ε: Algorithm 25 prints ``risk < ε``; Figure 5-13's caption speaks of
       "the allowed risk level of 20%", i.e. ``risk ≤ ε``. ``risk_tolerance`` keeps the
       printed ``<``; the caption's reading at 𝓜 = 5 is ``risk_tolerance=0.4`` (one failed
-      rollout in five). On UAV 7-2 with 5% failures only the caption's reading lets AM-iCCA
-      end above aggressive CBBA (+8.7% against +1.8%; docs/reproduction.md, Figs. 5-9/5-13).
+      rollout in five). Figs. 5-9/5-13's page compares the two readings on UAV 7-2
+      (docs/reproduction/fig_5_9_13.md).
     - Choice: when the model's domain has a `noise_decomposition` (grid worlds), rollouts run
       in a numba kernel over the two tabular models (`grid_failures`, which the compiled
       iCCA box calls too), drawing the noise with probability η̂ at each step; π^p is
