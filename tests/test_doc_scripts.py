@@ -18,12 +18,26 @@ DOCS = ROOT / "docs"
 #: tiny finished sweep (`tiny_results`). `figures.py store` writes into docs/, so only its
 #: `render --check` runs here (the stored tables equal what the stored results give).
 SHORT_RUNS = {
+    "reproduction/am_icca_switch.py": [
+        *("trace", "--steps", "200", "--chunk", "100"),
+        "--csv",
+        "{tmp}/t.csv",
+    ],
     "reproduction/am_icca_vetoes.py": ["--quick"],
     "reproduction/blocksworld_states.py": ["--quick"],
     "reproduction/fig_3_15.py": ["--quick", "--out", "{tmp}"],
     "reproduction/fig_4_11_plot.py": ["docs/reproduction/fig_4_11.csv", "{tmp}/fig_4_11.png"],
     "reproduction/fig_5_8_pit_entries.py": ["--quick"],
+    "reproduction/fig_5_14_thresholds.py": [
+        *("--thresholds", "0.5", "--seeds", "10005"),
+        "--budget",
+        "300",
+    ],
     "reproduction/figures.py": ["render", "--check"],
+    "reproduction/generated_missions.py": [
+        *("--missions", "1", "--seeds", "1", "--budget", "300", "--eval-episodes", "5"),
+        *("--workers", "1", "--csv", "{tmp}/gain.csv", "--plot", "{tmp}/gain.png"),
+    ],
     "reproduction/make_configs.py": ["--out", "{tmp}"],
     "reproduction/rescue_optimum.py": ["--quick"],
     "reproduction/tables.py": ["{results}", "--steps", "200"],

@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 from gymnasium import spaces
 
+import conjure
 from conjure.core.errors import DivergenceError, InvalidParameterError
 from conjure.core.interfaces import Agent, Domain, DomainSpec, Transition
 from conjure.core.params import InstanceOf, Interval
@@ -358,6 +359,7 @@ def test_learning_stepper_uses_the_compiled_path_only_when_worth_it_and_answered
     warmth_asked = []
     compiled.is_warm = lambda stepper: warmth_asked.append(stepper) or warm
     monkeypatch.setitem(sys.modules, "conjure.compiled", compiled)
+    monkeypatch.setattr(conjure, "compiled", compiled, raising=False)  # `from conjure import`
     first = learning_stepper(domain, agent, seed=4, budget_steps=budget_steps)
     fallback = learning_stepper(domain, agent, seed=4, budget_steps=budget_steps)
     assert type(fallback) is Stepper and fallback.learn

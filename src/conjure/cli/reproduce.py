@@ -23,8 +23,8 @@ Notes
   ``summary.csv``; ``--out DIR`` is the figure's folder for one figure and holds one folder per
   figure (``DIR/FIG``) for several.
 - Choice: at the thesis scale the comparison uses the fresh-seed rerun of the selected settings
-  (``DIR/selected``), as docs/reproduction.md does; ``DIR/summary.csv`` then replaces the
-  sweep's per-setting search summary (the choice is in ``DIR/selection.csv``).
+  (``DIR/selected``), as the reproduction pages of the docs do; ``DIR/summary.csv`` then
+  replaces the sweep's per-setting search summary (the choice is in ``DIR/selection.csv``).
 - Choice: the configs are looked up under the current folder's ``examples/reproduction``,
   else among the configs shipped in the package (`conjure.experiments.shipped`).
 """

@@ -422,6 +422,8 @@ def load_results(out_dir: str | Path, run_ids: Iterable[str] | None = None) -> p
     runs), the curve columns, ``run_seconds``, what the run's domain declared
     (`conjure.experiments.metric_ranges.DOMAIN_BOUND_COLUMNS`, NaN when not recorded), then
     the flattened agent and domain parameters (``agent.step_size``, ``domain.length``, ...).
+    A run file that fails its checksum is left out; the ids of those are in
+    ``attrs["damaged_runs"]``.
 
     Parameters
     ----------
@@ -430,9 +432,6 @@ def load_results(out_dir: str | Path, run_ids: Iterable[str] | None = None) -> p
     run_ids : iterable of str, optional
         Which runs to read (missing ones are skipped); default the ids in ``run_ids.txt``, or
         every run file if there is none.
-
-    A run file that fails its checksum is left out; the ids of those are in
-    ``attrs["damaged_runs"]``.
     """
     out_dir = Path(out_dir)
     if run_ids is None:
