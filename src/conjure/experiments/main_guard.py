@@ -19,6 +19,7 @@ Notes
 from __future__ import annotations
 
 import ast
+import inspect
 import multiprocessing
 import sys
 from pathlib import Path
@@ -41,7 +42,8 @@ def check_main_guarded() -> None:
     path = getattr(main, "__file__", None)
     if main is None or path is None:
         return
-    frame = sys._getframe(1)
+    here = inspect.currentframe()
+    frame = here.f_back if here is not None else None
     while frame is not None and not (
         frame.f_code.co_name == "<module>" and frame.f_globals is vars(main)
     ):
