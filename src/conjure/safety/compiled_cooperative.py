@@ -610,8 +610,9 @@ def _intended_rows(agent: Any, states: np.ndarray) -> np.ndarray:
 def box_parts(agent: Any, tables: BoxTables) -> BoxParts:
     """The `BoxParts` of a set-up box, from its parts' current forms.
 
-    Made for every call of the loop: the model's counts, the planner in use and Algorithm
-    26's η̂^p are copies that `CooperativeAgent.load_compiled_form` takes back.
+    Made for every call of the loop: the planner in use and Algorithm 26's η̂^p are copies
+    that `CooperativeAgent.load_compiled_form` takes back; T̂'s η̂ and counts are the model's
+    own arrays (`ApproximateModel.noise_model`), updated in place.
     """
     is_adaptive = agent.adapts_model  # Algorithm 26
     parts = NO_PARTS._replace(
