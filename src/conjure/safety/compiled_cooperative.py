@@ -610,9 +610,11 @@ def _intended_rows(agent: Any, states: np.ndarray) -> np.ndarray:
 def box_parts(agent: Any, tables: BoxTables) -> BoxParts:
     """The `BoxParts` of a set-up box, from its parts' current forms.
 
-    Made for every call of the loop: the planner in use and Algorithm 26's η̂^p are copies
-    that `CooperativeAgent.load_compiled_form` takes back; T̂'s η̂ and counts are the model's
-    own arrays (`ApproximateModel.noise_model`), updated in place.
+    Made for every call of the loop: Algorithm 26's η̂^p and count of policy changes are
+    copies that `CooperativeAgent.load_compiled_form` takes back; T̂'s η̂ and counts
+    (`ApproximateModel.noise_model`) and which planner a switching π^p uses
+    (`SwitchingPlanner.switch_`, also in the grid tables' pair) are the parts' own arrays,
+    updated in place.
     """
     is_adaptive = agent.adapts_model  # Algorithm 26
     parts = NO_PARTS._replace(
@@ -622,14 +624,13 @@ def box_parts(agent: Any, tables: BoxTables) -> BoxParts:
         policy_changes=np.array([getattr(agent, "num_policy_changes_", 0)], dtype=np.int64),
     )  # fmt: skip
     if not tables.is_mission:
-        is_aggressive = np.array([_is_aggressive(agent)], dtype=np.bool_)
-        pair = tables.tables._replace(is_aggressive=is_aggressive)
         grid = NO_PARTS.grid if tables.grid is None else tables.grid._replace(
             rng=agent.risk_.rng_
         )  # fmt: skip
         return parts._replace(
-            tables=pair, has_rollouts=tables.grid is not None, grid=grid, intended=tables.intended
-        )
+            tables=tables.tables, has_rollouts=tables.grid is not None, grid=grid,
+            intended=tables.intended,
+        )  # fmt: skip
     planners = compiled_form(agent.planner_)
     if isinstance(planners, MissionPlanner):
         planners = fixed_pair(planners)
