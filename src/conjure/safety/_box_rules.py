@@ -20,7 +20,7 @@ are the planner's and the analyser's own methods on the Python path and their ow
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+from numba.extending import register_jitable
 
 from conjure.policies import greedy_action
 
@@ -39,11 +39,12 @@ __all__ = [
 NEVER_TRUSTED = 2.0
 
 
-@njit(cache=True)
+@register_jitable
 def fading_bias(bias: float, half_life: float, visits: int) -> float:
     """b(n) = λ·N_b/(N_b + n), the fading planner bias after n visits (Algorithm 23).
 
-    A kernel, so that `visit_bias` calls it compiled or not.
+    A plain function that compiled code may call too (``register_jitable``), so that
+    `visit_bias` calls it on both paths.
     """
     return bias * half_life / (half_life + visits)
 
@@ -56,7 +57,7 @@ def visit_bias(
     Algorithm 23 with Section 5.3.2's bias: the first visit adds b(0) = λ; a later one, with a
     fading bias, moves it from b(n − 1) to b(n); a printed (constant) bias moves nothing.
     """
-    count = visits[row]
+    count = int(visits[row])  # a Python int on the Python path (numpy scalars are slow)
     visits[row] = count + 1
     if count == 0:
         return True, bias

@@ -13,7 +13,11 @@ updated in place (Algorithm 23's visit counts n(s) and planner bias; Algorithm 2
 of unconsulted planner actions, knownness and veto rule).
 `box_action` is the box's ``act`` while learning (`cooperative_action`:
 `CooperativeActorCritic`, `cooperative_learner_action`: `CooperativeLearner`); the learner's
-updates stay the learner's own kernels.
+updates stay the learner's own kernels. The control rules (knownness and consulting the
+learner, b(n), the trust test, the tie-break toward π^p, the replan test) are
+`conjure.safety._box_rules`' functions, njit-wrapped here and called as they are by the
+boxes' Python ``act`` and ``learn``; what stays twice is each algorithm's order of calls
+(a handful of lines per path), since the Python path calls the parts' own methods there.
 
 The tables are made by calling the parts' own methods (the planner's compiled form, the
 analyser's ``is_safe``, the model's ``count_unintended``) on every state the planner
