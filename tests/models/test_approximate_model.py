@@ -3,7 +3,7 @@ import pytest
 
 from conjure.core.errors import IncompatibleComponentsError, InvalidParameterError
 from conjure.domains import GridWorld
-from conjure.models.approximate_model import ApproximateModel
+from conjure.models.approximate_model import ApproximateModel, observe_moves
 
 
 def _model(**params):
@@ -66,3 +66,14 @@ def test_load_counts_restores_the_estimate():
     static = _model(initial_noise=0.4)
     static.load_counts(0, 0)
     assert static.noise_ == 0.4
+
+
+def test_a_kernels_update_of_the_form_is_the_models_estimate():
+    # η̂ is kept once: the compiled form is the model's own arrays, so no load-back
+    model = _model(initial_noise=0.4, prior_weight=100.0, is_adaptive=True)
+    form = model.noise_model()
+    assert form is model.noise_model()
+    observe_moves(form, 1, 2)
+    observe_moves(form, 0, 1)
+    assert (model.num_unintended_, model.num_moves_) == (1, 3)
+    assert model.noise_ == (1 + 100 * 0.4) / (3 + 100)

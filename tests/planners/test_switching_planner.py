@@ -3,6 +3,7 @@ import numpy as np
 from conjure.domains import GridWorld
 from conjure.models.approximate_model import ApproximateModel
 from conjure.planners import ShortestPathPlanner, SwitchingPlanner
+from conjure.planners.switching_planner import switch_by_noise
 
 START = np.array([4.0, 11.0])
 UP = 0
@@ -44,3 +45,13 @@ def test_switches_back_when_the_noise_rises():
     assert planner.is_aggressive_
     model.load_counts(num_unintended=60, num_moves=100)  # η̂ = (60 + 10) / 200 = 0.35
     assert planner.update(model) is True and not planner.is_aggressive_
+
+
+def test_a_kernels_switch_is_the_planners_own_state():
+    # The compiled form shares the planner's switch: nothing is copied back
+    _, planner = setup_gridworld2(initial_noise=0.4, is_adaptive=True)
+    form = planner.compiled_form()
+    assert switch_by_noise(form, 0.1) and planner.is_aggressive_
+    assert planner.action(np.array([2.0, 11.0])) == 3  # the aggressive planner's
+    assert switch_by_noise(form, 0.25) and not planner.is_aggressive_
+    assert not switch_by_noise(form, 0.3)

@@ -88,6 +88,9 @@ class ApproximateModel(Configurable):
         The current estimate η̂.
     num_unintended_, num_moves_ : int
         The counts behind η̂.
+    form_ : NoiseModel
+        η̂ and its counts as arrays: the model's state, which ``noise_`` and the counts read
+        and compiled kernels update in place (`observe_moves`).
 
     Notes
     -----
@@ -135,11 +138,34 @@ class ApproximateModel(Configurable):
         self.prior_noise_ = (
             self.domain_.noise_level if self.initial_noise is None else float(self.initial_noise)
         )
-        self.noise_ = self.prior_noise_
-        self.num_unintended_ = 0
-        self.num_moves_ = 0
+        self.form_ = NoiseModel(
+            counts=np.zeros(2, dtype=np.int64),
+            noise=np.array([self.prior_noise_]),
+            prior_noise=float(self.prior_noise_),
+            prior_weight=float(self.prior_weight),
+            is_adaptive=bool(self.is_adaptive),
+        )
         self.is_set_up_ = True
         return self
+
+    @property
+    def noise_(self) -> float:
+        """η̂ (``form_.noise[0]``)."""
+        return float(self.form_.noise[0])
+
+    @noise_.setter
+    def noise_(self, noise: float) -> None:
+        self.form_.noise[0] = noise
+
+    @property
+    def num_unintended_(self) -> int:
+        """#unintended moves behind η̂ (``form_.counts[0]``)."""
+        return int(self.form_.counts[0])
+
+    @property
+    def num_moves_(self) -> int:
+        """#moves behind η̂ (``form_.counts[1]``)."""
+        return int(self.form_.counts[1])
 
     def sample(
         self, state: np.ndarray, action: int, rng: np.random.Generator
@@ -166,28 +192,21 @@ class ApproximateModel(Configurable):
     def load_counts(self, num_unintended: int, num_moves: int) -> None:
         """Set the counts behind η̂ and re-estimate it (also how saved agents restore T̂)."""
         check_is_set_up(self, "load_counts")
-        self.num_unintended_ = int(num_unintended)
-        self.num_moves_ = int(num_moves)
-        weight = float(self.prior_weight)
-        if self.is_adaptive and self.num_moves_ + weight > 0:
-            self.noise_ = float(
-                estimate_noise(self.num_unintended_, self.num_moves_, self.prior_noise_, weight)
+        form = self.form_
+        form.counts[:] = (num_unintended, num_moves)
+        weight = form.prior_weight
+        if form.is_adaptive and form.counts[1] + weight > 0:
+            form.noise[0] = estimate_noise(
+                int(form.counts[0]), int(form.counts[1]), form.prior_noise, weight
             )
 
     def noise_model(self) -> NoiseModel:
-        """η̂ and its counts for a compiled kernel (copies; `load_noise_model` takes them back)."""
-        check_is_set_up(self, "noise_model")
-        return NoiseModel(
-            counts=np.array([self.num_unintended_, self.num_moves_], dtype=np.int64),
-            noise=np.array([self.noise_]),
-            prior_noise=float(self.prior_noise_),
-            prior_weight=float(self.prior_weight),
-            is_adaptive=bool(self.is_adaptive),
-        )
+        """η̂ and its counts for a compiled kernel: the model's own ``form_`` (no copy).
 
-    def load_noise_model(self, form: NoiseModel) -> None:
-        """Take the counts back from a compiled kernel (η̂ is re-estimated from them)."""
-        self.load_counts(int(form.counts[0]), int(form.counts[1]))
+        A kernel's `observe_moves` updates it in place, so nothing is taken back.
+        """
+        check_is_set_up(self, "noise_model")
+        return self.form_
 
     def domain_at_noise(self) -> NoisyDomain:
         """A copy of the model's domain built with η = η̂ (for planners that need P and R)."""

@@ -15,7 +15,14 @@ from conjure.core.seeding import split_seed
 from conjure.planners.cbba_planner import MissionPlanner
 from conjure.planners.model_planner import PlannedPolicy
 
-__all__ = ["PlannerPair", "SwitchingPlanner", "active_planner", "fixed_pair", "switch_by_noise"]
+__all__ = [
+    "PlannerPair",
+    "SwitchingPlanner",
+    "active_planner",
+    "fixed_pair",
+    "is_calm",
+    "switch_by_noise",
+]
 
 
 class PlannerPair(NamedTuple):
@@ -58,13 +65,24 @@ def active_planner(pair: PlannerPair) -> MissionPlanner:
     return pair.aggressive if pair.is_aggressive[0] else pair.conservative
 
 
+def is_calm(noise: float, noise_threshold: float) -> bool:
+    """The switch (Section 5.5.2): the aggressive planner is in use while η̂ < threshold.
+
+    One source for `SwitchingPlanner.update` and, compiled, `switch_by_noise`.
+    """
+    return noise < noise_threshold
+
+
+_is_calm = njit(cache=True, inline="always")(is_calm)
+
+
 @njit(cache=True)
 def switch_by_noise(pair: PlannerPair, noise: float) -> bool:
     """`SwitchingPlanner.update` for planners that never replan: whether π^p changed."""
     if not pair.is_switching:
         return False
     was_aggressive = pair.is_aggressive[0]
-    pair.is_aggressive[0] = noise < pair.noise_threshold
+    pair.is_aggressive[0] = _is_calm(noise, pair.noise_threshold)
     return pair.is_aggressive[0] != was_aggressive
 
 
@@ -92,6 +110,8 @@ class SwitchingPlanner(CooperativePlanner):
         The set-up planners.
     is_aggressive_ : bool
         Whether the aggressive planner is in use.
+    switch_ : ndarray of bool, shape (1,)
+        The same, as the array the compiled form (`PlannerPair`) shares.
 
     Notes
     -----
@@ -146,9 +166,18 @@ class SwitchingPlanner(CooperativePlanner):
         seeds = split_seed(seed, ("conservative", "aggressive"))
         self.conservative_ = self.conservative.clone().setup(model, seeds["conservative"])
         self.aggressive_ = self.aggressive.clone().setup(model, seeds["aggressive"])
-        self.is_aggressive_ = self._is_calm(model)
+        self.switch_ = np.array([is_calm(model.noise_, self.noise_threshold)], dtype=np.bool_)
         self.is_set_up_ = True
         return self
+
+    @property
+    def is_aggressive_(self) -> bool:
+        """Whether the aggressive planner is in use (``switch_[0]``)."""
+        return bool(self.switch_[0])
+
+    @is_aggressive_.setter
+    def is_aggressive_(self, is_aggressive: bool) -> None:
+        self.switch_[0] = is_aggressive
 
     compiled_methods = ("action", "update")
 
@@ -157,8 +186,8 @@ class SwitchingPlanner(CooperativePlanner):
 
         Both CBBA's (`MissionPlanner`), or both tables that never change with T̂ (a
         `PlannedPolicy` with ``is_fixed``: `ShortestPathPlanner`); a planner that replans as
-        η̂ moves has no compiled switch. ``is_aggressive`` is a copy; `load_compiled_form`
-        takes it back.
+        η̂ moves has no compiled switch. ``is_aggressive`` is the planner's own ``switch_``
+        (a kernel's `switch_by_noise` switches it in place).
         """
         check_is_set_up(self, "compiled_form")
         forms = compiled_form(self.conservative_), compiled_form(self.aggressive_)
@@ -166,21 +195,13 @@ class SwitchingPlanner(CooperativePlanner):
         is_table = all(isinstance(form, PlannedPolicy) and form.is_fixed for form in forms)
         if not (is_cbba or is_table):
             return None
-        is_aggressive = np.array([self.is_aggressive_], dtype=np.bool_)
         return PlannerPair(
             conservative=forms[0],
             aggressive=forms[1],
             noise_threshold=float(self.noise_threshold),
-            is_aggressive=is_aggressive,
+            is_aggressive=self.switch_,
             is_switching=True,
         )
-
-    def load_compiled_form(self, form: PlannerPair) -> None:
-        """Take back which planner a compiled kernel switched to."""
-        self.is_aggressive_ = bool(form.is_aggressive[0])
-
-    def _is_calm(self, model: Any) -> bool:
-        return float(model.noise_) < self.noise_threshold
 
     def _active(self) -> CooperativePlanner:
         return self.aggressive_ if self.is_aggressive_ else self.conservative_
@@ -194,6 +215,6 @@ class SwitchingPlanner(CooperativePlanner):
         """Switch by the model's η̂ and update the planner in use; return whether π^p changed."""
         check_is_set_up(self, "update")
         was_aggressive = self.is_aggressive_
-        self.is_aggressive_ = self._is_calm(model)
+        self.is_aggressive_ = is_calm(float(model.noise_), self.noise_threshold)
         changed = self._active().update(model)
         return changed or self.is_aggressive_ != was_aggressive

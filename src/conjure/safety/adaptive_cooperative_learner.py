@@ -14,6 +14,7 @@ from conjure.core.interfaces import (
 )
 from conjure.core.params import Interval
 from conjure.models.approximate_model import ApproximateModel
+from conjure.safety._box_rules import needs_replan
 from conjure.safety.compiled_cooperative import CompiledBox, cooperative_learner_kernel
 from conjure.safety.cooperative_learner import CooperativeLearner
 
@@ -162,7 +163,11 @@ class AdaptiveCooperativeLearner(CooperativeLearner):
         return {"num_policy_changes": self.num_policy_changes_}
 
     def learn(self, transition: Transition) -> float:
-        """Algorithm 26, lines 9-15: update the learner and T̂; replan; reset counts if π^p moved."""
+        """Algorithm 26, lines 9-15: update the learner and T̂; replan; reset counts if π^p moved.
+
+        The replan test is the compiled box's (`conjure.safety._box_rules.needs_replan`); T̂'s
+        update, the replan and the analyser's update are the parts' own methods.
+        """
         check_is_set_up(self, "learn")
         delta = self.learner_.learn(transition)  # line 9
         model = self.model_
@@ -171,7 +176,7 @@ class AdaptiveCooperativeLearner(CooperativeLearner):
         if model.noise_ == noise:  # T̂ unchanged: nothing π^p or the analyser use moved
             return delta
         is_policy_changed = False
-        if abs(model.noise_ - self.planned_noise_) > self.replan_threshold:  # line 11
+        if needs_replan(model.noise_, self.planned_noise_, self.replan_threshold):  # line 11
             self.planned_noise_ = float(model.noise_)  # line 12: T̂^p ← T̂
             is_policy_changed = self.planner_.update(model)  # line 13
             if is_policy_changed:  # line 14

@@ -13,7 +13,11 @@ updated in place (Algorithm 23's visit counts n(s) and planner bias; Algorithm 2
 of unconsulted planner actions, knownness and veto rule).
 `box_action` is the box's ``act`` while learning (`cooperative_action`:
 `CooperativeActorCritic`, `cooperative_learner_action`: `CooperativeLearner`); the learner's
-updates stay the learner's own kernels.
+updates stay the learner's own kernels. The control rules (knownness and consulting the
+learner, b(n), the trust test, the tie-break toward π^p, the replan test) are
+`conjure.safety._box_rules`' functions, njit-wrapped here and called as they are by the
+boxes' Python ``act`` and ``learn``; what stays twice is each algorithm's order of calls
+(a handful of lines per path), since the Python path calls the parts' own methods there.
 
 The tables are made by calling the parts' own methods (the planner's compiled form, the
 analyser's ``is_safe``, the model's ``count_unintended``) on every state the planner
@@ -62,6 +66,15 @@ from conjure.representations.compiled_representation import (
     lookup_row,
     representation_kernel,
     rows_in_use,
+)
+from conjure.safety._box_rules import (
+    NEVER_TRUSTED,
+    consult_planner,
+    is_trusted,
+    is_unvisited,
+    mentor_greedy_action,
+    needs_replan,
+    visit_bias,
 )
 from conjure.safety.fuel_risk import FuelRisk, fuel_risk
 from conjure.safety.monte_carlo_risk import (
@@ -319,7 +332,7 @@ class BoxKernel(NamedTuple):
     has_veto : bool
         Whether vetoed proposals are learned (``veto_reward`` is not None).
     trusted : float
-        The knownness from which the safety check is skipped (2.0: never).
+        The knownness from which the safety check is skipped (`NEVER_TRUSTED`: never).
     rng : numpy.random.Generator
         The agent's own generator (Algorithm 24's knownness draws).
     """
@@ -360,7 +373,7 @@ def no_box(index: RepresentationKernel) -> BoxKernel:
         num_known=1.0,
         veto_reward=0.0,
         has_veto=False,
-        trusted=2.0,
+        trusted=NEVER_TRUSTED,
         rng=_NO_DRAWS,
     )
 
@@ -601,8 +614,11 @@ def _intended_rows(agent: Any, states: np.ndarray) -> np.ndarray:
 def box_parts(agent: Any, tables: BoxTables) -> BoxParts:
     """The `BoxParts` of a set-up box, from its parts' current forms.
 
-    Made for every call of the loop: the model's counts, the planner in use and Algorithm
-    26's η̂^p are copies that `CooperativeAgent.load_compiled_form` takes back.
+    Made for every call of the loop: Algorithm 26's η̂^p and count of policy changes are
+    copies that `CooperativeAgent.load_compiled_form` takes back; T̂'s η̂ and counts
+    (`ApproximateModel.noise_model`) and which planner a switching π^p uses
+    (`SwitchingPlanner.switch_`, also in the grid tables' pair) are the parts' own arrays,
+    updated in place.
     """
     is_adaptive = agent.adapts_model  # Algorithm 26
     parts = NO_PARTS._replace(
@@ -612,14 +628,13 @@ def box_parts(agent: Any, tables: BoxTables) -> BoxParts:
         policy_changes=np.array([getattr(agent, "num_policy_changes_", 0)], dtype=np.int64),
     )  # fmt: skip
     if not tables.is_mission:
-        is_aggressive = np.array([_is_aggressive(agent)], dtype=np.bool_)
-        pair = tables.tables._replace(is_aggressive=is_aggressive)
         grid = NO_PARTS.grid if tables.grid is None else tables.grid._replace(
             rng=agent.risk_.rng_
         )  # fmt: skip
         return parts._replace(
-            tables=pair, has_rollouts=tables.grid is not None, grid=grid, intended=tables.intended
-        )
+            tables=tables.tables, has_rollouts=tables.grid is not None, grid=grid,
+            intended=tables.intended,
+        )  # fmt: skip
     planners = compiled_form(agent.planner_)
     if isinstance(planners, MissionPlanner):
         planners = fixed_pair(planners)
@@ -671,7 +686,7 @@ def cooperative_learner_kernel(agent: Any) -> CompiledBox | None:
     box = tables.box(COOPERATIVE_LEARNER, agent)._replace(
         counts=agent.counts_, num_known=float(agent.num_known_visits),
         veto_reward=0.0 if veto is None else float(veto), has_veto=veto is not None,
-        trusted=2.0 if trusted is None else float(trusted), rng=agent.rng_,
+        trusted=NEVER_TRUSTED if trusted is None else float(trusted), rng=agent.rng_,
     )  # fmt: skip
     return CompiledBox(box=box, parts=tables.parts(agent))
 
@@ -705,16 +720,14 @@ def _is_safe(
     return risk < rollouts.risk_tolerance
 
 
-@njit(cache=True, inline="always")
-def _knownness(box: BoxKernel, row: int, action: int) -> float:
-    """min(1, count(s, a)/𝒦) (Algorithm 24, line 2); 0 for a state the index never saw (−1)."""
-    return 0.0 if row < 0 else min(1.0, box.counts[row, action] / box.num_known)
-
-
-@njit(cache=True, inline="always")
-def _planner_bias(box: BoxKernel, visits: int) -> float:
-    """b(n) = λ·N_b/(N_b + n) (`CooperativeActorCritic.planner_bias`)."""
-    return box.bias * box.half_life / (box.half_life + visits)
+#: The box's control rules (`conjure.safety._box_rules`), compiled: one source with the Python
+#: methods of `CooperativeActorCritic`, `CooperativeLearner` and `AdaptiveCooperativeLearner`.
+_visit_bias = njit(cache=True, inline="always")(visit_bias)
+_is_unvisited = njit(cache=True, inline="always")(is_unvisited)
+_consult_planner = njit(cache=True, inline="always")(consult_planner)
+_is_trusted = njit(cache=True, inline="always")(is_trusted)
+_mentor_greedy_action = njit(cache=True, inline="always")(mentor_greedy_action)
+_needs_replan = njit(cache=True, inline="always")(needs_replan)
 
 
 @njit(cache=True, inline="always")
@@ -743,13 +756,9 @@ def cooperative_action(
     if row < 0:
         return -1
     planner_action = _planner_action(box, parts, row, obs)
-    visits = box.visits[row]
-    box.visits[row] = visits + 1
-    if visits == 0:  # Section 5.3.2: bias ρ toward π^p on the first visit
-        shift_preference_into(actor_weights, phi, values, planner_action, box.bias)
-    elif box.is_fading:  # the bias fades from b(n − 1) to b(n)
-        fade = _planner_bias(box, visits) - _planner_bias(box, visits - 1)
-        shift_preference_into(actor_weights, phi, values, planner_action, fade)
+    is_shifted, shift = _visit_bias(box.visits, row, box.bias, box.half_life, box.is_fading)
+    if is_shifted:  # Section 5.3.2: ρ(s, π^p(s)) holds b(n)
+        shift_preference_into(actor_weights, phi, values, planner_action, shift)
     q_values_into(actor_weights, phi, values, preferences)
     learner_action = select_action(policy, preferences, legal, rng)  # line 2
     if _is_safe(box, parts, row, obs, learner_action, planner_action):  # line 4
@@ -780,13 +789,15 @@ def cooperative_learner_action(
     (recomputed after that update); ``row``: the index row of s (``obs``).
     """
     planner_action = _planner_action(box, parts, row, obs)  # line 1
-    knownness = _knownness(box, row, planner_action)  # line 2
-    consult = knownness >= 1.0 or (knownness > 0.0 and box.rng.random() < knownness)
-    if not consult:  # line 3 failed
-        box.counts[row, planner_action] += 1  # line 8
+    knownness, is_consulted = _consult_planner(  # lines 2-3 and 8
+        box.counts, box.num_known, row, planner_action, box.rng, False
+    )
+    if not is_consulted:
         return planner_action, 0.0, False
     learner_action = select_action(agent.policy, q, legal, rng)  # line 4
-    if knownness >= box.trusted or _is_safe(box, parts, row, obs, learner_action, planner_action):
+    if _is_trusted(knownness, box.trusted) or _is_safe(  # line 5
+        box, parts, row, obs, learner_action, planner_action
+    ):
         return learner_action, 0.0, False  # line 6
     if not box.has_veto:
         return planner_action, 0.0, False
@@ -873,16 +884,17 @@ def greedy_box_action(
     row = lookup_row(box.index, obs)
     planner_action = _planner_action(box, parts, row, obs)
     if box.kind == ICCA:
-        if row < 0 or box.visits[row] == 0:
+        if _is_unvisited(box.visits, row):
             q[planner_action] += box.bias
         learner_action = greedy_action(q, legal)
     else:
-        knownness = _knownness(box, row, planner_action)
-        if knownness < 1.0:
+        knownness, is_consulted = _consult_planner(
+            box.counts, box.num_known, row, planner_action, box.rng, True
+        )
+        if not is_consulted:
             return planner_action
-        best = greedy_action(q, legal)
-        learner_action = planner_action if q[planner_action] >= q[best] else best
-        if knownness >= box.trusted:
+        learner_action = _mentor_greedy_action(q, legal, planner_action)
+        if _is_trusted(knownness, box.trusted):
             return learner_action
     if _is_safe(box, parts, row, obs, learner_action, planner_action):
         return learner_action
@@ -935,7 +947,7 @@ def box_learn(
     observe_moves(model, unintended, moves)  # line 10
     if model.noise[0] == noise:  # T̂ unchanged
         return
-    if abs(model.noise[0] - parts.planned_noise[0]) > parts.replan_threshold:  # line 11
+    if _needs_replan(model.noise[0], parts.planned_noise[0], parts.replan_threshold):  # line 11
         parts.planned_noise[0] = model.noise[0]  # line 12
         if _switch(box, parts, model.noise[0]):  # lines 13-14
             box.counts[: rows_in_use(box.index, box.counts.shape[0])] = 0  # line 15

@@ -10,6 +10,7 @@ from conjure.core.interfaces import Representation, check_is_set_up
 from conjure.core.params import InstanceOf, Interval
 from conjure.models.approximate_model import ApproximateModel
 from conjure.policies import greedy_action
+from conjure.safety._box_rules import fading_bias, is_unvisited, visit_bias
 from conjure.safety.compiled_cooperative import CompiledBox, icca_kernel
 from conjure.safety.cooperative_agent import CooperativeAgent
 
@@ -155,7 +156,7 @@ class CooperativeActorCritic(CooperativeAgent):
         """b(n): the bias ρ(s, π^p(s)) holds after n visits (λ, or λ·N_b/(N_b + n))."""
         if self.bias_half_life is None:
             return self.bias
-        return self.bias * self.bias_half_life / (self.bias_half_life + visits)
+        return fading_bias(self.bias, self.bias_half_life, visits)
 
     compiled_methods = ("act", "learn", "begin_episode", "planner_bias")
     compiled_variant = (
@@ -173,14 +174,18 @@ class CooperativeActorCritic(CooperativeAgent):
     def act(
         self, state: np.ndarray, greedy: bool = False, legal_actions: np.ndarray | None = None
     ) -> int:
-        """Algorithm 23, lines 1-6: the actor's action unless unsafe, then the planner's."""
+        """Algorithm 23, lines 1-6: the actor's action unless unsafe, then the planner's.
+
+        The rules are the compiled box's (`conjure.safety._box_rules`: `visit_bias`,
+        `is_unvisited`); π^p(s), the actor's proposal and safe(s, a) are the parts' own methods.
+        """
         check_is_set_up(self, "act")
         learner = self.learner_
         planner_action = self.planner_.action(state)  # line 1
         row = self.state_row(state, store=not greedy)
         if greedy:
             preferences = learner.preferences(state)
-            if row < 0 or self.visits_[row] == 0:  # −1: never seen
+            if is_unvisited(self.visits_, row):  # biased by λ
                 preferences[planner_action] += self.bias
             learner_action = int(greedy_action(preferences, self._actions(legal_actions)))
             if self.risk_.is_safe(
@@ -188,13 +193,13 @@ class CooperativeActorCritic(CooperativeAgent):
             ):
                 return learner_action
             return planner_action
-        visits = int(self.visits_[row])
-        self.visits_[row] = visits + 1
-        if visits == 0:  # Section 5.3.2: bias ρ toward π^p on the first visit
-            learner.shift_preference(state, planner_action, self.bias)
-        elif self.bias_half_life is not None:  # the bias fades from b(n − 1) to b(n)
-            fade = self.planner_bias(visits) - self.planner_bias(visits - 1)
-            learner.shift_preference(state, planner_action, fade)
+        half_life = self.bias_half_life
+        is_shifted, shift = visit_bias(
+            self.visits_, row, self.bias, 0.0 if half_life is None else half_life,
+            half_life is not None,
+        )  # fmt: skip
+        if is_shifted:  # Section 5.3.2: ρ(s, π^p(s)) holds b(n)
+            learner.shift_preference(state, planner_action, shift)
         learner_action = learner.act(state, False, legal_actions)  # line 2
         if self.risk_.is_safe(state, learner_action, planner_action=planner_action):  # line 4
             return learner_action  # line 3

@@ -150,17 +150,14 @@ class CooperativeAgent(Agent):
     def load_compiled_form(self, form: CompiledBox) -> None:
         """Take back what the compiled loop changed outside the agent's own arrays.
 
-        For a box that adapts T̂ (Algorithm 26): T̂'s counts, which planner a switching π^p
-        uses, η̂^p and the count of policy changes; the analyser is told T̂ (and maybe π^p)
-        changed. Nothing otherwise.
+        For a box that adapts T̂ (Algorithm 26): η̂^p and the count of policy changes; the
+        analyser is told T̂ (and maybe π^p) changed. T̂'s counts and η̂ and the switch of a
+        switching π^p need nothing: the form holds the parts' own arrays
+        (`ApproximateModel.noise_model`, `SwitchingPlanner.switch_`). Nothing otherwise.
         """
         if not self.adapts_model:
             return
         parts = form.parts
-        self.model_.load_noise_model(parts.model)
-        pair = parts.planners if form.box.is_mission else parts.tables
-        if pair.is_switching:
-            self.planner_.load_compiled_form(pair)
         changes = int(parts.policy_changes[0])
         self.planned_noise_ = float(parts.planned_noise[0])
         self.risk_.update(is_policy_changed=changes != self.num_policy_changes_)
@@ -183,7 +180,7 @@ class CooperativeAgent(Agent):
         The form holds the box's own arrays and generators (updated in place), so a box
         whose T̂ is static keeps one form from `setup` (or `load_state`) on, and a kernel
         call costs no rebuilding. Choice: a box that adapts T̂ (Algorithm 26) still builds it
-        per call, since its T̂ counts, η̂^p and π^p are copies `load_compiled_form` takes back.
+        per call, since its η̂^p and π^p in use are copies `load_compiled_form` takes back.
         """
         if self.adapts_model:
             return build(self)

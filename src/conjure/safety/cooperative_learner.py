@@ -12,6 +12,12 @@ from conjure.core.cooperative import CooperativePlanner, RiskAnalyzer
 from conjure.core.interfaces import Agent, Representation, Transition, check_is_set_up
 from conjure.core.params import InstanceOf, Interval, Predicate
 from conjure.models.approximate_model import ApproximateModel
+from conjure.safety._box_rules import (
+    NEVER_TRUSTED,
+    consult_planner,
+    is_trusted,
+    mentor_greedy_action,
+)
 from conjure.safety.compiled_cooperative import CompiledBox, cooperative_learner_kernel
 from conjure.safety.cooperative_agent import CooperativeAgent
 
@@ -191,11 +197,8 @@ class CooperativeLearner(CooperativeAgent):
         A state a lazily indexed ``index`` never stored has count 0 and gets no row.
         """
         check_is_set_up(self, "knownness")
-        return self._knownness(self.state_row(state, store=False), action)
-
-    def _knownness(self, row: int, action: int) -> float:
-        count = self.counts_[row, action] if row >= 0 else 0  # −1: never seen
-        return min(1.0, count / self.num_known_visits)
+        row = self.state_row(state, store=False)
+        return consult_planner(self.counts_, self.num_known_visits, row, action, self.rng_, True)[0]
 
     compiled_methods = ("act", "learn", "begin_episode", "_is_trusted", "_learn_vetoed")
     compiled_variant = (
@@ -214,18 +217,19 @@ class CooperativeLearner(CooperativeAgent):
     def act(
         self, state: np.ndarray, greedy: bool = False, legal_actions: np.ndarray | None = None
     ) -> int:
-        """Algorithm 24, lines 1-8: the planner's action, or the learner's if known and safe."""
+        """Algorithm 24, lines 1-8: the planner's action, or the learner's if known and safe.
+
+        The rules are the compiled box's (`conjure.safety._box_rules`: `consult_planner`,
+        `is_trusted`, `mentor_greedy_action`); π^p(s), the learner's proposal and safe(s, a)
+        are the parts' own methods.
+        """
         check_is_set_up(self, "act")
         planner_action = self.planner_.action(state)  # line 1
         row = self.state_row(state, store=not greedy)
-        knownness = self._knownness(row, planner_action)  # line 2
-        if greedy:
-            consult = knownness >= 1.0
-        else:
-            consult = knownness >= 1.0 or (knownness > 0.0 and self.rng_.random() < knownness)
-        if not consult:  # line 3 failed
-            if not greedy:
-                self.counts_[row, planner_action] += 1  # line 8
+        knownness, is_consulted = consult_planner(  # lines 2-3 and 8
+            self.counts_, self.num_known_visits, row, planner_action, self.rng_, greedy
+        )
+        if not is_consulted:
             return planner_action
         if greedy:
             learner_action = self._greedy_learner_action(state, planner_action, legal_actions)
@@ -268,11 +272,11 @@ class CooperativeLearner(CooperativeAgent):
         values_of = getattr(learner, "preferences", None) or getattr(learner, "q_values", None)
         if values_of is None:
             return int(learner.act(state, True, legal_actions))
-        values = values_of(state)
-        legal = self._actions(legal_actions)
-        best = legal[np.argmax(values[legal])]
-        return planner_action if values[planner_action] >= values[best] else int(best)
+        return int(
+            mentor_greedy_action(values_of(state), self._actions(legal_actions), planner_action)
+        )
 
     def _is_trusted(self, knownness: float) -> bool:
         """Whether the learner's action may skip the safety check (Section 5.5.3)."""
-        return self.trusted_knownness is not None and knownness >= self.trusted_knownness
+        trusted = self.trusted_knownness
+        return is_trusted(knownness, NEVER_TRUSTED if trusted is None else trusted)
