@@ -1,6 +1,6 @@
 """What a cold compile costs and what it saves: the numbers behind the compile rule.
 
-Usage: ``python benchmarks/compile_cost.py [--seconds S]``
+Usage: ``python benchmarks/compile_cost.py [--seconds S] [--python-only]``
 
 For each workload of the shipped examples (the UAV 7-2 methods of ``examples/uav_icca.yaml``:
 SARSA, CSARSA (Algorithm 24) and AM-iCCA (Algorithm 26); SARSA on the pendulum of
@@ -9,7 +9,7 @@ fresh process with an empty numba cache (``NUMBA_CACHE_DIR`` a new temporary fol
 
 - ``python first s``: the Python `Stepper`'s first ``advance(1)`` (its components' own numba
   kernels compile then, on the Python path too), then ``python steps/s`` over about
-  ``--seconds``;
+  ``--seconds`` after as long again untimed (some kernels are first called later);
 - ``cold compile s``: then the compiled stepper's first ``advance(1)`` on a fresh agent (the
   loop's compile, as a first ``conjure run`` on a machine pays it), then ``compiled steps/s``;
 - ``break-even steps``: the steps after which the compile has paid for itself,
@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import os
 import subprocess
 import sys
@@ -52,51 +53,59 @@ from conjure.experiments import registry
 from conjure.experiments.config import load_config, resolve_run
 from conjure.experiments.loop import Stepper
 
-path, label, seconds = sys.argv[1], sys.argv[2], float(sys.argv[3])
+path, label, seconds, python_only = sys.argv[1], sys.argv[2], float(sys.argv[3]), sys.argv[4]
 experiment = load_config(path)
 label = label if label != "-" else next(iter(experiment.agents))
 spec = resolve_run(experiment, label, 0)
+
 
 def pair(seed):
     domain = registry.build("domain", spec["domain"])
     agent = registry.build("agent", spec["agent"]).setup(domain.domain_spec, seed)
     return domain, agent
 
+
+def timed(stepper, steps):
+    started = time.perf_counter()
+    stepper.advance(steps)
+    return time.perf_counter() - started
+
+
 def rate(stepper):
-    steps, started = 0, time.perf_counter()
-    chunk = 100
-    while time.perf_counter() - started < seconds:
-        stepper.advance(chunk)
-        steps += chunk
-        chunk = min(chunk * 2, 20000)
-    return steps / (time.perf_counter() - started)
+    # steps/s over about `seconds`, after as long again untimed (kernels first called late)
+    for _ in range(2):
+        steps, spent, chunk = 0, 0.0, 100
+        while spent < seconds:
+            spent += timed(stepper, chunk)
+            steps += chunk
+            chunk = min(chunk * 2, 20000)
+    return steps / spent
+
 
 python = Stepper(*pair(2), seed=2)
-started = time.perf_counter()
-python.advance(1)
-python_first = time.perf_counter() - started
-python_rate = rate(python)
-domain, agent = pair(1)
-compiled = for_combination(domain, agent, seed=1)
-started = time.perf_counter()
-compiled.advance(1)
-cold = time.perf_counter() - started
-print(json.dumps({
-    "label": label,
-    "python_first_call_s": python_first,
-    "python_steps_per_s": python_rate,
-    "cold_compile_s": cold,
-    "compiled_steps_per_s": rate(compiled),
-}))
+got = {"label": label, "python_first_call_s": timed(python, 1), "python_steps_per_s": rate(python)}
+if python_only == "no":
+    compiled = for_combination(*pair(1), seed=1)
+    got["cold_compile_s"] = timed(compiled, 1)
+    got["compiled_steps_per_s"] = rate(compiled)
+print(json.dumps(got))
 """
 
 
-def measure(config: str, label: str | None, seconds: float) -> dict:
+def measure(config: str, label: str | None, seconds: float, python_only: bool) -> dict:
     """One workload in a fresh process with an empty numba cache."""
     examples = Path(__file__).resolve().parents[1] / "examples"
     with tempfile.TemporaryDirectory() as cache:
         out = subprocess.run(
-            [sys.executable, "-c", _CHILD, str(examples / config), label or "-", str(seconds)],
+            [
+                sys.executable,
+                "-c",
+                _CHILD,
+                str(examples / config),
+                label or "-",
+                str(seconds),
+                "yes" if python_only else "no",
+            ],
             env={**os.environ, "NUMBA_CACHE_DIR": cache},
             check=True,
             capture_output=True,
@@ -108,6 +117,9 @@ def measure(config: str, label: str | None, seconds: float) -> dict:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seconds", type=float, default=3.0)
+    parser.add_argument(
+        "--python-only", action="store_true", help="Measure the Python path only (no compile)."
+    )
     args = parser.parse_args()
     console = Console()
     console.print(f"CPU: {cpu_model()}; load average at start: {os.getloadavg()}")
@@ -116,15 +128,16 @@ def main() -> None:
     for name in ("workload", *columns, "break-even"):
         table.add_column(name, justify="right")
     for name, config, label in WORKLOADS:
-        got = measure(config, label, args.seconds)
-        python, compiled = got["python_steps_per_s"], got["compiled_steps_per_s"]
+        got = measure(config, label, args.seconds, args.python_only)
+        python, compiled = got["python_steps_per_s"], got.get("compiled_steps_per_s", math.inf)
         saved = 1 / python - 1 / compiled
-        even = f"{got['cold_compile_s'] / saved:,.0f}" if saved > 0 else "never"
+        cold = got.get("cold_compile_s", math.nan)
+        even = f"{cold / saved:,.0f}" if saved > 0 and not math.isnan(cold) else "-"
         table.add_row(
             name,
             f"{got['python_first_call_s']:.1f}",
             f"{python:,.0f}",
-            f"{got['cold_compile_s']:.1f}",
+            f"{cold:.1f}",
             f"{compiled:,.0f}",
             even,
         )

@@ -321,13 +321,14 @@ LearningLoop = Stepper
 
 #: Estimates behind `compile_pays`, measured by ``benchmarks/compile_cost.py`` (in a fresh
 #: process with an empty numba cache, on the shipped examples' methods): the loop's cold
-#: compile in seconds, by compilation (binary φ, real-valued φ), the largest measured, rounded
-#: up; a compiled step's seconds as a share of the same Python step's (the largest share
-#: measured); and the Python step a run is assumed to take when its own cost has not been
-#: measured (the fastest measured).
-COMPILE_SECONDS = {False: 120.0, True: 120.0}
-COMPILED_SHARE = 0.2
-PYTHON_STEP_SECONDS = 30e-6
+#: compile in seconds, by compilation (binary φ, real-valued φ: one function with one type
+#: changed, taken equal), the largest measured, rounded up; a compiled step's seconds as a
+#: share of the same Python step's (the largest share measured, rounded up); and the Python
+#: step a run is assumed to take when its own cost has not been measured (the fastest
+#: measured).
+COMPILE_SECONDS = {False: 220.0, True: 220.0}
+COMPILED_SHARE = 0.14
+PYTHON_STEP_SECONDS = 24e-6
 
 
 def compile_seconds_estimate(real_valued: bool = False) -> float:
