@@ -154,7 +154,7 @@ def run_command(
 
     console = Console()
     shown = None if quiet else console
-    with phase(shown, "loading conjure and the config"):
+    with phase(shown, "loading conjure and the config", keep=False):  # an error: one line
         from conjure.experiments.config import load_config
         from conjure.experiments.parallel import run_experiment
         from conjure.experiments.shipped import find_config

@@ -18,11 +18,11 @@ __all__ = ["phase"]
 
 
 @contextmanager
-def phase(console: Console | None, text: str) -> Iterator[None]:
+def phase(console: Console | None, text: str, *, keep: bool = True) -> Iterator[None]:
     """Show ``text`` as a phase of the progress display while the block runs, then its time.
 
-    A spinner on a terminal; one line ``text: N s`` when the block ends (also when the output
-    is not a terminal). ``console`` None shows nothing (``--quiet``).
+    A spinner on a terminal; with ``keep``, one line ``text: N s`` when the block ends (also
+    when the output is not a terminal). ``console`` None shows nothing (``--quiet``).
     """
     if console is None:
         yield
@@ -30,4 +30,6 @@ def phase(console: Console | None, text: str) -> Iterator[None]:
     started = time.perf_counter()
     with console.status(escape(text)):
         yield
-    console.print(f"{escape(text)}: {time.perf_counter() - started:.1f} s", highlight=False)
+    if keep:
+        seconds = time.perf_counter() - started
+        console.print(f"{escape(text)}: {seconds:.1f} s", highlight=False)
