@@ -440,6 +440,7 @@ def test_the_warm_up_compiles_when_the_whole_commands_steps_pay(monkeypatch, tmp
     compiling = f"{parallel._WARMUP_STEPS} {MAX_COMPILE_STEPS}"
     assert record.read_text().splitlines() == ([probe, compiling] if pays else [probe])
     about = "compiling kernels, first run only: about 100 s"
+    assert "measuring each method's Python step: " in output.getvalue()
     assert (about in output.getvalue()) is pays
 
 

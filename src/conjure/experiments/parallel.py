@@ -194,8 +194,8 @@ def warm_up(
     ``compile_steps`` at the maximum) into numba's disk cache, and the command's runs find it
     warm. The tiny runs run one after another in one worker process (under ``max_memory``, if
     given): one that crashes or outgrows memory must not take the driver down; their errors
-    and deaths are ignored (the real runs record them). ``console``: where the compiling
-    phase is shown (None: nowhere). Returns the number of tiny runs.
+    and deaths are ignored (the real runs record them). ``console``: where the measuring and
+    compiling phases are shown (None: nowhere). Returns the number of tiny runs.
     """
     steps: dict[Any, int] = Counter()
     probes: dict[Any, dict[str, Any]] = {}
@@ -210,11 +210,12 @@ def warm_up(
         max_workers=1, max_retries=0, max_memory=max_memory, in_process=False
     ) as executor:
         cold: dict[str, list[tuple[Any, float]]] = {}
-        for index, outcome in executor.map_unordered(run_fn, list(probes.values())):
-            kernel = cold_kernel(getattr(outcome, "path", "") or "")
-            seconds = _python_step_seconds(getattr(outcome, "rows", None))
-            if kernel is not None and seconds is not None:
-                cold.setdefault(kernel, []).append((keys[index], seconds))
+        with phase(console, "measuring each method's Python step"):
+            for index, outcome in executor.map_unordered(run_fn, list(probes.values())):
+                kernel = cold_kernel(getattr(outcome, "path", "") or "")
+                seconds = _python_step_seconds(getattr(outcome, "rows", None))
+                if kernel is not None and seconds is not None:
+                    cold.setdefault(kernel, []).append((keys[index], seconds))
         paying = [
             kernel
             for kernel, found in cold.items()
@@ -561,8 +562,7 @@ def prepare_executor(
     # Short runs that earn a compile back only together (a long run compiles for itself).
     is_shared = bool(steps) and sum(steps) >= COMPILE_WORTH_STEPS > min(steps)
     if todo and executor.is_local and (is_many or is_shared):
-        with phase(console, "measuring each method's Python step"):
-            warm_up(todo, run_fn, executor.max_memory, console)
+        warm_up(todo, run_fn, executor.max_memory, console)
     if not executor.is_started:
         executor.start()
 
