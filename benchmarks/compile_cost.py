@@ -1,6 +1,6 @@
 """What a cold compile costs and what it saves: the numbers behind the compile rule.
 
-Usage: ``python benchmarks/compile_cost.py [--seconds S] [--python-only]``
+Usage: ``python benchmarks/compile_cost.py [--seconds S] [--python-only] [--only NAME]``
 
 For each workload of the shipped examples (the UAV 7-2 methods of ``examples/uav_icca.yaml``:
 SARSA, CSARSA (Algorithm 24) and AM-iCCA (Algorithm 26); SARSA on the pendulum of
@@ -120,6 +120,7 @@ def main() -> None:
     parser.add_argument(
         "--python-only", action="store_true", help="Measure the Python path only (no compile)."
     )
+    parser.add_argument("--only", default="", help="Only workloads whose name contains this.")
     args = parser.parse_args()
     console = Console()
     console.print(f"CPU: {cpu_model()}; load average at start: {os.getloadavg()}")
@@ -127,7 +128,7 @@ def main() -> None:
     columns = ("python first s", "python steps/s", "cold compile s", "compiled steps/s")
     for name in ("workload", *columns, "break-even"):
         table.add_column(name, justify="right")
-    for name, config, label in WORKLOADS:
+    for name, config, label in (w for w in WORKLOADS if args.only in w[0]):
         got = measure(config, label, args.seconds, args.python_only)
         python, compiled = got["python_steps_per_s"], got.get("compiled_steps_per_s", math.inf)
         saved = 1 / python - 1 / compiled
