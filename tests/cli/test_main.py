@@ -112,6 +112,8 @@ def test_run_then_plot(config_file, tmp_path):
     ]  # --seeds 2 overrides the file's 3
     assert all(r["agent"]["params"]["step_size"] == 0.25 for r in runs if r["label"] == "q")
     assert "sarsa" in result.output and "final return" in result.output
+    for shown in ("setting up: ", "plotting the learning curves: "):
+        assert shown in result.output  # the phases outside the progress bar
 
     again = runner.invoke(
         main,
@@ -148,6 +150,7 @@ def test_run_with_a_memory_limit_runs_in_a_worker_process(config_file, tmp_path)
     args = ["run", str(config_file), "--out", str(out), "--max-workers", "1", "--quiet"]
     result = CliRunner().invoke(main, [*args, "--seeds", "1", "--max-memory", "2GiB"])
     assert result.exit_code == 0, result.output
+    assert not any(phase in result.output for phase in ("setting up", "plotting"))
     pids = {read_run(path)["meta"]["pid"] for path in (out / "runs").glob("*.json")}
     assert len(pids) == 1 and os.getpid() not in pids
     bad = CliRunner().invoke(main, [*args, "--max-memory", "-3GiB"])

@@ -18,9 +18,13 @@ from conjure.core.interfaces import Agent, Domain, DomainSpec, Transition
 from conjure.core.params import InstanceOf, Interval
 from conjure.core.seeding import make_rng
 from conjure.experiments.loop import (
+    BINARY,
     COMPILE_WORTH_STEPS,
+    PYTHON_STEP_SECONDS,
     LearningLoop,
     Stepper,
+    cold_kernel,
+    compile_pays,
     learning_stepper,
     profile_steps,
     run_episode,
@@ -336,11 +340,17 @@ def test_learning_loop_counts_failures_of_the_steps_it_took():
 
 
 @pytest.mark.parametrize(
-    ("warm", "budget_steps", "is_compiled"),
-    [(True, 0, True), (False, COMPILE_WORTH_STEPS, True), (False, COMPILE_WORTH_STEPS - 1, False)],
+    ("warm", "budget_steps", "python_step_seconds", "is_compiled"),
+    [
+        (True, 0, PYTHON_STEP_SECONDS, True),
+        (False, COMPILE_WORTH_STEPS, PYTHON_STEP_SECONDS, True),
+        (False, COMPILE_WORTH_STEPS - 1, PYTHON_STEP_SECONDS, False),
+        # a slow Python step (measured by a command's warm-up) pays for a compile sooner
+        (False, COMPILE_WORTH_STEPS // 10, 20 * PYTHON_STEP_SECONDS, True),
+    ],
 )
 def test_learning_stepper_uses_the_compiled_path_only_when_worth_it_and_answered(
-    monkeypatch, warm, budget_steps, is_compiled
+    monkeypatch, warm, budget_steps, python_step_seconds, is_compiled
 ):
     import sys
     import types
@@ -360,15 +370,34 @@ def test_learning_stepper_uses_the_compiled_path_only_when_worth_it_and_answered
     compiled.is_warm = lambda stepper: warmth_asked.append(stepper) or warm
     monkeypatch.setitem(sys.modules, "conjure.compiled", compiled)
     monkeypatch.setattr(conjure, "compiled", compiled, raising=False)  # `from conjure import`
-    first = learning_stepper(domain, agent, seed=4, budget_steps=budget_steps)
-    fallback = learning_stepper(domain, agent, seed=4, budget_steps=budget_steps)
+    options = {"seed": 4, "budget_steps": budget_steps, "python_step_seconds": python_step_seconds}
+    first = learning_stepper(domain, agent, **options)
+    fallback = learning_stepper(domain, agent, **options)
     assert type(fallback) is Stepper and fallback.learn
     assert fallback.path == "python: no kernel in this fake"
     assert asked == [(domain, agent, 4)] * 2
     assert (first == "compiled stepper") is is_compiled
-    # the warmth asked about is that of the stepper's own kernel, and only for a short run
-    short = budget_steps < COMPILE_WORTH_STEPS
-    assert warmth_asked == (["compiled stepper"] if short else [])
+    # the warmth asked about is that of the stepper's own kernel, and only when a compile
+    # would not pay
+    pays = compile_pays(budget_steps, python_step_seconds)
+    assert warmth_asked == ([] if pays else ["compiled stepper"])
+    if not is_compiled:
+        assert cold_kernel(first.path) == BINARY  # the warm-up reads which compilation
+
+
+def test_a_compile_pays_when_the_python_steps_outlast_it(monkeypatch):
+    from conjure.experiments import loop
+
+    monkeypatch.setattr(loop, "COMPILE_SECONDS", {False: 30.0, True: 60.0})
+    monkeypatch.setattr(loop, "COMPILED_SHARE", 0.5)
+    # 10⁶ steps save half their Python time: 20 s at 40 µs, 40 s at 80 µs
+    assert not compile_pays(10**6, 40e-6)
+    assert compile_pays(10**6, 80e-6)
+    assert not compile_pays(10**6, 80e-6, real_valued=True)  # its compilation costs 60 s
+    assert compile_pays(2 * 10**6, 80e-6, real_valued=True)
+    monkeypatch.setattr(loop, "COMPILED_SHARE", 1.0)
+    assert not compile_pays(10**12, 1.0)  # a compiled step no faster never pays
+    assert cold_kernel("compiled") is None and cold_kernel("python: no kernel") is None
 
 
 def test_greedy_and_timed_steppers_take_the_learning_steppers_steps():

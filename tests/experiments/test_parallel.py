@@ -10,6 +10,7 @@ import os
 import socket
 import subprocess
 import sys
+from dataclasses import dataclass
 from pathlib import Path
 
 import pandas as pd
@@ -21,7 +22,7 @@ from test_loop import FakeAgent, FakeWalk
 
 from conjure.cli.main import main
 from conjure.core.errors import ResultsWriteError, RunsFailedError, RunsInterruptedError
-from conjure.experiments import claims, parallel, registry
+from conjure.experiments import claims, loop, parallel, registry
 from conjure.experiments.config import resolve_run
 from conjure.experiments.executors import LocalExecutor
 from conjure.experiments.parallel import execute_runs, run_experiment
@@ -388,24 +389,70 @@ def test_the_summary_says_which_path_each_method_learned_on(fakes, tmp_path):
     assert recorded == "python: the domain FakeWalk has no compiled kernel"
 
 
-def _record_compile_steps(spec):
-    """A run function for `warm_up`'s worker: records what the tiny run was told."""
+@dataclass
+class _ProbeResult:
+    """What `warm_up` reads of a tiny run: its path and its curve's rows."""
+
+    path: str
+    rows: list
+
+
+def _record_tiny_run(spec):
+    """A run function for `warm_up`'s worker: records the tiny run, answers a cold probe.
+
+    Its Python steps take ``spec["step_seconds"]`` (on the wall clock the curve records).
+    """
     with open(spec["record_to"], "a") as out:
-        out.write(f"{spec['budget_steps']} {spec['compile_steps']}\n")
-    raise RuntimeError("only recording")
+        out.write(f"{spec['budget_steps']} {spec.get('compile_steps')}\n")
+    if spec.get("compile_steps") is not None:
+        raise RuntimeError("only recording")  # the compiling tiny run
+    steps = spec["budget_steps"]
+    rows = [
+        {"learning_steps": n, "wall_time_s": n * spec["step_seconds"]}
+        for n in (0, steps // 2, steps)
+    ]
+    path = f"python: {loop._COLD.format(kernel=loop.BINARY)} and {steps} steps would not ..."
+    return _ProbeResult(path, rows)
 
 
-def test_the_warm_up_compiles_for_the_whole_sweep(tmp_path):
+@pytest.mark.parametrize("num_runs", [30, 3])
+def test_the_warm_up_compiles_when_the_whole_commands_steps_pay(monkeypatch, tmp_path, num_runs):
+    # A first `conjure run examples/uav_icca.yaml` learned every method on the Python path: no
+    # run alone earned the compile back, but all its runs on the kernel together did.
+    from conjure.experiments.limits import MAX_COMPILE_STEPS
     from conjure.experiments.parallel import warm_up
 
     record = tmp_path / "record.txt"
+    step_seconds = 1e-4
     runs = [
         {"domain": {"kind": "ChainMDP"}, "agent": {"kind": "SARSA"}, "budget_steps": 10**5,
-         "record_to": str(record)}
-        for _ in range(30)
+         "record_to": str(record), "step_seconds": step_seconds}
+        for _ in range(num_runs)
     ]  # fmt: skip
-    assert warm_up(runs, _record_compile_steps) == 1  # one structure, one tiny run
-    assert record.read_text().split() == ["50", str(30 * 10**5)]
+    monkeypatch.setattr(loop, "COMPILE_SECONDS", {False: 100.0, True: 100.0})
+    monkeypatch.setattr(loop, "COMPILED_SHARE", 0.5)
+    pays = loop.compile_pays(num_runs * 10**5, step_seconds)
+    assert pays is (num_runs == 30)  # 3 · 10⁵ steps at 0.1 ms save 15 s, 3 · 10⁶ save 150 s
+    output = io.StringIO()
+    tiny = warm_up(runs, _record_tiny_run, console=Console(file=output, width=200))
+    assert tiny == (2 if pays else 1)  # one structure: its probe, then its compile if it pays
+    probe = f"{parallel._PROBE_STEPS} None"
+    compiling = f"{parallel._WARMUP_STEPS} {MAX_COMPILE_STEPS}"
+    assert record.read_text().splitlines() == ([probe, compiling] if pays else [probe])
+    about = "compiling kernels, first run only: about 100 s"
+    assert "measuring each method's Python step: " in output.getvalue()
+    assert (about in output.getvalue()) is pays
+
+
+def test_the_phases_of_a_run_appear_in_its_display_and_not_when_quiet(fakes, tmp_path):
+    shown = io.StringIO()
+    run_experiment(fake_config(), tmp_path / "a", max_workers=1, console=Console(file=shown))
+    assert "setting up: each method on its domain:" in shown.getvalue()
+    quiet = io.StringIO()
+    run_experiment(
+        fake_config(), tmp_path / "b", max_workers=1, console=Console(file=quiet), progress=False
+    )
+    assert quiet.getvalue() == ""
 
 
 def test_a_started_executor_is_warmed_too(monkeypatch):
@@ -420,10 +467,11 @@ def test_a_started_executor_is_warmed_too(monkeypatch):
     spec = {
         "name": "x", "label": "sarsa", "seed": 0, "domain": {"kind": "ChainMDP"},
         "agent": {"kind": "SARSA", "params": {"representation": {"kind": "Tabular"}}},
-        "budget_steps": 10**6, "num_policy_checks": 1, "eval_episodes": 1,
+        "budget_steps": loop.COMPILE_WORTH_STEPS // 2 + 1, "num_policy_checks": 1,
+        "eval_episodes": 1,
     }  # fmt: skip
     with LocalExecutor(max_workers=1) as engine:
         assert engine.is_started
         with parallel.open_executor(engine, [spec, {**spec, "seed": 1}]) as opened:
             assert opened is engine
-    assert warmed == [2]  # 2·10⁶ steps together earn the compile back
+    assert warmed == [2]  # their steps together earn the compile back

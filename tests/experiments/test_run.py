@@ -356,7 +356,7 @@ def test_a_run_says_which_path_its_learning_steps_took(monkeypatch):
     from conjure.experiments import loop
     from conjure.experiments.run import run_task
 
-    monkeypatch.setattr(loop, "COMPILE_WORTH_STEPS", 0)  # compile even a short run
+    monkeypatch.setattr(loop, "compile_pays", lambda *args, **kwargs: True)  # even a short run
     compiled = run(
         domain=ChainMDP(), agent=SARSA(representation=Tabular()), budget_steps=200, seed=0
     )
@@ -367,7 +367,7 @@ def test_a_run_says_which_path_its_learning_steps_took(monkeypatch):
     assert "sharing the critic's features" in python.path
     fake = run(domain=FakeWalk(), agent=FakeAgent(), budget_steps=50, seed=0)
     assert fake.path == "python: the domain FakeWalk has no compiled kernel"
-    monkeypatch.setattr(loop, "COMPILE_WORTH_STEPS", 10**9)
+    monkeypatch.setattr(loop, "compile_pays", lambda *args, **kwargs: False)
     cold = loop.learning_stepper(
         ChainMDP(),
         SARSA(representation=Tabular()).setup(ChainMDP().domain_spec, 0),

@@ -150,15 +150,19 @@ def run_command(
     """
     from rich.console import Console
 
-    from conjure.experiments.config import load_config
-    from conjure.experiments.parallel import run_experiment
-    from conjure.experiments.shipped import find_config
-    from conjure.reporting.plots import curve_file_name, plot_learning_curves
+    from conjure.experiments.display import phase
 
-    overrides = (*overrides, *((f"seeds={seeds}",) if seeds is not None else ()))
-    experiment = load_config(find_config(config), overrides)
-    out_dir = out_dir or Path("results") / experiment.name
     console = Console()
+    shown = None if quiet else console
+    with phase(shown, "loading conjure and the config", keep=False):  # an error: one line
+        from conjure.experiments.config import load_config
+        from conjure.experiments.parallel import run_experiment
+        from conjure.experiments.shipped import find_config
+        from conjure.reporting.plots import curve_file_name, plot_learning_curves
+
+        overrides = (*overrides, *((f"seeds={seeds}",) if seeds is not None else ()))
+        experiment = load_config(find_config(config), overrides)
+    out_dir = out_dir or Path("results") / experiment.name
     outcome = run_experiment(
         experiment,
         out_dir,
@@ -168,12 +172,13 @@ def run_command(
         console=console,
     )
     if not outcome.results.empty:
-        figure = plot_learning_curves(
-            outcome.results,
-            out_dir / curve_file_name(experiment.metric),
-            metric=experiment.metric,
-            title=experiment.name,
-        )
+        with phase(shown, "plotting the learning curves"):
+            figure = plot_learning_curves(
+                outcome.results,
+                out_dir / curve_file_name(experiment.metric),
+                metric=experiment.metric,
+                title=experiment.name,
+            )
         console.print(f"Results in {out_dir}; learning curves in {figure}.")
     if outcome.errors:
         raise click.exceptions.Exit(1)

@@ -43,7 +43,7 @@ MAX_POLICY_CHECKS = 10**6
 MAX_EVAL_EPISODES = 10**6
 MAX_SEED_COUNT = 100_000
 MAX_SEED = INT_MAX
-#: A sweep's warm-up run weighs a compile against all its runs' steps (`run`'s compile_steps).
+#: The steps a cold compile is weighed against (`run`'s compile_steps; the warm-up's maximum).
 MAX_COMPILE_STEPS = 2**62
 
 _RANGE = re.compile(r"^\s*(-?\d+)\s*\.\.\s*(-?\d+)\s*$")

@@ -47,6 +47,7 @@ Notes
 
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Callable
 from typing import Any, NamedTuple
@@ -57,11 +58,19 @@ from conjure.core.errors import InvalidParameterError
 from conjure.core.interfaces import Agent, Domain, Transition
 
 __all__ = [
+    "BINARY",
+    "COMPILED_SHARE",
+    "COMPILE_SECONDS",
     "COMPILE_WORTH_STEPS",
     "CURVE_COLUMNS",
+    "PYTHON_STEP_SECONDS",
+    "REAL_VALUED",
     "EpisodeStats",
     "LearningLoop",
     "Stepper",
+    "cold_kernel",
+    "compile_pays",
+    "compile_seconds_estimate",
     "greedy_episodes",
     "learning_stepper",
     "profile_steps",
@@ -310,25 +319,77 @@ class Stepper:
 LearningLoop = Stepper
 
 
-#: A run at least this long takes the compiled path even when the kernel is not yet compiled:
-#: the one-time compile (about 20 s on 2 cores; 50-80 s for the adaptive kernel of iFDD and
-#: legal actions with an empty numba cache, on a loaded machine) costs about what the Python
-#: steps it saves cost (28 µs per BlocksWorld iFDD+ step in Python, 1.4 µs compiled).
-COMPILE_WORTH_STEPS = 2_000_000
+#: Estimates behind `compile_pays`, measured by ``benchmarks/compile_cost.py`` (in a fresh
+#: process with an empty numba cache, on the shipped examples' methods): the loop's cold
+#: compile in seconds, by compilation (binary φ, real-valued φ: one function with one type
+#: changed, taken equal), the largest measured, rounded up; a compiled step's seconds as a
+#: share of the same Python step's (the largest share measured, rounded up); and the Python
+#: step a run is assumed to take when its own cost has not been measured (the fastest
+#: measured).
+COMPILE_SECONDS = {False: 220.0, True: 220.0}
+COMPILED_SHARE = 0.17
+PYTHON_STEP_SECONDS = 24e-6
+
+
+def compile_seconds_estimate(real_valued: bool = False) -> float:
+    """The expected seconds of a cold compile of the loop (`COMPILE_SECONDS`)."""
+    return COMPILE_SECONDS[bool(real_valued)]
+
+
+def compile_pays(
+    steps: int, python_step_seconds: float = PYTHON_STEP_SECONDS, *, real_valued: bool = False
+) -> bool:
+    """Whether compiling the loop costs less than the Python steps it replaces.
+
+    Choice: compile when ``steps`` Python steps (``python_step_seconds`` each) would take
+    longer than the cold compile plus the same steps compiled (`COMPILED_SHARE` of the
+    Python step): ``steps · python · (1 - COMPILED_SHARE) > COMPILE_SECONDS``. ``steps`` are
+    all the steps that will run on that compilation: a command's warm-up passes all its runs'
+    steps and each method's measured Python step (`conjure.experiments.parallel.warm_up`);
+    alone, a run weighs its own steps at the fastest Python step measured
+    (`PYTHON_STEP_SECONDS`), so a short cold run never waits for a compile it would not earn
+    back.
+    """
+    saved = python_step_seconds * (1.0 - COMPILED_SHARE)
+    return saved > 0 and steps * saved > compile_seconds_estimate(real_valued)
+
+
+#: The steps a run of unmeasured Python cost needs for a cold compile to pay (`compile_pays`
+#: at `PYTHON_STEP_SECONDS`).
+COMPILE_WORTH_STEPS = (
+    math.floor(COMPILE_SECONDS[False] / (PYTHON_STEP_SECONDS * (1.0 - COMPILED_SHARE))) + 1
+)
+
+#: The loop's two compilations, as a Python path's reason names a cold one.
+BINARY, REAL_VALUED = "binary φ", "real-valued φ"
+_COLD = "its kernel is not compiled yet ({kernel})"
+
+
+def cold_kernel(path: str) -> str | None:
+    """The compilation (`BINARY` or `REAL_VALUED`) a run's ``path`` says was cold, or None."""
+    for kernel in (BINARY, REAL_VALUED):
+        if _COLD.format(kernel=kernel) in path:
+            return kernel
+    return None
 
 
 def learning_stepper(
-    domain: Domain, agent: Agent, *, seed: int | None = None, budget_steps: int = 0
+    domain: Domain,
+    agent: Agent,
+    *,
+    seed: int | None = None,
+    budget_steps: int = 0,
+    python_step_seconds: float = PYTHON_STEP_SECONDS,
 ) -> Any:
     """Return the stepper a run learns with: compiled when every part has a kernel, else Python.
 
     The compiled stepper (``conjure.compiled.for_combination(domain, agent, seed=seed)``) has
     the counters and ``advance(n)`` of `Stepper` and takes the same steps with the same draws.
     Choice: it is used when its kernel is warm (compiled in this process or in numba's disk
-    cache, ``conjure.compiled.is_warm(stepper)``; each kernel separately) or when
-    ``budget_steps`` reaches `COMPILE_WORTH_STEPS`, so a short cold run never waits for a
-    compile it would not earn back; otherwise, or when ``for_combination`` answers ``None``
-    (some part has no kernel), a learning `Stepper` runs. Choice: `conjure.compiled` is
+    cache, ``conjure.compiled.is_warm(stepper)``; each kernel separately) or when the compile
+    pays for ``budget_steps`` steps of ``python_step_seconds`` (`compile_pays`); otherwise, or
+    when ``for_combination`` answers ``None`` (some part has no kernel), a learning `Stepper`
+    runs, its path naming the cold compilation (`cold_kernel`). Choice: `conjure.compiled` is
     imported here, not at the top, so that importing this module does not load numba's
     compiled loop (about 3 s on a loaded machine) before a run needs it.
     """
@@ -338,10 +399,14 @@ def learning_stepper(
     if stepper is None:
         reason = compiled.why_not_compiled(domain, agent)
         return Stepper(domain, agent, seed=seed, path=f"python: {reason}")
-    if budget_steps < COMPILE_WORTH_STEPS and not compiled.is_warm(stepper):
+    selection = getattr(stepper, "selection", None)
+    real_valued = bool(getattr(selection, "is_real_valued", False))
+    pays = compile_pays(budget_steps, python_step_seconds, real_valued=real_valued)
+    if not pays and not compiled.is_warm(stepper):
+        cold = _COLD.format(kernel=REAL_VALUED if real_valued else BINARY)
         reason = (
-            f"its kernel is not compiled yet and {budget_steps:,} steps would not earn the "
-            f"compile back (the compiled path starts at {COMPILE_WORTH_STEPS:,})"
+            f"{cold} and {budget_steps:,} steps would not earn the compile back (about "
+            f"{compile_seconds_estimate(real_valued):.0f} s)"
         )
         return Stepper(domain, agent, seed=seed, path=f"python: {reason}")
     return stepper

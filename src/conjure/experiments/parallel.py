@@ -54,8 +54,16 @@ from rich.table import Table
 from conjure.core.errors import RunsFailedError, RunsInterruptedError, write_failure
 from conjure.experiments.claims import Claims, Owner
 from conjure.experiments.config import ExperimentConfig, dump_yaml, parse_config, resolve_run
+from conjure.experiments.display import phase
 from conjure.experiments.executors import NOT_CLAIMED, Executor, LocalExecutor, TaskFailure
-from conjure.experiments.loop import COMPILE_WORTH_STEPS
+from conjure.experiments.limits import MAX_COMPILE_STEPS
+from conjure.experiments.loop import (
+    COMPILE_WORTH_STEPS,
+    REAL_VALUED,
+    cold_kernel,
+    compile_pays,
+    compile_seconds_estimate,
+)
 from conjure.experiments.numbers import format_interval, format_value, readable_setting
 from conjure.experiments.preflight import check_runs
 from conjure.experiments.results import (
@@ -93,6 +101,8 @@ __all__ = [
 ]
 
 _WARMUP_STEPS = 50
+#: A warm-up probe's learning steps (its second half measures the Python step).
+_PROBE_STEPS = 400
 _POLL_SECONDS = 2.0
 
 
@@ -171,31 +181,75 @@ def warm_up(
     runs: Sequence[Mapping[str, Any]],
     run_fn: RunFunction = run_resolved,
     max_memory: int | None = None,
+    console: Console | None = None,
 ) -> int:
-    """Compile (and cache) numba code with one tiny run per component structure.
+    """Compile (and cache) the loop's compilations that the whole command's steps pay for.
 
-    The tiny runs run one after another in one worker process (under ``max_memory``, if
-    given): one that crashes or outgrows memory must not take the driver down. Each weighs
-    the loop's compile against all of ``runs``' learning steps (``compile_steps``), so a
-    sweep of many short runs compiles once here and its runs find the loop warm. Returns the
-    number of tiny runs (their errors and deaths are ignored: the real runs record them).
+    First one short probe run per component structure (what numba compiles for) learns on
+    the Python path, or finds its compilation warm, and measures its Python step's seconds
+    (from the probe's second half). Then, for each cold compilation
+    (`conjure.experiments.loop.cold_kernel`), all the steps of ``runs`` that would run on it,
+    at their methods' measured Python cost, are weighed against its compile
+    (`conjure.experiments.loop.compile_pays`); where it pays, one tiny run compiles it (its
+    ``compile_steps`` at the maximum) into numba's disk cache, and the command's runs find it
+    warm. The tiny runs run one after another in one worker process (under ``max_memory``, if
+    given): one that crashes or outgrows memory must not take the driver down; their errors
+    and deaths are ignored (the real runs record them). ``console``: where the measuring and
+    compiling phases are shown (None: nowhere). Returns the number of tiny runs.
     """
-    sweep_steps = sum(int(spec.get("budget_steps", 0)) for spec in runs)
-    tiny: dict[Any, dict[str, Any]] = {}
+    steps: dict[Any, int] = Counter()
+    probes: dict[Any, dict[str, Any]] = {}
     for spec in runs:
         key = (_structure(spec.get("domain")), _structure(spec.get("agent")))
-        if key not in tiny:
-            changes = {
-                "budget_steps": _WARMUP_STEPS, "num_policy_checks": 1, "eval_episodes": 1,
-                "compile_steps": sweep_steps,
-            }  # fmt: skip
-            tiny[key] = {**spec, **changes}
+        steps[key] += int(spec.get("budget_steps", 0))
+        if key not in probes:
+            changes = {"budget_steps": _PROBE_STEPS, "num_policy_checks": 2, "eval_episodes": 1}
+            probes[key] = {**{k: v for k, v in spec.items() if k != "compile_steps"}, **changes}
+    keys = list(probes)
     with LocalExecutor(
         max_workers=1, max_retries=0, max_memory=max_memory, in_process=False
     ) as executor:
-        for _ in executor.map_unordered(run_fn, list(tiny.values())):
-            pass
-    return len(tiny)
+        cold: dict[str, list[tuple[Any, float]]] = {}
+        with phase(console, "measuring each method's Python step"):
+            for index, outcome in executor.map_unordered(run_fn, list(probes.values())):
+                kernel = cold_kernel(getattr(outcome, "path", "") or "")
+                seconds = _python_step_seconds(getattr(outcome, "rows", None))
+                if kernel is not None and seconds is not None:
+                    cold.setdefault(kernel, []).append((keys[index], seconds))
+        paying = [
+            kernel
+            for kernel, found in cold.items()
+            if _compile_pays(kernel, [(steps[key], seconds) for key, seconds in found])
+        ]
+        changes = {"budget_steps": _WARMUP_STEPS, "num_policy_checks": 1}
+        compile_runs = [
+            {**probes[cold[kernel][0][0]], **changes, "compile_steps": MAX_COMPILE_STEPS}
+            for kernel in paying
+        ]
+        if compile_runs:
+            about = sum(compile_seconds_estimate(k == REAL_VALUED) for k in paying)
+            with phase(console, f"compiling kernels, first run only: about {about:.0f} s"):
+                for _ in executor.map_unordered(run_fn, compile_runs):
+                    pass
+    return len(probes) + len(compile_runs)
+
+
+def _python_step_seconds(rows: Any) -> float | None:
+    """A probe's Python step seconds: its second half's wall time over its steps."""
+    try:
+        half, end = rows[-2], rows[-1]
+        return (end["wall_time_s"] - half["wall_time_s"]) / (
+            end["learning_steps"] - half["learning_steps"]
+        )
+    except (TypeError, IndexError, KeyError, ZeroDivisionError):
+        return None
+
+
+def _compile_pays(kernel: str, runs: Sequence[tuple[int, float]]) -> bool:
+    """Whether ``runs`` ((steps, Python step seconds) on one cold compilation) pay its compile."""
+    total = sum(n for n, _ in runs)
+    mean = sum(n * seconds for n, seconds in runs) / total if total else 0.0
+    return compile_pays(total, mean, real_valued=kernel == REAL_VALUED)
 
 
 def _describe(spec: Mapping[str, Any]) -> str:
@@ -290,7 +344,9 @@ def execute_runs(
     owns = not executor.is_started
     console = console or Console()
     if owns:
-        prepare_executor(executor, [spec for _, spec in todo], run_fn)
+        prepare_executor(
+            executor, [spec for _, spec in todo], run_fn, console if progress else None
+        )
     batch = _Batch(out_dir, todo, report, run_fn)
     try:
         with Claims(out_dir) as claims, _progress(console, progress, report) as bar:
@@ -487,21 +543,26 @@ def _say_held(owners: Mapping[Owner, int], console: Console) -> bool:
 
 
 def prepare_executor(
-    executor: Executor, todo: Sequence[dict[str, Any]], run_fn: RunFunction
+    executor: Executor,
+    todo: Sequence[dict[str, Any]],
+    run_fn: RunFunction = run_resolved,
+    console: Console | None = None,
 ) -> None:
-    """Warm numba's cache with ``todo``'s structures if workers are local processes; start it.
+    """Warm numba's cache for ``todo`` if workers are local processes (`warm_up`); start it.
 
-    Also with one worker when short runs' steps together earn a compile back
-    (`COMPILE_WORTH_STEPS`): each alone would keep to the Python path. An executor
+    Done when more than one worker shares the runs, or when one worker's short runs could
+    earn a compile back only together (`conjure.experiments.loop.COMPILE_WORTH_STEPS`); else
+    each run weighs its own steps (`conjure.experiments.loop.learning_stepper`). An executor
     already started (``with executor:``) is warmed too: the warm-up runs in its own process
-    and the workers load the cached code on their first run.
+    and the workers load the cached code on their first run. ``console``: where the phases
+    are shown.
     """
     steps = [int(spec.get("budget_steps", 0)) for spec in todo]
     is_many = min(executor.num_workers, len(todo)) > 1
     # Short runs that earn a compile back only together (a long run compiles for itself).
     is_shared = bool(steps) and sum(steps) >= COMPILE_WORTH_STEPS > min(steps)
     if todo and executor.is_local and (is_many or is_shared):
-        warm_up(todo, run_fn, executor.max_memory)
+        warm_up(todo, run_fn, executor.max_memory, console)
     if not executor.is_started:
         executor.start()
 
@@ -574,6 +635,7 @@ def open_executor(
     max_workers: int | None = None,
     max_memory: int | str | None = None,
     run_fn: RunFunction = run_resolved,
+    console: Console | None = None,
 ) -> Iterator[Executor]:
     """Yield ``executor`` (default a `LocalExecutor`), started here and shut down after if not yet.
 
@@ -581,13 +643,15 @@ def open_executor(
     (`conjure.experiments.preflight.check_runs`): a config whose parts cannot work together
     raises one error before any run starts. Then numba's cache is warmed with the ``pending``
     runs' structures and the executor started if it was not (`prepare_executor`); a started
-    one keeps its own workers and limits.
+    one keeps its own workers and limits. ``console``: where these set-up phases are shown
+    (None: nowhere).
     """
     executor = executor or LocalExecutor(max_workers=max_workers, max_memory=max_memory)
-    check_runs(pending, executor)
+    with phase(console, "setting up: each method on its domain"):
+        check_runs(pending, executor)
     owns = not executor.is_started
     try:
-        prepare_executor(executor, pending, run_fn)
+        prepare_executor(executor, pending, run_fn, console)
         yield executor
     finally:
         if owns:
@@ -634,6 +698,7 @@ def run_experiment(
         raised instead, naming the first failure.
     """
     experiment = parse_config(config)
+    console = console or Console()
     out_dir = make_out_dir(out_dir)
     runs = [
         resolve_run(experiment, label, seed)
@@ -649,6 +714,7 @@ def run_experiment(
         max_workers=max_workers or experiment.max_workers,
         max_memory=max_memory or experiment.max_memory,
         run_fn=run_fn,
+        console=console if progress else None,
     ) as engine:
         outcome = run_batch(
             runs,

@@ -253,9 +253,9 @@ def run(
         The resolved config to record in the result.
     compile_steps : int or None
         The learning steps a cold compile of the loop is weighed against
-        (`conjure.experiments.loop.learning_stepper`); None: ``budget_steps``. A sweep's
-        warm-up run passes the whole sweep's steps, so that it compiles for all its runs; an int
-        in [1, 2^62].
+        (`conjure.experiments.loop.learning_stepper`); None: ``budget_steps``. A command's
+        warm-up passes the maximum to the tiny run that compiles for all its runs
+        (`conjure.experiments.parallel.warm_up`); an int in [1, 2^62].
     continue_learning : bool, default False
         Learn on from the agent's current state (a restored or already trained agent: its
         weights, features and random stream) instead of setting it up afresh; the seed then
