@@ -1,18 +1,10 @@
 """docs/reproduction/am_icca_switch.py runs in a short mode and records what it says."""
 
-import importlib.util
-import sys
-from pathlib import Path
-
-SCRIPT = Path(__file__).resolve().parents[1] / "docs" / "reproduction" / "am_icca_switch.py"
+from doc_script import load_doc_script
 
 
 def load():
-    spec = importlib.util.spec_from_file_location("am_icca_switch", SCRIPT)
-    module = importlib.util.module_from_spec(spec)
-    sys.modules["am_icca_switch"] = module
-    spec.loader.exec_module(module)
-    return module
+    return load_doc_script("am_icca_switch")
 
 
 def test_the_variants_differ_from_am_icca_by_one_parameter_each():

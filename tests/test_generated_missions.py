@@ -1,20 +1,12 @@
 """docs/reproduction/generated_missions.py runs in a short mode and measures what it says."""
 
-import importlib.util
-import sys
-from pathlib import Path
-
 import pandas as pd
 
-SCRIPT = Path(__file__).resolve().parents[1] / "docs" / "reproduction" / "generated_missions.py"
+from doc_script import load_doc_script
 
 
 def load():
-    spec = importlib.util.spec_from_file_location("generated_missions", SCRIPT)
-    module = importlib.util.module_from_spec(spec)
-    sys.modules["generated_missions"] = module
-    spec.loader.exec_module(module)
-    return module
+    return load_doc_script("generated_missions")
 
 
 def test_one_short_run_measures_exact_values_and_the_gain(tmp_path):
