@@ -29,8 +29,8 @@ def pytest_configure(config):
     forms itself, one after the other, the first time a test needs them: four compilations of
     minutes each where two, side by side, serve every worker. A warm cache loads in seconds.
     """
-    if hasattr(config, "workerinput"):  # an xdist worker: the controller has warmed it
-        return
+    if hasattr(config, "workerinput") or not config.getoption("numprocesses", None):
+        return  # an xdist worker (the controller warmed it), or no workers (`-n 0`)
     source = str(Path(__file__).resolve().parents[1] / "src")
     env = {**os.environ, "PYTHONPATH": os.pathsep.join([source, os.environ.get("PYTHONPATH", "")])}
     warming = [
