@@ -144,3 +144,65 @@ def test_pickle_round_trip_continues_identically():
     copy = pickle.loads(pickle.dumps(domain))
     for action in [0, 1, 0, 0]:
         np.testing.assert_array_equal(domain.step(action)[0], copy.step(action)[0])
+
+
+class _HazardCorridor(gym.Env):
+    """A safety-gymnasium-style corridor: cells 0..4, start 1, goal 4; cell 0 costs 1.
+
+    Its ``step`` returns six values, (obs, reward, cost, terminated, truncated, info), and it
+    counts the costs it reported in ``costs_reported``.
+    """
+
+    def __init__(self, cost_value=1.0):
+        self.observation_space = gym.spaces.Discrete(5)
+        self.action_space = gym.spaces.Discrete(2)
+        self.cost_value = cost_value
+        self.costs_reported = 0.0
+
+    def reset(self, *, seed=None, options=None):
+        super().reset(seed=seed)
+        self.cell = 1
+        return self.cell, {}
+
+    def step(self, action):
+        self.cell = min(max(self.cell + (1 if action == 1 else -1), 0), 4)
+        cost = self.cost_value if self.cell == 0 else 0.0
+        self.costs_reported += cost if isinstance(cost, float) else 0.0
+        return self.cell, float(self.cell == 4), cost, self.cell == 4, False, {}
+
+
+@pytest.fixture
+def hazard_corridor():
+    gym.register(id="ConjureTestHazard-v0", entry_point=_HazardCorridor, max_episode_steps=20)
+    yield "ConjureTestHazard-v0"
+    del gym.registry["ConjureTestHazard-v0"]
+
+
+def test_six_value_step_puts_the_cost_in_info(hazard_corridor):
+    domain = from_gymnasium(hazard_corridor)
+    domain.reset(seed=0)
+    costs = [domain.step(action)[4]["cost"] for action in (1, 0, 0, 0)]  # 1 -> 2 -> 1 -> 0 -> 0
+    assert costs == [0.0, 0.0, 1.0, 1.0]
+    obs, reward, terminated, truncated, info = domain.step(1)
+    assert (obs.tolist(), reward, terminated, truncated, info) == ([1.0], 0.0, False, False,
+                                                                   {"cost": 0.0})  # fmt: skip
+
+
+@pytest.mark.parametrize("bad", [-1.0, float("nan"), "high"])
+def test_a_bad_cost_names_the_value(hazard_corridor, bad):
+    domain = from_gymnasium(gym.make(hazard_corridor, cost_value=bad))
+    domain.reset(seed=0)
+    with pytest.raises(IncompatibleComponentsError, match=rf"step cost {bad!r}.*≥ 0"):
+        domain.step(0)
+
+
+def test_a_run_counts_the_costs_the_environment_reported(hazard_corridor):
+    from conjure.agents import SARSA
+    from conjure.experiments import run
+    from conjure.representations import Tabular
+
+    domain = from_gymnasium(hazard_corridor)
+    agent = SARSA(representation=Tabular())
+    result = run(domain=domain, agent=agent, budget_steps=300, seed=3, num_policy_checks=1)
+    failures = int(result.curve["learning_failures"].iloc[-1])
+    assert failures == domain.env_.costs_reported > 0

@@ -89,6 +89,9 @@ class GymnasiumDomain(Domain):
       dimension in [0, n − 1].
     - Choice: a Discrete action space with ``start ≠ 0`` is shifted to 0 .. n − 1.
     - Choice: ``truncated`` is always False (the wrapped env is unwrapped; the run loop caps).
+    - Choice: the step's constraint cost is ``info["cost"]`` (the third value of a 6-value
+      safety-gymnasium step, else the environment's own ``info["cost"]``, else 0.0); the run
+      counts a step with a positive cost as a failure, as for conjure's domains.
     - Choice: ``reset(seed=...)`` seeds both this domain's ``np_random`` and the wrapped env.
 
     Examples
@@ -218,10 +221,40 @@ class GymnasiumDomain(Domain):
         return self._observe(obs), dict(info)
 
     def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
-        """Step the wrapped environment; ``truncated`` is always False."""
+        """Step the wrapped environment; ``truncated`` is always False.
+
+        Takes Gymnasium's 5-value step and the 6-value step of safety-gymnasium-style
+        environments, (obs, reward, cost, terminated, truncated, info); either way the step's
+        cost (0.0 when the environment reports none) is ``info["cost"]``, a finite float ≥ 0.
+        """
         a = self.check_action(action) + self._action_start
-        obs, reward, terminated, _, info = self.env_.step(a)
-        return self._observe(obs), float(reward), bool(terminated), False, dict(info)
+        result = self.env_.step(a)
+        if len(result) == 6:
+            obs, reward, cost, terminated, _, info = result
+        elif len(result) == 5:
+            obs, reward, terminated, _, info = result
+            cost = info.get("cost", 0.0)
+        else:
+            raise IncompatibleComponentsError(
+                f"{self.env_id!r}'s step returned {len(result)} values; GymnasiumDomain "
+                f"expects (obs, reward, terminated, truncated, info) or (obs, reward, cost, "
+                f"terminated, truncated, info)."
+            )
+        info = dict(info)
+        info["cost"] = self._checked_cost(cost)
+        return self._observe(obs), float(reward), bool(terminated), False, info
+
+    def _checked_cost(self, cost: Any) -> float:
+        try:
+            value = float(cost)
+        except (TypeError, ValueError):
+            value = math.nan
+        if not (math.isfinite(value) and value >= 0.0):
+            raise IncompatibleComponentsError(
+                f"{self.env_id!r} reported the step cost {cost!r}; conjure expects a finite "
+                f"number ≥ 0 (a constraint's cost, Section 5.4)."
+            )
+        return value
 
     def compiled_form(self) -> DomainKernel:
         """A `CALLBACK` form: the compiled loop calls this domain's own ``reset`` and ``step``.
