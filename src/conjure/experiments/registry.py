@@ -134,6 +134,7 @@ AGENTS = Registry(
         "PlannerAgent": "conjure.safety:PlannerAgent",
         "QLearning": "conjure.agents:QLearning",
         "SARSA": "conjure.agents:SARSA",
+        "ShieldedLearner": "conjure.safety:ShieldedLearner",
     }
 )
 PLANNERS = Registry(

@@ -6,6 +6,8 @@
   and an approximate model (Figure 5-11): `CooperativeActorCritic` (Algorithm 23, iCCA),
   `CooperativeLearner` (Algorithm 24, CSARSA with SARSA), `AdaptiveCooperativeLearner`
   (Algorithm 26, AM-iCCA); `PlannerAgent` runs a planner alone.
+- `ShieldedLearner`: a learner choosing only among the actions the risk analyser finds safe
+  (a preemptive shield, without the planner's guidance).
 - `SafetyShield`: the risk filter as a Gymnasium wrapper, for agents of any library.
 """
 
@@ -24,6 +26,7 @@ _EXPORTS = {
     "NominalRiskAnalyzer": "nominal_risk",
     "PlannerAgent": "planner_agent",
     "SafetyShield": "shield",
+    "ShieldedLearner": "shielded_learner",
 }
 
 __all__ = sorted(_EXPORTS)
