@@ -1,0 +1,118 @@
+"""Microseconds per Python-path ``act`` and ``learn`` call of the TD learners and Actor-Critic.
+
+Usage: ``python benchmarks/python_agent_speed.py [--steps N] [--repeats R]``
+
+Each workload learns for ``--steps`` steps through `profile_steps` (a timed learning
+`Stepper`, a timer around every call) after a warm-up run of the same length (numba
+compilation excluded); the figures are the medians over ``--repeats`` seeds. Prints the CPU
+model and the load average beside them (the machine may be shared).
+
+Workloads: SARSA, SARSA(λ) with replacing and accumulating traces, Q-Learning (Algorithms 10,
+11) with tile coding on InvertedPendulum and with online iFDD on BlocksWorld; Actor-Critic
+(Algorithm 12) with a Q or V critic, the features or log-policy actor, λ traces and an actor on
+its own features, tabular on GridWorld-1.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import statistics
+import sys
+from pathlib import Path
+
+from rich.console import Console
+from rich.table import Table
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from call_cost import cpu_model
+
+from conjure.agents import SARSA, ActorCritic, QLearning
+from conjure.domains import GridWorld, InvertedPendulum
+from conjure.experiments.loop import profile_steps
+from conjure.representations import IndependentDiscretization, OnlineIFDD, Tabular, TileCoding
+
+
+def _tiles() -> TileCoding:
+    return TileCoding(num_tilings=8, tiles_per_dim=10)
+
+
+def _grid() -> GridWorld:
+    return GridWorld(map_name="gridworld1", step_reward=-0.001, noise=0.3)
+
+
+WORKLOADS = {
+    "SARSA + tiles, InvertedPendulum": (InvertedPendulum, lambda: SARSA(representation=_tiles())),
+    "SARSA(0.9) replacing + tiles, InvertedPendulum": (
+        InvertedPendulum,
+        lambda: SARSA(representation=_tiles(), trace_decay=0.9),
+    ),
+    "SARSA(0.9) accumulating + tiles, InvertedPendulum": (
+        InvertedPendulum,
+        lambda: SARSA(representation=_tiles(), trace_decay=0.9, trace_kind="accumulating"),
+    ),
+    "Q-Learning + tiles, InvertedPendulum": (
+        InvertedPendulum,
+        lambda: QLearning(representation=_tiles()),
+    ),
+    "SARSA + online iFDD, GridWorld-1": (
+        _grid,
+        lambda: SARSA(
+            representation=OnlineIFDD(base=IndependentDiscretization(), discovery_threshold=0.1)
+        ),
+    ),
+    "Actor-Critic (Q critic) + tabular, GridWorld-1": (
+        _grid,
+        lambda: ActorCritic(representation=Tabular()),
+    ),
+    "Actor-Critic (V, log-policy) + tabular, GridWorld-1": (
+        _grid,
+        lambda: ActorCritic(representation=Tabular(), critic="v", actor_update="log_policy"),
+    ),
+    "Actor-Critic (V, log-policy, λ=1) + tabular, GridWorld-1": (
+        _grid,
+        lambda: ActorCritic(
+            representation=Tabular(), critic="v", actor_update="log_policy", trace_decay=1.0
+        ),
+    ),
+    "Actor-Critic, actor on its own features, GridWorld-1": (
+        _grid,
+        lambda: ActorCritic(
+            representation=Tabular(), actor_representation=IndependentDiscretization()
+        ),
+    ),
+}
+
+
+def per_call(make_domain, make_agent, steps: int, repeats: int) -> dict[str, float]:
+    """Median µs per ``act`` and ``learn`` call over ``repeats`` seeds (after one warm-up)."""
+    samples = []
+    for seed in range(repeats + 1):
+        domain = make_domain()
+        agent = make_agent().setup(domain.domain_spec, seed=seed)
+        profiled = profile_steps(domain, agent, num_steps=steps, seed=seed)
+        if seed > 0:  # the first run compiles the kernels
+            samples.append(profiled)
+    return {key: statistics.median(s[key] for s in samples) for key in ("act_us", "learn_us")}
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--steps", type=int, default=20_000)
+    parser.add_argument("--repeats", type=int, default=3)
+    args = parser.parse_args()
+    console = Console(width=160)
+    console.print(f"CPU: {cpu_model()}; load average at start: {os.getloadavg()}")
+    table = Table(title=f"Python path, µs per call, median of {args.repeats} runs of {args.steps}")
+    for column in ("workload", "act µs", "learn µs"):
+        table.add_column(column, justify="left" if column == "workload" else "right")
+    for name, (make_domain, make_agent) in WORKLOADS.items():
+        figures = per_call(make_domain, make_agent, args.steps, args.repeats)
+        table.add_row(name, f"{figures['act_us']:.2f}", f"{figures['learn_us']:.2f}")
+    console.print(table)
+    console.print(f"CPU: {cpu_model()}; load average at end: {os.getloadavg()}")
+
+
+if __name__ == "__main__":
+    main()
