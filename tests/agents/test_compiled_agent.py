@@ -49,8 +49,7 @@ def test_td_learn_updates_as_learn(name):
     domain = ChainMDP(num_states=5, num_actions=2)
     python = AGENTS[name]().setup(domain.domain_spec, 0)
     compiled = AGENTS[name]().setup(domain.domain_spec, 0)
-    form, arrays = compiled.compiled_form(), compiled.compiled_arrays()
-    traces = compiled.compiled_row_traces()
+    form, arrays, traces = compiled.compiled_form(), compiled.arrays_, compiled.row_traces_
     rng = np.random.default_rng(1)
     python.begin_episode()
     compiled.begin_episode()
@@ -100,6 +99,7 @@ def test_python_growth_is_the_loops_growth_kernel(name, flags, monkeypatch):
     _rollout(domain, agent, 30, seed=0)
     theta = agent.weights_.copy()
     omega = agent.actor_weights_.copy() if name == "actor-critic" else None
+    agent.representation_.num_features_ = 6  # as if the representation discovered two
     agent._grow(Expansion(first_new=4, parents=np.array([[0, 1], [4, -1]])))
     assert calls == [(4, [[0, 1], [4, -1]], flags)]
     assert np.array_equal(agent.weights_[4], theta[0] + theta[1])  # θ_f = θ_g + θ_h
@@ -120,6 +120,7 @@ def test_an_actor_with_its_own_features_keeps_its_rows_when_the_critic_grows():
     )
     _rollout(domain, agent, 30, seed=0)
     omega = agent.actor_weights_.copy()
+    agent.representation_.num_features_ = 5  # as if the critic's representation discovered one
     agent._grow(Expansion(first_new=4, parents=np.array([[0, 1]])))
     assert agent.weights_.shape[0] == 5
     assert np.array_equal(agent.actor_weights_, omega)
