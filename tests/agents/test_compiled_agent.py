@@ -124,3 +124,27 @@ def test_an_actor_with_its_own_features_keeps_its_rows_when_the_critic_grows():
     agent._grow(Expansion(first_new=4, parents=np.array([[0, 1]])))
     assert agent.weights_.shape[0] == 5
     assert np.array_equal(agent.actor_weights_, omega)
+
+
+class HalvedConstant(ConstantStepSize):
+    """A user's schedule with no compiled form (its ``value`` is overridden)."""
+
+    def value(self, episode, num_active):
+        return 0.5 * super().value(episode, num_active)
+
+
+@pytest.mark.parametrize(
+    "make",
+    [
+        lambda step: SARSA(representation=Tabular(), step_size=step, trace_decay=0.7),
+        lambda step: ActorCritic(representation=Tabular(), step_size=step, critic="v"),
+    ],
+)
+def test_a_python_schedule_is_read_in_python_and_leaves_the_learner_without_a_form(make):
+    domain = ChainMDP(num_states=5, num_actions=2)
+    python = make(HalvedConstant(alpha_0=0.6)).setup(domain.domain_spec, 0)
+    compiled = make(ConstantStepSize(alpha_0=0.3)).setup(domain.domain_spec, 0)
+    assert python.compiled_form() is None and compiled.compiled_form() is not None
+    _rollout(domain, python, 60, seed=3)
+    _rollout(domain, compiled, 60, seed=3)
+    np.testing.assert_array_equal(python.weights_, compiled.weights_)
