@@ -1,12 +1,14 @@
-"""A linear TD learner as the compiled learning loop reads it (`conjure.core.compiled_form`).
+"""A linear TD learner's compiled form, its state (`conjure.core.compiled_form`).
 
 `AgentKernel` holds a learner's kind, traces, γ, step-size schedules and behaviour policy;
-`LearnerArrays` its θ, ω and sparse traces. The kernels here are the learners' ``learn``
-(`td_learn`: α_t, δ and the updates of Algorithms 10-12 through `td_step` or
-`td_step_traces`, then the actor's; Actor-Critic's traces through `RowTraces`' kernels),
-its target (`bootstrap`), ``begin_episode``'s trace clearing and the rows of new features
-(`grow_learner_rows`, which the Python ``_grow`` calls too), over the same kernels the
-Python learners call; `q_values_into` is Q(s, ·) = θᵀφ(s).
+`LearnerArrays` its θ, ω and sparse traces; `RowTracePair` Actor-Critic's traces;
+`LearnerState` the three as one value. The learners build them in ``setup`` and keep them as
+their state (`conjure.agents.linear_td`). The kernels here are the learners' update, written
+once: `td_update` (δ and the updates of Algorithms 10-12 through `td_step`,
+`td_step_traces` or the row traces' kernels, then the actor's), called by the compiled
+loop's `td_learn` and by the Python ``learn``'s `learn_transition`; the target `bootstrap`;
+``begin_episode``'s trace clearing (`clear_learner_traces`); the rows of new features
+(`grow_learner_rows`, Section 4.1.1, on both paths); `q_values_into` is Q(s, ·) = θᵀφ(s).
 """
 
 from __future__ import annotations
