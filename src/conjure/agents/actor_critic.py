@@ -140,6 +140,8 @@ class ActorCritic(LinearTDAgent):
         "(Algorithm 12), not Q*; tests/agents/test_actor_critic.py checks the actor instead",
     }
 
+    kernel_kind = forms.ACTOR_CRITIC
+
     def __init__(
         self,
         *,
@@ -162,8 +164,6 @@ class ActorCritic(LinearTDAgent):
         self.critic = critic
         self.actor_update = actor_update
         self.trace_decay = trace_decay
-
-    kernel_kind = forms.ACTOR_CRITIC
 
     def _set_up_learner(self, spec: DomainSpec) -> None:
         """The critic (V or Q), the actor's features, schedule and step, and the traces."""

@@ -57,6 +57,8 @@ class QLearning(LinearTDAgent):
     300
     """
 
+    kernel_kind = forms.Q_LEARNING
+
     def __init__(
         self,
         *,
@@ -69,5 +71,3 @@ class QLearning(LinearTDAgent):
         self.policy = policy
         self.step_size = step_size
         self.initial_weight = initial_weight
-
-    kernel_kind = forms.Q_LEARNING

@@ -88,6 +88,8 @@ class SARSA(LinearTDAgent):
         "min_trace": Interval(float, 0, 1, closed="neither"),
     }
 
+    kernel_kind = forms.SARSA
+
     def __init__(
         self,
         *,
@@ -106,8 +108,6 @@ class SARSA(LinearTDAgent):
         self.trace_kind = trace_kind
         self.min_trace = min_trace
         self.initial_weight = initial_weight
-
-    kernel_kind = forms.SARSA
 
     def _set_up_learner(self, spec: DomainSpec) -> None:
         """The eligibility traces when λ > 0: γλ, their kind and the smallest kept."""
