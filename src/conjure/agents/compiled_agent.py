@@ -541,7 +541,7 @@ def learn_transition(
     state: LearnerState,
     phi: np.ndarray,
     values: np.ndarray | None,
-    psi: np.ndarray,
+    psi: np.ndarray | None,
     psi_values: np.ndarray | None,
     action: int,
     reward: float,
@@ -559,7 +559,7 @@ def learn_transition(
 
     Algorithms 10-12, lines 4-9, through the kernels the compiled loop calls. ``q_next``:
     the chooser's values at a non-terminal s' (θ's; the critic's θᵀφ(s') for Actor-Critic);
-    ``psi``: the actor's features (φ itself when shared). α_t and α'_t come from the
+    ``psi``: the actor's own features, or None when it shares φ. α_t and α'_t come from the
     schedules' forms at episode max(episode, 1) with k_t = |φ(s)|₁ and |ψ(s)|₁, or are
     ``alpha`` and ``actor_alpha`` for a schedule of kind `PYTHON_PART`. ``is_tracing``
     (False for an imagined transition) uses the traces, and after a terminal step SARSA(λ)
@@ -567,6 +567,36 @@ def learn_transition(
     the traces might not fit (`traces_fit`: the caller grows them and calls again), else
     (True, δ).
     """
+    if psi is None:  # one φ: no second pair of arrays to pass from Python
+        return _learn_transition(
+            state, phi, values, phi, values, action, reward, is_terminal, q_next, next_action,
+            next_legal, episode, alpha, actor_alpha, drawn, is_tracing,
+        )  # fmt: skip
+    return _learn_transition(
+        state, phi, values, psi, psi_values, action, reward, is_terminal, q_next, next_action,
+        next_legal, episode, alpha, actor_alpha, drawn, is_tracing,
+    )  # fmt: skip
+
+
+@njit(cache=True, inline="always")
+def _learn_transition(
+    state: LearnerState,
+    phi: np.ndarray,
+    values: np.ndarray | None,
+    psi: np.ndarray,
+    psi_values: np.ndarray | None,
+    action: int,
+    reward: float,
+    is_terminal: bool,
+    q_next: np.ndarray,
+    next_action: int,
+    next_legal: np.ndarray,
+    episode: int,
+    alpha: float,
+    actor_alpha: float,
+    drawn: np.ndarray,
+    is_tracing: bool,
+) -> tuple[bool, float]:
     agent, arrays, row_traces = state.agent, state.arrays, state.row_traces
     if is_tracing and not traces_fit(agent, arrays, row_traces, max(phi.shape[0], psi.shape[0])):
         return False, np.nan

@@ -305,13 +305,13 @@ class LinearTDAgent(Agent):
             raise
         if transition.terminated:
             return self._learn_from(transition, phi, phi, self._no_policy, 0, self._all_actions)
-        legal = transition.next_legal_actions
+        legal, next_action = transition.next_legal_actions, transition.next_action
         return self._learn_from(
             transition,
             phi,
             phi,
             self._next_q_values(transition.next_state),  # Q(s', ·) for Q⁺(s, a), line 5
-            transition.next_action,
+            0 if next_action is None else next_action,  # Q-Learning may be given none
             self._all_actions if legal is None else legal,
         )
 
@@ -334,12 +334,13 @@ class LinearTDAgent(Agent):
         if self._has_python_schedule:
             alpha = self._step_size(self.schedule_, phi)
             actor_alpha = self._step_size(self.actor_schedule_, psi)
+        psi_indices, psi_values = (None, None) if psi is phi else psi
         while True:
             fits, delta = _learn_transition(
-                self.state_, phi[0], phi[1], psi[0], psi[1], int(transition.action),
-                float(transition.reward), bool(transition.terminated), q_next,
-                int(next_action), next_legal, self.episode_, alpha, actor_alpha,
-                self._no_policy if drawn is None else drawn, is_tracing,
+                self.state_, phi[0], phi[1], psi_indices, psi_values, transition.action,
+                transition.reward, transition.terminated, q_next, next_action, next_legal,
+                self.episode_, alpha, actor_alpha, self._no_policy if drawn is None else drawn,
+                is_tracing,
             )  # fmt: skip
             if fits:
                 break
