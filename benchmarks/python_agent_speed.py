@@ -6,12 +6,13 @@ Each workload learns for ``--steps`` steps through `profile_steps` (a timed lear
 `Stepper`, a timer around every call) after a warm-up run of the same length (numba
 compilation excluded); the figures are the medians over ``--repeats`` seeds, and the fastest
 seed's (less disturbed by other processes on a shared machine). A last column times ``learn``
-alone on one transition repeated (the first two states of a seeded episode, the cached φ and
-Q of ``act``): the least mean over 7 batches of 5,000 calls, the figure least moved by other
-processes. Prints the CPU model and the load average beside them.
+alone on one transition repeated (the first two states of a seeded episode, φ and Q cached by
+``act``; reward 0, so θ stays 0 whatever α and nothing diverges or is discovered): the least
+mean over 7 batches of 5,000 calls, the figure least moved by other processes. Prints the CPU
+model and the load average beside them.
 
 Workloads: SARSA, SARSA(λ) with replacing and accumulating traces, Q-Learning (Algorithms 10,
-11) with tile coding on InvertedPendulum and with online iFDD on BlocksWorld; Actor-Critic
+11) with tile coding on InvertedPendulum, SARSA with online iFDD on GridWorld-1; Actor-Critic
 (Algorithm 12) with a Q or V critic, the features or log-policy actor, λ traces and an actor on
 its own features, tabular on GridWorld-1.
 """
@@ -112,7 +113,7 @@ def repeated_learn_us(make_domain, make_agent, calls: int = 5_000, batches: int 
     state = domain.reset(seed=0)[0]
     action = agent.act(state)
     next_state = domain.step(action)[0]
-    transition = Transition(state, action, -0.1, next_state, agent.act(next_state), False)
+    transition = Transition(state, action, 0.0, next_state, agent.act(next_state), False)
     agent.learn(transition)  # compiles (or loads) the kernels
     least = float("inf")
     for _ in range(batches):
