@@ -66,6 +66,7 @@ __all__ = [
     "grow_learner_rows",
     "imagined_learn",
     "learn_transition",
+    "learn_transition_with_actor_features",
     "learner_state",
     "q_values_into",
     "row_trace_pair",
@@ -541,8 +542,6 @@ def learn_transition(
     state: LearnerState,
     phi: np.ndarray,
     values: np.ndarray | None,
-    psi: np.ndarray | None,
-    psi_values: np.ndarray | None,
     action: int,
     reward: float,
     is_terminal: bool,
@@ -557,21 +556,41 @@ def learn_transition(
 ) -> tuple[bool, float]:
     """The Python learners' ``learn``: Q⁺(s, a) by `bootstrap`, α_t, then `td_update`.
 
-    Algorithms 10-12, lines 4-9, through the kernels the compiled loop calls. ``q_next``:
-    the chooser's values at a non-terminal s' (θ's; the critic's θᵀφ(s') for Actor-Critic);
-    ``psi``: the actor's own features, or None when it shares φ. α_t and α'_t come from the
-    schedules' forms at episode max(episode, 1) with k_t = |φ(s)|₁ and |ψ(s)|₁, or are
-    ``alpha`` and ``actor_alpha`` for a schedule of kind `PYTHON_PART`. ``is_tracing``
-    (False for an imagined transition) uses the traces, and after a terminal step SARSA(λ)
-    clears them (`end_of_episode_traces`). Returns (False, nan) before touching anything when
-    the traces might not fit (`traces_fit`: the caller grows them and calls again), else
-    (True, δ).
+    Algorithms 10-12, lines 4-9, through the kernels the compiled loop calls, the actor (if
+    any) on φ. ``q_next``: the chooser's values at a non-terminal s' (θ's; the critic's
+    θᵀφ(s') for Actor-Critic). α_t (and the actor's α'_t) come from the schedules' forms at
+    episode max(episode, 1) with k_t = |φ(s)|₁, or are ``alpha`` and ``actor_alpha`` for a
+    schedule of kind `PYTHON_PART`. ``is_tracing`` (False for an imagined transition) uses
+    the traces, and after a terminal step SARSA(λ) clears them (`end_of_episode_traces`).
+    Returns (False, nan) before touching anything when the traces might not fit
+    (`traces_fit`: the caller grows them and calls again), else (True, δ).
     """
-    if psi is None:  # one φ: no second pair of arrays to pass from Python
-        return _learn_transition(
-            state, phi, values, phi, values, action, reward, is_terminal, q_next, next_action,
-            next_legal, episode, alpha, actor_alpha, drawn, is_tracing,
-        )  # fmt: skip
+    return _learn_transition(
+        state, phi, values, phi, values, action, reward, is_terminal, q_next, next_action,
+        next_legal, episode, alpha, actor_alpha, drawn, is_tracing,
+    )  # fmt: skip
+
+
+@njit(cache=True)
+def learn_transition_with_actor_features(
+    state: LearnerState,
+    phi: np.ndarray,
+    values: np.ndarray | None,
+    psi: np.ndarray,
+    psi_values: np.ndarray | None,
+    action: int,
+    reward: float,
+    is_terminal: bool,
+    q_next: np.ndarray,
+    next_action: int,
+    next_legal: np.ndarray,
+    episode: int,
+    alpha: float,
+    actor_alpha: float,
+    drawn: np.ndarray,
+    is_tracing: bool,
+) -> tuple[bool, float]:
+    """`learn_transition` for an actor on its own features ψ(s) (k'_t = |ψ(s)|₁ for α'_t)."""
     return _learn_transition(
         state, phi, values, psi, psi_values, action, reward, is_terminal, q_next, next_action,
         next_legal, episode, alpha, actor_alpha, drawn, is_tracing,

@@ -334,14 +334,21 @@ class LinearTDAgent(Agent):
         if self._has_python_schedule:
             alpha = self._step_size(self.schedule_, phi)
             actor_alpha = self._step_size(self.actor_schedule_, psi)
-        psi_indices, psi_values = (None, None) if psi is phi else psi
+        if drawn is None:
+            drawn = self._no_policy
         while True:
-            fits, delta = _learn_transition(
-                self.state_, phi[0], phi[1], psi_indices, psi_values, transition.action,
-                transition.reward, transition.terminated, q_next, next_action, next_legal,
-                self.episode_, alpha, actor_alpha, self._no_policy if drawn is None else drawn,
-                is_tracing,
-            )  # fmt: skip
+            if psi is phi:
+                fits, delta = _learn_transition(
+                    self.state_, phi[0], phi[1], transition.action, transition.reward,
+                    transition.terminated, q_next, next_action, next_legal, self.episode_,
+                    alpha, actor_alpha, drawn, is_tracing,
+                )  # fmt: skip
+            else:
+                fits, delta = forms.learn_transition_with_actor_features(
+                    self.state_, phi[0], phi[1], psi[0], psi[1], transition.action,
+                    transition.reward, transition.terminated, q_next, next_action, next_legal,
+                    self.episode_, alpha, actor_alpha, drawn, is_tracing,
+                )  # fmt: skip
             if fits:
                 break
             self.grow_trace_capacity()
