@@ -300,7 +300,7 @@ class ActorCritic(LinearTDAgent):
         phi = psi if self._is_shared else self._encode(transition.state)
         drawn = self._policy_of(transition) if self._is_log_policy else None
         if transition.terminated:
-            q_next = self._no_policy
+            q_next = self._no_values
         else:  # line 6: the critic's Q(s', a') or V(s')
             state = transition.next_state
             next_phi = self._actor_features(state) if self._is_shared else self._encode(state)

@@ -480,6 +480,10 @@ class _LearnerStateType(types.StructRef):
 class LearnerState(structref.StructRefProxy):
     """A learner's compiled form: its `AgentKernel`, `LearnerArrays` and `RowTracePair`.
 
+    Two buffers the Python ``learn`` fills when it has them: ``alphas``, α_t and α'_t of
+    schedules of kind `PYTHON_PART`, and ``drawn``, π(s, ·) as ``act`` drew a for the
+    log-policy actor (passing them as arguments would cost every call).
+
     The learner builds it in ``setup`` and keeps it as its state (the same arrays as its
     ``arrays_`` and traces; a new one replaces it when they are reallocated). One reference
     (a numba structref), so the Python path's `learn_transition` call types and unboxes one
@@ -515,26 +519,37 @@ _SAMPLE_ARRAYS = LearnerArrays(
 )
 _LEARNER_STATE_TYPE = _LearnerStateType(
     [("agent", typeof(_SAMPLE_KERNEL)), ("arrays", typeof(_SAMPLE_ARRAYS)),
-     ("row_traces", _ROW_TRACE_PAIR_TYPE)]
+     ("row_traces", _ROW_TRACE_PAIR_TYPE), ("alphas", typeof(np.zeros(2))),
+     ("drawn", typeof(np.zeros(2)))]
 )  # fmt: skip
 
 
 @njit(cache=True)
 def _pack_learner_state(
-    kernel: AgentKernel, arrays: LearnerArrays, row_traces: RowTracePair
+    kernel: AgentKernel,
+    arrays: LearnerArrays,
+    row_traces: RowTracePair,
+    alphas: np.ndarray,
+    drawn: np.ndarray,
 ) -> LearnerState:
     state = structref.new(_LEARNER_STATE_TYPE)
     state.agent = kernel
     state.arrays = arrays
     state.row_traces = row_traces
+    state.alphas = alphas
+    state.drawn = drawn
     return state
 
 
 def learner_state(
-    kernel: AgentKernel, arrays: LearnerArrays, row_traces: RowTracePair
+    kernel: AgentKernel,
+    arrays: LearnerArrays,
+    row_traces: RowTracePair,
+    alphas: np.ndarray,
+    drawn: np.ndarray,
 ) -> LearnerState:
     """The learner's `LearnerState` over these values (the same arrays, nothing copied)."""
-    return _pack_learner_state(kernel, arrays, row_traces)
+    return _pack_learner_state(kernel, arrays, row_traces, alphas, drawn)
 
 
 @njit(cache=True)
@@ -544,30 +559,29 @@ def learn_transition(
     values: np.ndarray | None,
     action: int,
     reward: float,
-    is_terminal: bool,
+    is_terminal: int,
     q_next: np.ndarray,
     next_action: int,
     next_legal: np.ndarray,
     episode: int,
-    alpha: float,
-    actor_alpha: float,
-    drawn: np.ndarray,
-    is_tracing: bool,
+    is_tracing: int,
 ) -> tuple[bool, float]:
     """The Python learners' ``learn``: Q⁺(s, a) by `bootstrap`, α_t, then `td_update`.
 
     Algorithms 10-12, lines 4-9, through the kernels the compiled loop calls, the actor (if
     any) on φ. ``q_next``: the chooser's values at a non-terminal s' (θ's; the critic's
     θᵀφ(s') for Actor-Critic). α_t (and the actor's α'_t) come from the schedules' forms at
-    episode max(episode, 1) with k_t = |φ(s)|₁, or are ``alpha`` and ``actor_alpha`` for a
-    schedule of kind `PYTHON_PART`. ``is_tracing`` (False for an imagined transition) uses
-    the traces, and after a terminal step SARSA(λ) clears them (`end_of_episode_traces`).
+    episode max(episode, 1) with k_t = |φ(s)|₁, or from the state's ``alphas`` for a schedule
+    of kind `PYTHON_PART`; the log-policy actor reads π(s, ·) from its ``drawn``.
+    ``is_terminal`` and ``is_tracing`` are 0 or 1 (an int costs the call less than a bool);
+    ``is_tracing`` 0 (an imagined transition) updates without the traces, and after a terminal
+    step SARSA(λ) clears them (`end_of_episode_traces`).
     Returns (False, nan) before touching anything when the traces might not fit
     (`traces_fit`: the caller grows them and calls again), else (True, δ).
     """
     return _learn_transition(
         state, phi, values, phi, values, action, reward, is_terminal, q_next, next_action,
-        next_legal, episode, alpha, actor_alpha, drawn, is_tracing,
+        next_legal, episode, is_tracing,
     )  # fmt: skip
 
 
@@ -580,20 +594,17 @@ def learn_transition_with_actor_features(
     psi_values: np.ndarray | None,
     action: int,
     reward: float,
-    is_terminal: bool,
+    is_terminal: int,
     q_next: np.ndarray,
     next_action: int,
     next_legal: np.ndarray,
     episode: int,
-    alpha: float,
-    actor_alpha: float,
-    drawn: np.ndarray,
-    is_tracing: bool,
+    is_tracing: int,
 ) -> tuple[bool, float]:
     """`learn_transition` for an actor on its own features ψ(s) (k'_t = |ψ(s)|₁ for α'_t)."""
     return _learn_transition(
         state, phi, values, psi, psi_values, action, reward, is_terminal, q_next, next_action,
-        next_legal, episode, alpha, actor_alpha, drawn, is_tracing,
+        next_legal, episode, is_tracing,
     )  # fmt: skip
 
 
@@ -606,32 +617,32 @@ def _learn_transition(
     psi_values: np.ndarray | None,
     action: int,
     reward: float,
-    is_terminal: bool,
+    is_terminal: int,
     q_next: np.ndarray,
     next_action: int,
     next_legal: np.ndarray,
     episode: int,
-    alpha: float,
-    actor_alpha: float,
-    drawn: np.ndarray,
-    is_tracing: bool,
+    is_tracing: int,
 ) -> tuple[bool, float]:
     agent, arrays, row_traces = state.agent, state.arrays, state.row_traces
-    if is_tracing and not traces_fit(agent, arrays, row_traces, max(phi.shape[0], psi.shape[0])):
+    if is_tracing != 0 and not traces_fit(
+        agent, arrays, row_traces, max(phi.shape[0], psi.shape[0])
+    ):
         return False, np.nan
     target = reward
-    if not is_terminal:
+    if is_terminal == 0:
         target = bootstrap(agent, reward, q_next, next_action, next_legal, q_next)
     counted = max(episode, 1)
+    alpha, actor_alpha = state.alphas[0], state.alphas[1]
     if agent.schedule.kind != PYTHON_PART:
         alpha = step_size(agent.schedule, counted, _num_active(phi, values))
     if agent.actor_schedule.kind != PYTHON_PART:
         actor_alpha = step_size(agent.actor_schedule, counted, _num_active(psi, psi_values))
     delta = td_update(
         agent, arrays, row_traces, phi, values, psi, psi_values, action, target, alpha,
-        actor_alpha, drawn, is_tracing,
+        actor_alpha, state.drawn, is_tracing != 0,
     )  # fmt: skip
-    if is_terminal and is_tracing:
+    if is_terminal != 0 and is_tracing != 0:
         end_of_episode_traces(agent, arrays)
     return True, delta
 

@@ -158,7 +158,10 @@ class LinearTDAgent(Agent):
             self.kernel_.schedule.kind,
             self.kernel_.actor_schedule.kind,
         )
-        self._no_policy = np.zeros(spec.num_actions)  # `drawn` of learners that read none
+        self._no_values = np.zeros(spec.num_actions)  # Q(s', ·) of a terminal s': unread
+        self._alphas = np.full(2, math.nan)  # α_t, α'_t of Python schedules (`LearnerState`)
+        self._drawn = np.zeros(spec.num_actions)  # π(s, ·) for the log-policy actor
+        self._tracing = int(self._has_traces)
         self.row_traces_ = forms.NO_ROW_TRACE_PAIR
         self._set_arrays(self._initial_arrays(spec))
         self.forget_cache()
@@ -186,7 +189,9 @@ class LinearTDAgent(Agent):
         if row_traces is not None:
             self.row_traces_ = row_traces
         self.arrays_ = arrays
-        self.state_ = forms.learner_state(self.kernel_, arrays, self.row_traces_)
+        self.state_ = forms.learner_state(
+            self.kernel_, arrays, self.row_traces_, self._alphas, self._drawn
+        )
         self._theta = arrays.weights
         self._omega = arrays.actor_weights
 
@@ -304,7 +309,7 @@ class LinearTDAgent(Agent):
             check_is_set_up(self, "learn")
             raise
         if transition.terminated:
-            return self._learn_from(transition, phi, phi, self._no_policy, 0, self._all_actions)
+            return self._learn_from(transition, phi, phi, self._no_values, 0, self._all_actions)
         legal, next_action = transition.next_legal_actions, transition.next_action
         return self._learn_from(
             transition,
@@ -329,25 +334,24 @@ class LinearTDAgent(Agent):
 
         An imagined transition updates without the traces (module Notes).
         """
-        is_tracing = self._has_traces and not transition.is_imagined
-        alpha = actor_alpha = math.nan  # from the schedules' forms, unless Python parts
-        if self._has_python_schedule:
-            alpha = self._step_size(self.schedule_, phi)
-            actor_alpha = self._step_size(self.actor_schedule_, psi)
-        if drawn is None:
-            drawn = self._no_policy
+        is_tracing = 0 if transition.is_imagined else self._tracing
+        is_terminal = 1 if transition.terminated else 0
+        if self._has_python_schedule:  # else from the schedules' forms
+            self._alphas[0] = self._step_size(self.schedule_, phi)
+            self._alphas[1] = self._step_size(self.actor_schedule_, psi)
+        if drawn is not None:
+            self._drawn[:] = drawn
         while True:
             if psi is phi:
                 fits, delta = _learn_transition(
                     self.state_, phi[0], phi[1], transition.action, transition.reward,
-                    transition.terminated, q_next, next_action, next_legal, self.episode_,
-                    alpha, actor_alpha, drawn, is_tracing,
+                    is_terminal, q_next, next_action, next_legal, self.episode_, is_tracing,
                 )  # fmt: skip
             else:
                 fits, delta = forms.learn_transition_with_actor_features(
                     self.state_, phi[0], phi[1], psi[0], psi[1], transition.action,
-                    transition.reward, transition.terminated, q_next, next_action, next_legal,
-                    self.episode_, alpha, actor_alpha, drawn, is_tracing,
+                    transition.reward, is_terminal, q_next, next_action, next_legal,
+                    self.episode_, is_tracing,
                 )  # fmt: skip
             if fits:
                 break
