@@ -478,16 +478,26 @@ class _LearnerStateType(types.StructRef):
 
 
 class LearnerState(structref.StructRefProxy):
-    """A learner's compiled form: its `AgentKernel`, `LearnerArrays` and `RowTracePair`.
-
-    Two buffers the Python ``learn`` fills when it has them: ``alphas``, α_t and α'_t of
-    schedules of kind `PYTHON_PART`, and ``drawn``, π(s, ·) as ``act`` drew a for the
-    log-policy actor (passing them as arguments would cost every call).
+    """A learner's compiled form (Algorithms 10-12): kernel, arrays, traces and two buffers.
 
     The learner builds it in ``setup`` and keeps it as its state (the same arrays as its
     ``arrays_`` and traces; a new one replaces it when they are reallocated). One reference
     (a numba structref), so the Python path's `learn_transition` call types and unboxes one
     value, not the ten-odd arrays the named tuples hold. Made by `learner_state`.
+
+    Parameters
+    ----------
+    agent : AgentKernel
+        The learner's kind, traces, γ, schedules and policy.
+    arrays : LearnerArrays
+        θ, ω and SARSA(λ)'s traces.
+    row_traces : RowTracePair
+        Actor-Critic's traces (`NO_ROW_TRACE_PAIR` for the others).
+    alphas : ndarray of shape (2,)
+        α_t and α'_t of schedules of kind `PYTHON_PART`, filled by the Python ``learn``.
+    drawn : ndarray of shape (|A|,)
+        π(s, ·) as ``act`` drew a, filled for the log-policy actor (a buffer, so no call
+        passes it).
     """
 
 
