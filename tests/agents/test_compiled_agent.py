@@ -148,3 +148,21 @@ def test_a_python_schedule_is_read_in_python_and_leaves_the_learner_without_a_fo
     _rollout(domain, python, 60, seed=3)
     _rollout(domain, compiled, 60, seed=3)
     np.testing.assert_array_equal(python.weights_, compiled.weights_)
+
+
+def test_growing_past_capacity_replaces_the_form_and_learn_updates_the_new_arrays():
+    from conjure.core import Expansion
+
+    domain = ChainMDP(num_states=4, num_actions=2)
+    agent = SARSA(representation=Tabular(), step_size=0.5, trace_decay=0.5).setup(
+        domain.domain_spec, seed=0
+    )
+    state, arrays = agent.state_, agent.arrays_
+    agent.representation_.num_features_ = 5  # as if the representation discovered one
+    agent._grow(Expansion(first_new=4, parents=np.array([[0, 1]])))
+    assert agent.state_ is not state and agent.arrays_.weights is not arrays.weights
+    assert agent.arrays_.weights.shape[0] >= 5 and agent.weights_.shape == (5, 2)
+    agent.begin_episode()
+    agent.learn(Transition(np.array([0.0]), 1, 1.0, np.array([1.0]), 0, True))
+    assert agent.weights_[0, 1] == 0.5  # θ ← θ + αδφ through the new form
+    assert agent.arrays_.weights[0, 1] == 0.5 and arrays.weights[0, 1] == 0.0
