@@ -49,8 +49,7 @@ def test_td_learn_updates_as_learn(name):
     domain = ChainMDP(num_states=5, num_actions=2)
     python = AGENTS[name]().setup(domain.domain_spec, 0)
     compiled = AGENTS[name]().setup(domain.domain_spec, 0)
-    form, arrays = compiled.compiled_form(), compiled.compiled_arrays()
-    traces = compiled.compiled_row_traces()
+    form, arrays, traces = compiled.compiled_form(), compiled.arrays_, compiled.row_traces_
     rng = np.random.default_rng(1)
     python.begin_episode()
     compiled.begin_episode()
@@ -100,6 +99,7 @@ def test_python_growth_is_the_loops_growth_kernel(name, flags, monkeypatch):
     _rollout(domain, agent, 30, seed=0)
     theta = agent.weights_.copy()
     omega = agent.actor_weights_.copy() if name == "actor-critic" else None
+    agent.representation_.num_features_ = 6  # as if the representation discovered two
     agent._grow(Expansion(first_new=4, parents=np.array([[0, 1], [4, -1]])))
     assert calls == [(4, [[0, 1], [4, -1]], flags)]
     assert np.array_equal(agent.weights_[4], theta[0] + theta[1])  # θ_f = θ_g + θ_h
@@ -120,6 +120,49 @@ def test_an_actor_with_its_own_features_keeps_its_rows_when_the_critic_grows():
     )
     _rollout(domain, agent, 30, seed=0)
     omega = agent.actor_weights_.copy()
+    agent.representation_.num_features_ = 5  # as if the critic's representation discovered one
     agent._grow(Expansion(first_new=4, parents=np.array([[0, 1]])))
     assert agent.weights_.shape[0] == 5
     assert np.array_equal(agent.actor_weights_, omega)
+
+
+class HalvedConstant(ConstantStepSize):
+    """A user's schedule with no compiled form (its ``value`` is overridden)."""
+
+    def value(self, episode, num_active):
+        return 0.5 * super().value(episode, num_active)
+
+
+@pytest.mark.parametrize(
+    "make",
+    [
+        lambda step: SARSA(representation=Tabular(), step_size=step, trace_decay=0.7),
+        lambda step: ActorCritic(representation=Tabular(), step_size=step, critic="v"),
+    ],
+)
+def test_a_python_schedule_is_read_in_python_and_leaves_the_learner_without_a_form(make):
+    domain = ChainMDP(num_states=5, num_actions=2)
+    python = make(HalvedConstant(alpha_0=0.6)).setup(domain.domain_spec, 0)
+    compiled = make(ConstantStepSize(alpha_0=0.3)).setup(domain.domain_spec, 0)
+    assert python.compiled_form() is None and compiled.compiled_form() is not None
+    _rollout(domain, python, 60, seed=3)
+    _rollout(domain, compiled, 60, seed=3)
+    np.testing.assert_array_equal(python.weights_, compiled.weights_)
+
+
+def test_growing_past_capacity_replaces_the_form_and_learn_updates_the_new_arrays():
+    from conjure.core import Expansion
+
+    domain = ChainMDP(num_states=4, num_actions=2)
+    agent = SARSA(representation=Tabular(), step_size=0.5, trace_decay=0.5).setup(
+        domain.domain_spec, seed=0
+    )
+    state, arrays = agent.state_, agent.arrays_
+    agent.representation_.num_features_ = 5  # as if the representation discovered one
+    agent._grow(Expansion(first_new=4, parents=np.array([[0, 1]])))
+    assert agent.state_ is not state and agent.arrays_.weights is not arrays.weights
+    assert agent.arrays_.weights.shape[0] >= 5 and agent.weights_.shape == (5, 2)
+    agent.begin_episode()
+    agent.learn(Transition(np.array([0.0]), 1, 1.0, np.array([1.0]), 0, True))
+    assert agent.weights_[0, 1] == 0.5  # θ ← θ + αδφ through the new form
+    assert agent.arrays_.weights[0, 1] == 0.5 and arrays.weights[0, 1] == 0.0

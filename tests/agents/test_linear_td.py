@@ -21,6 +21,7 @@ def test_grow_adds_rows_as_sum_of_parents_and_drops_caches():
     agent = SARSA(representation=Tabular()).setup(domain.domain_spec, seed=0)
     agent.weights_[:] = np.arange(8, dtype=float).reshape(4, 2)
     agent.act(np.array([0.0]))
+    agent.representation_.num_features_ = 5  # as if the representation discovered one
     agent._grow(Expansion(first_new=4, parents=np.array([[1, 3]])))
     assert agent.weights_.shape == (5, 2)
     assert agent.weights_[4].tolist() == [2 + 6, 3 + 7]  # θ_f = θ_g + θ_h, Section 4.1.1

@@ -138,6 +138,7 @@ def test_traces_grow_with_discovered_features():
     domain = ChainMDP(num_states=4, num_actions=2)
     agent = SARSA(representation=Tabular(), trace_decay=0.5).setup(domain.domain_spec, seed=0)
     _rollout(domain, agent, 20, seed=0)
+    agent.representation_.num_features_ = 5  # as if the representation discovered one
     agent._grow(Expansion(first_new=4, parents=np.array([[0, 1]])))
     assert agent.weights_.shape == (5, 2) and agent.trace_slots_.shape == (5, 2)
     assert np.all(agent.trace_slots_[4] == 0)  # no trace

@@ -16,11 +16,11 @@ def _loop_arguments(*, learn: bool = True, max_episodes: int = 10**6):
     obs = domain.reset(seed=0)[0].copy()
     state = lp.new_loop_state(domain.domain_spec.num_actions)
     state.phase[0] = lp.NEEDS_BEGIN
-    arrays = agent.compiled_arrays()
+    arrays = agent.arrays_
     rep = representation_form(agent)
     box = box_form(agent, rep)
     args = (domain.compiled_form(), domain.np_random, rep, agent_form(agent), arrays,
-            agent.compiled_row_traces(), agent.rng_, 100, obs, state, box.box,
+            agent.row_traces_, agent.rng_, 100, obs, state, box.box,
             packed_parts(box.parts), learn, max_episodes)  # fmt: skip
     return args, arrays, state
 

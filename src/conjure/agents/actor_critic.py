@@ -1,14 +1,9 @@
 """Actor-Critic, Geramifard (2012), Algorithm 12 (after Bhatnagar et al. 2007).
 
-Choice: ``learn`` stays a Python composition of the update kernels rather than a call of
-the compiled loop's `conjure.agents.compiled_agent.td_learn` (with its
-`_learn_with_row_traces`): the compiled kernel serves only an actor that shares the critic's
-features (one φ), while this class also runs an actor on its own features (ψ ≠ φ), and a
-policy or schedule without a compiled form (`conjure.agents.linear_td`'s Notes). The
-arithmetic is shared: without traces δ and θ's step are `_kernels.td_step` and ω's step
-`_kernels.add` or `add_log_policy_gradient` on both paths; with traces both paths step and
-apply them through `RowTraces`' kernels (`step_row_traces`, `apply_row_traces`). The
-differential tests (``tests/compiled``) hold both to the same θ and ω bit for bit.
+``learn`` is one call of the kernel the compiled loop's update runs
+(`conjure.agents.compiled_agent.learn_transition` → `td_update`), with the actor on its own
+features ψ when it has them; θ, ω and the traces are the learner's compiled form, its state
+(`conjure.agents.linear_td`'s Notes).
 """
 
 from __future__ import annotations
@@ -32,7 +27,7 @@ from conjure.core.interfaces import (
 from conjure.core.params import InstanceOf, Interval, Options
 from conjure.core.schedules import StepSizeSchedule
 from conjure.policies import Gibbs, greedy_action
-from conjure.representations.weights import initial_weights, with_room
+from conjure.representations.weights import initial_weights
 
 __all__ = ["ActorCritic"]
 
@@ -145,6 +140,8 @@ class ActorCritic(LinearTDAgent):
         "(Algorithm 12), not Q*; tests/agents/test_actor_critic.py checks the actor instead",
     }
 
+    kernel_kind = forms.ACTOR_CRITIC
+
     def __init__(
         self,
         *,
@@ -168,12 +165,9 @@ class ActorCritic(LinearTDAgent):
         self.actor_update = actor_update
         self.trace_decay = trace_decay
 
-    def setup(self, spec: DomainSpec, seed: int | np.random.SeedSequence) -> ActorCritic:
-        """Set up the critic as `LinearTDAgent.setup` (one column for V), then the actor's ω."""
-        super().setup(spec, seed)
+    def _set_up_learner(self, spec: DomainSpec) -> None:
+        """The critic (V or Q), the actor's features, schedule and step, and the traces."""
         self._is_state_value = self.critic == "v"
-        if self._is_state_value:
-            self.weights_ = self.weights_[:, :1].copy()
         self._is_shared = self.actor_representation is None
         if self._is_shared:
             self.actor_representation_ = self.representation_
@@ -181,14 +175,9 @@ class ActorCritic(LinearTDAgent):
             self.actor_representation_ = self.actor_representation.clone().setup(
                 spec, self.seeds_["actor"]
             )
-        actor = self.actor_representation_
-        self._encode_actor = actor.encode
-        self.actor_schedule_ = (
-            self.schedule_ if self.actor_step_size is None else make_schedule(self.actor_step_size)
-        )
-        self.actor_weights_ = initial_weights(
-            (actor.num_features_, spec.num_actions), self.initial_weight
-        )
+        self._encode_actor = self.actor_representation_.encode
+        if self.actor_step_size is not None:
+            self.actor_schedule_ = make_schedule(self.actor_step_size)
         self._is_log_policy = self.actor_update == "log_policy"
         if self._is_log_policy and not (
             isinstance(self.policy_, Gibbs) and self.policy_.temperature > 0
@@ -198,13 +187,37 @@ class ActorCritic(LinearTDAgent):
                 f"> 0 (its log-probability gradient); got {self.policy_!r}."
             )
         self._has_traces = self.trace_decay > 0
+        self._trace_factor = self.discount_ * self.trace_decay
+
+    def _make_kernel(self) -> forms.AgentKernel:
+        """Algorithm 12's `AgentKernel`: either critic, either actor step, λ ≥ 0."""
+        traces = (forms.ROW_TRACES, self._trace_factor, MIN_TRACE) if self._has_traces else ()
+        return self._kernel(
+            forms.ACTOR_CRITIC,
+            *traces,
+            is_state_value=self._is_state_value,
+            is_log_policy=self._is_log_policy,
+        )
+
+    def _initial_arrays(self, spec: DomainSpec) -> forms.LearnerArrays:
+        """θ (one column for V) and ω, both at ``initial_weight``; the traces' rows if λ > 0."""
+        arrays = super()._initial_arrays(spec)
+        if self._is_state_value:
+            arrays = arrays._replace(weights=arrays.weights[:, :1].copy())
+        actor = initial_weights(
+            (self.actor_representation_.num_features_, spec.num_actions), self.initial_weight
+        )
         if self._has_traces:
-            self._trace_factor = self.discount_ * self.trace_decay
-            self.critic_traces_ = RowTraces(self.weights_.shape[0], self.weights_.shape[1])
-            self.actor_traces_ = RowTraces(actor.num_features_, spec.num_actions)
-            self._critic_units = np.eye(self.weights_.shape[1])  # e_column, no per-step array
-            self._actor_units = np.eye(spec.num_actions)
-        return self
+            weights = arrays.weights
+            self.critic_traces_ = RowTraces(weights.shape[0], weights.shape[1])
+            self.actor_traces_ = RowTraces(actor.shape[0], spec.num_actions)
+            self.row_traces_ = self._row_trace_pair()
+        return arrays._replace(actor_weights=actor)
+
+    def _row_trace_pair(self) -> forms.RowTracePair:
+        """z^θ and z^ω, the traces' own arrays (`RowTraces.compiled_form`)."""
+        critic, actor = self.critic_traces_.compiled_form(), self.actor_traces_.compiled_form()
+        return forms.row_trace_pair(critic, actor)
 
     compiled_variant = (
         "the actor sharing the critic's features, and the log-policy actor or traces only "
@@ -218,53 +231,24 @@ class ActorCritic(LinearTDAgent):
         representation stay in Python, where a discovery drops the cached π(s, ·) and grows
         the traces' rows.
         """
-        check_is_set_up(self, "compiled_form")
+        form = super().compiled_form()
         if not self._is_shared:
             return None
         if (self._is_log_policy or self._has_traces) and self.representation_.is_adaptive:
             return None
-        traces = (forms.ROW_TRACES, self._trace_factor, MIN_TRACE) if self._has_traces else ()
-        return self._kernel(
-            forms.ACTOR_CRITIC,
-            *traces,
-            actor_schedule=self.actor_schedule_,
-            is_state_value=self._is_state_value,
-            is_log_policy=self._is_log_policy,
-        )
+        return form
 
-    def compiled_arrays(self, rows: int = 0) -> forms.LearnerArrays:
-        """θ and the actor's ω, each with room for ``rows`` features (ω if it shares them)."""
-        arrays = super().compiled_arrays(rows)
-        if not self._is_shared:  # ω has the actor's own features: rows are θ's
-            return arrays._replace(actor_weights=self.actor_weights_)
-        return arrays._replace(actor_weights=with_room(self.actor_weights_, rows))
-
-    def compiled_row_traces(self) -> forms.RowTracePair:
-        """z^θ and z^ω, the traces' own arrays (`RowTraces.compiled_form`), with λ > 0."""
-        if not self._has_traces:
-            return forms.NO_ROW_TRACE_PAIR
-        critic, actor = self.critic_traces_.compiled_form(), self.actor_traces_.compiled_form()
-        return forms.row_trace_pair(critic, actor)
+    @property
+    def actor_weights_(self) -> np.ndarray:
+        """ω: the rows of ``arrays_.actor_weights`` in use, a view."""
+        check_is_set_up(self, "actor_weights_")
+        return self._omega[: self.actor_representation_.num_features_]
 
     def grow_trace_capacity(self) -> None:
         """Double the live rows of both traces (the compiled loop asks before it overflows)."""
         self.critic_traces_.grow_rows()
         self.actor_traces_.grow_rows()
-
-    def load_compiled_arrays(
-        self, arrays: forms.LearnerArrays, num_features: int | None = None
-    ) -> None:
-        rows = self.weights_.shape[0] if num_features is None else num_features
-        super().load_compiled_arrays(arrays, rows)
-        if self._is_shared:  # else ω, never grown, is the learner's own
-            self.actor_weights_ = arrays.actor_weights[:rows]
-
-    def begin_episode(self) -> None:
-        """Count a new episode and clear the eligibility traces."""
-        super().begin_episode()
-        if self._has_traces:
-            self.critic_traces_.clear()
-            self.actor_traces_.clear()
+        self._set_arrays(self.arrays_, self._row_trace_pair())
 
     def act(
         self, state: np.ndarray, greedy: bool = False, legal_actions: np.ndarray | None = None
@@ -275,7 +259,7 @@ class ActorCritic(LinearTDAgent):
         if greedy:  # stores nothing (`preferences`)
             return int(greedy_action(self.preferences(state), legal))
         psi = self._encode_actor(state)
-        preferences = _kernels.q_values(self.actor_weights_, psi[0], psi[1])
+        preferences = _kernels.q_values(self._omega, psi[0], psi[1])
         policy = self.policy_.probabilities(preferences, legal) if self._is_log_policy else None
         self._remember(state, psi, policy)
         return int(self.policy_.select(preferences, self.rng_, legal))
@@ -293,7 +277,7 @@ class ActorCritic(LinearTDAgent):
     def preferences(self, state: np.ndarray) -> np.ndarray:
         """Return ρ(s, ·) = ωᵀψ(s, ·) (Eq. 2.33); stores nothing (`Representation.peek`)."""
         check_is_set_up(self, "preferences")
-        return _kernels.q_values(self.actor_weights_, *self.actor_representation_.peek(state))
+        return _kernels.q_values(self._omega, *self.actor_representation_.peek(state))
 
     def shift_preference(self, state: np.ndarray, action: int, amount: float) -> None:
         """ρ(s, a) += ``amount``: the bias and penalty λ of iCCA (Section 5.3.2; Algorithm 23).
@@ -303,64 +287,27 @@ class ActorCritic(LinearTDAgent):
         """
         check_is_set_up(self, "shift_preference")
         indices, values = self._encode_actor(state)
-        forms.shift_preference_into(
-            self.actor_weights_, indices, values, int(action), float(amount)
-        )
+        forms.shift_preference_into(self._omega, indices, values, int(action), float(amount))
 
     def learn(self, transition: Transition) -> float:
-        """Critic and actor updates of Algorithm 12, lines 6-9; returns δ."""
+        """Critic and actor updates of Algorithm 12, lines 6-9; returns δ.
+
+        One `learn_transition` call with the critic's θᵀφ(s') for Q⁺(s, a) and the actor on
+        ψ(s) (φ(s) itself when shared).
+        """
         check_is_set_up(self, "learn")
         psi = self._actor_features(transition.state)
         phi = psi if self._is_shared else self._encode(transition.state)
-        target = transition.reward
-        if not transition.terminated:
-            target += self.discount_ * self._bootstrap(transition)  # line 6: Q⁺(s, a)
-        step_size = self._step_size(self.schedule_, phi)
-        column = 0 if self._is_state_value else transition.action
-        actor_step = self._step_size(self.actor_schedule_, psi)
-        if self._has_traces and not transition.is_imagined:
-            delta = self._learn_with_traces(transition, phi, psi, column, target)
-            self.critic_traces_.apply(self.weights_, step_size * delta)
-            self.actor_traces_.apply(self.actor_weights_, actor_step * delta)
-        else:
-            delta = self._update(phi, column, target, step_size)  # lines 7-8
-            if np.isfinite(delta):
-                self._actor_step(psi, transition, actor_step * delta)  # line 9
-        self._after_update(transition, phi, delta)
-        return delta
-
-    def _actor_step(self, psi: SparseFeatures, transition: Transition, amount: float) -> None:
-        """ω += amount · (ψ(s, a), or ∇_ω log π(s, a) for ``actor_update="log_policy"``)."""
-        action = transition.action
-        if self._is_log_policy:
-            policy = self._policy_of(transition)
-            _kernels.add_log_policy_gradient(
-                self.actor_weights_,
-                psi[0],
-                psi[1],
-                action,
-                policy,
-                amount / self.policy_.temperature,
-            )
-        else:
-            _kernels.add(self.actor_weights_, psi[0], psi[1], action, amount)
-
-    def _learn_with_traces(
-        self,
-        transition: Transition,
-        phi: SparseFeatures,
-        psi: SparseFeatures,
-        column: int,
-        target: float,
-    ) -> float:
-        """δ, after z^θ ← γλz^θ + φ(s) ⊗ e_column and z^ω ← γλz^ω + ψ(s) ⊗ the actor's direction."""
-        delta = target - float(_kernels.q_values(self.weights_, phi[0], phi[1])[column])
-        self.critic_traces_.step(self._trace_factor, phi, self._critic_units[column])
-        actor = self._actor_units[transition.action]
-        if self._is_log_policy:
-            actor = (actor - self._policy_of(transition)) / self.policy_.temperature
-        self.actor_traces_.step(self._trace_factor, psi, actor)
-        return delta
+        drawn = self._policy_of(transition) if self._is_log_policy else None
+        if transition.terminated:
+            q_next = self._no_values
+        else:  # line 6: the critic's Q(s', a') or V(s')
+            state = transition.next_state
+            next_phi = self._actor_features(state) if self._is_shared else self._encode(state)
+            q_next = _kernels.q_values(self._theta, next_phi[0], next_phi[1])
+        return self._learn_from(
+            transition, phi, psi, q_next, transition.next_action, self._all_actions, drawn
+        )
 
     def _policy_of(self, transition: Transition) -> np.ndarray:
         """π(s, ·) as the ``act`` that chose a drew it (cached with ψ(s)), else over all now.
@@ -379,15 +326,6 @@ class ActorCritic(LinearTDAgent):
                 return policy
         return self.policy_.probabilities(self.preferences(transition.state), self._all_actions)
 
-    def _bootstrap(self, transition: Transition) -> float:
-        next_phi = (
-            self._actor_features(transition.next_state)
-            if self._is_shared
-            else self._encode(transition.next_state)
-        )
-        q_next = _kernels.q_values(self.weights_, next_phi[0], next_phi[1])
-        return float(q_next[0 if self._is_state_value else transition.next_action])
-
     def _actor_features(self, state: np.ndarray) -> SparseFeatures:
         """ψ(s), from the act cache when possible."""
         return self._features(state, self._encode_actor)
@@ -402,6 +340,7 @@ class ActorCritic(LinearTDAgent):
             self.critic_traces_.grow(expansion)
             if self._is_shared:
                 self.actor_traces_.grow(expansion)
+            self._set_arrays(self.arrays_, self._row_trace_pair())
 
     def state_arrays(self) -> dict[str, np.ndarray]:
         arrays = super().state_arrays()
@@ -422,10 +361,13 @@ class ActorCritic(LinearTDAgent):
         if not self._is_shared:
             self.actor_representation_.load_state_arrays(saved.with_prefix("actor_representation."))
         shape = (self.actor_representation_.num_features_, self.spec_.num_actions)
-        self.actor_weights_ = saved.array("actor_weights", shape)
+        actor = saved.array("actor_weights", shape)
+        row_traces = None
         if self._has_traces:
             self.critic_traces_ = self._loaded_traces(saved, "critic_trace_", self.weights_)
-            self.actor_traces_ = self._loaded_traces(saved, "actor_trace_", self.actor_weights_)
+            self.actor_traces_ = self._loaded_traces(saved, "actor_trace_", actor)
+            row_traces = self._row_trace_pair()
+        self._set_arrays(self.arrays_._replace(actor_weights=actor), row_traces)
 
     @staticmethod
     def _loaded_traces(

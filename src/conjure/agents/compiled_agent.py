@@ -1,12 +1,14 @@
-"""A linear TD learner as the compiled learning loop reads it (`conjure.core.compiled_form`).
+"""A linear TD learner's compiled form, its state (`conjure.core.compiled_form`).
 
 `AgentKernel` holds a learner's kind, traces, γ, step-size schedules and behaviour policy;
-`LearnerArrays` its θ, ω and sparse traces. The kernels here are the learners' ``learn``
-(`td_learn`: α_t, δ and the updates of Algorithms 10-12 through `td_step` or
-`td_step_traces`, then the actor's; Actor-Critic's traces through `RowTraces`' kernels),
-its target (`bootstrap`), ``begin_episode``'s trace clearing and the rows of new features
-(`grow_learner_rows`, which the Python ``_grow`` calls too), over the same kernels the
-Python learners call; `q_values_into` is Q(s, ·) = θᵀφ(s).
+`LearnerArrays` its θ, ω and sparse traces; `RowTracePair` Actor-Critic's traces;
+`LearnerState` the three as one value. The learners build them in ``setup`` and keep them as
+their state (`conjure.agents.linear_td`). The kernels here are the learners' update, written
+once: `td_update` (δ and the updates of Algorithms 10-12 through `td_step`,
+`td_step_traces` or the row traces' kernels, then the actor's), called by the compiled
+loop's `td_learn` and by the Python ``learn``'s `learn_transition`; the target `bootstrap`;
+``begin_episode``'s trace clearing (`clear_learner_traces`); the rows of new features
+(`grow_learner_rows`, Section 4.1.1, on both paths); `q_values_into` is Q(s, ·) = θᵀφ(s).
 """
 
 from __future__ import annotations
@@ -48,23 +50,30 @@ __all__ = [
     "ACTOR_CRITIC",
     "NO_ROW_TRACE_PAIR",
     "NO_TRACES",
+    "PYTHON_PART",
     "Q_LEARNING",
     "REPLACING",
     "ROW_TRACES",
     "SARSA",
     "AgentKernel",
     "LearnerArrays",
+    "LearnerState",
     "RowTracePair",
+    "begin_learner_episode",
     "bootstrap",
     "clear_learner_traces",
     "end_of_episode_traces",
     "grow_learner_rows",
     "imagined_learn",
+    "learn_transition",
+    "learn_transition_with_actor_features",
+    "learner_state",
     "q_values_into",
     "row_trace_pair",
     "shift_preference_into",
     "step_size",
     "td_learn",
+    "td_update",
     "traces_fit",
 ]
 
@@ -242,23 +251,54 @@ def td_learn(
 ) -> float:
     """α_t, δ and θ's update (Algorithms 10-12, lines 6-7), then ω's (Algorithm 12, line 9).
 
-    The learners' ``learn`` in one kernel: k_t = |φ(s)|₁ (the number of features for binary
-    φ), α_t from the schedule at episode max(episode, 1), δ and θ's update by `td_step` (on
-    V's one column for the state-value critic) or, with traces, `td_step_traces`;
-    Actor-Critic then adds α^actor_t δ φ(s) to ω's row of ``action``, or with the log-policy
-    actor α^actor_t δ ∇_ω log π(s, a) / τ from ``drawn``, π(s, ·) as it was when a was chosen
-    (`add_log_policy_gradient`). Returns δ; ω is left alone when δ is not finite.
+    The compiled loop's update: k_t = |φ(s)|₁ (the number of features for binary φ), α_t
+    (and the actor's α'_t) from the schedules at episode max(episode, 1), then `td_update`
+    with the actor on the critic's features. Returns δ.
     """
     k_t = _num_active(phi, values)
     counted = max(episode, 1)
     alpha = step_size(agent.schedule, counted, k_t)  # as `imagined_learn`
-    if agent.traces == ROW_TRACES:
+    actor_alpha = alpha
+    if agent.kind == ACTOR_CRITIC:
         actor_alpha = step_size(agent.actor_schedule, counted, k_t)
+    return td_update(
+        agent, arrays, row_traces, phi, values, phi, values, action, target, alpha, actor_alpha,
+        drawn, True,
+    )  # fmt: skip
+
+
+@njit(cache=True, inline="always")
+def td_update(
+    agent: AgentKernel,
+    arrays: LearnerArrays,
+    row_traces: RowTracePair,
+    phi: np.ndarray,
+    values: np.ndarray | None,
+    psi: np.ndarray,
+    psi_values: np.ndarray | None,
+    action: int,
+    target: float,
+    alpha: float,
+    actor_alpha: float,
+    drawn: np.ndarray,
+    is_tracing: bool,
+) -> float:
+    """δ and θ's update (Algorithms 10-12, lines 6-7), then ω's on ψ(s) (Algorithm 12, line 9).
+
+    The learners' one update rule, on both paths: δ and θ's update by `td_step` (on V's one
+    column for the state-value critic) or, with traces and ``is_tracing``, `td_step_traces`
+    (SARSA(λ)) or `_learn_with_row_traces` (Actor-Critic); without row traces Actor-Critic
+    then adds α' δ ψ(s) to ω's row of ``action``, or with the log-policy actor
+    α' δ ∇_ω log π(s, a) / τ from ``drawn``, π(s, ·) as it was when a was chosen
+    (`add_log_policy_gradient`). ``is_tracing`` False (an imagined transition) updates without
+    the traces. Returns δ; ω is left alone when δ is not finite.
+    """
+    if is_tracing and agent.traces == ROW_TRACES:
         return _learn_with_row_traces(
-            agent, arrays.weights, arrays.actor_weights, row_traces, phi, values, action, target,
-            alpha, actor_alpha, drawn,
+            agent, arrays.weights, arrays.actor_weights, row_traces, phi, values, psi,
+            psi_values, action, target, alpha, actor_alpha, drawn,
         )  # fmt: skip
-    if agent.traces == NO_TRACES:
+    if not is_tracing or agent.traces == NO_TRACES or agent.traces == ROW_TRACES:
         column = 0 if agent.is_state_value else action
         delta = td_step(arrays.weights, phi, values, column, target, alpha)
     else:
@@ -268,12 +308,11 @@ def td_learn(
             arrays.trace_features, arrays.trace_actions, arrays.trace_values, arrays.trace_count,
         )  # fmt: skip
     if agent.kind == ACTOR_CRITIC and math.isfinite(delta):
-        actor_alpha = step_size(agent.actor_schedule, counted, k_t)
         if agent.is_log_policy:
             amount = actor_alpha * delta / agent.policy.parameter
-            add_log_policy_gradient(arrays.actor_weights, phi, values, action, drawn, amount)
+            add_log_policy_gradient(arrays.actor_weights, psi, psi_values, action, drawn, amount)
         else:
-            add(arrays.actor_weights, phi, values, action, actor_alpha * delta)
+            add(arrays.actor_weights, psi, psi_values, action, actor_alpha * delta)
     return delta
 
 
@@ -285,17 +324,19 @@ def _learn_with_row_traces(
     row_traces: RowTracePair,
     phi: np.ndarray,
     values: np.ndarray | None,
+    psi: np.ndarray,
+    psi_values: np.ndarray | None,
     action: int,
     target: float,
     alpha: float,
     actor_alpha: float,
     drawn: np.ndarray,
 ) -> float:
-    """Actor-Critic's ``learn`` with λ > 0 (`ActorCritic._learn_with_traces`, then both updates).
+    """Actor-Critic's update with λ > 0 (Sutton & Barto 2018, §13.5; Algorithm 12's lines 6-9).
 
-    δ = target − θ(s)[column]; z^θ ← γλz^θ + φ(s) ⊗ e_column; z^ω ← γλz^ω + φ(s) ⊗ e_a, or
+    δ = target − θ(s)[column]; z^θ ← γλz^θ + φ(s) ⊗ e_column; z^ω ← γλz^ω + ψ(s) ⊗ e_a, or
     ⊗ (e_a − π(s, ·))/τ for the log-policy actor (π(s, ·) as drawn); θ += αδz^θ and
-    ω += α'δz^ω, whatever δ (the loop stops on a non-finite one). The rows fit (`traces_fit`
+    ω += α'δz^ω, whatever δ (the caller stops on a non-finite one). The rows fit (`traces_fit`
     before the step, the same rule as `step_row_traces`).
     """
     critic, actor = row_traces.critic, row_traces.actor
@@ -313,7 +354,7 @@ def _learn_with_row_traces(
         for b in range(direction.shape[0]):
             direction[b] = (direction[b] - drawn[b]) / agent.policy.parameter
     step_row_traces(actor.slot_of, actor.rows, actor.values, actor.count, agent.trace_decay,
-                    agent.min_trace, phi, values, direction)  # fmt: skip
+                    agent.min_trace, psi, psi_values, direction)  # fmt: skip
     apply_row_traces(weights, critic.rows, critic.values, critic.count, alpha * delta)
     apply_row_traces(actor_weights, actor.rows, actor.values, actor.count,
                      actor_alpha * delta)  # fmt: skip
@@ -422,3 +463,201 @@ def imagined_learn(
     """
     alpha = step_size(agent.schedule, max(episode, 1), _num_active(phi, values))
     return td_step(arrays.weights, phi, values, action, target, alpha)
+
+
+# ---------------------------------------------------------------------------------------------
+# The learner's compiled form as its state, and the Python path's calls into the same kernels
+
+
+@structref.register
+class _LearnerStateType(types.StructRef):
+    """The numba type of `LearnerState`."""
+
+    def preprocess_fields(self, fields):
+        return tuple((name, types.unliteral(kind)) for name, kind in fields)
+
+
+class LearnerState(structref.StructRefProxy):
+    """A learner's compiled form (Algorithms 10-12): kernel, arrays, traces and two buffers.
+
+    The learner builds it in ``setup`` and keeps it as its state (the same arrays as its
+    ``arrays_`` and traces; a new one replaces it when they are reallocated). One reference
+    (a numba structref), so the Python path's `learn_transition` call types and unboxes one
+    value, not the ten-odd arrays the named tuples hold. Made by `learner_state`.
+
+    Parameters
+    ----------
+    agent : AgentKernel
+        The learner's kind, traces, γ, schedules and policy.
+    arrays : LearnerArrays
+        θ, ω and SARSA(λ)'s traces.
+    row_traces : RowTracePair
+        Actor-Critic's traces (`NO_ROW_TRACE_PAIR` for the others).
+    alphas : ndarray of shape (2,)
+        α_t and α'_t of schedules of kind `PYTHON_PART`, filled by the Python ``learn``.
+    drawn : ndarray of shape (|A|,)
+        π(s, ·) as ``act`` drew a, filled for the log-policy actor (a buffer, so no call
+        passes it).
+    """
+
+
+structref.define_boxing(_LearnerStateType, LearnerState)
+
+
+#: A part with no compiled form (a user's Python schedule or policy), as `ScheduleKernel.kind`
+#: or `PolicyKernel.kind` in a learner's `AgentKernel`: the Python path computes α_t (and
+#: chooses actions) in Python, and the learner has no compiled form for the loop.
+PYTHON_PART = -1
+_SAMPLE_KERNEL = AgentKernel(
+    kind=SARSA,
+    traces=NO_TRACES,
+    trace_decay=0.0,
+    min_trace=0.0,
+    discount=1.0,
+    schedule=ScheduleKernel(kind=PYTHON_PART, alpha_0=0.0, n_0=0.0),
+    actor_schedule=ScheduleKernel(kind=PYTHON_PART, alpha_0=0.0, n_0=0.0),
+    policy=PolicyKernel(kind=PYTHON_PART, parameter=0.0),
+)
+_SAMPLE_ARRAYS = LearnerArrays(
+    weights=np.zeros((0, 0)),
+    actor_weights=np.zeros((0, 0)),
+    trace_slots=np.zeros((0, 0), dtype=np.int64),
+    trace_features=np.zeros(0, dtype=np.int64),
+    trace_actions=np.zeros(0, dtype=np.int64),
+    trace_values=np.zeros(0),
+    trace_count=np.zeros(1, dtype=np.int64),
+)
+_LEARNER_STATE_TYPE = _LearnerStateType(
+    [("agent", typeof(_SAMPLE_KERNEL)), ("arrays", typeof(_SAMPLE_ARRAYS)),
+     ("row_traces", _ROW_TRACE_PAIR_TYPE), ("alphas", typeof(np.zeros(2))),
+     ("drawn", typeof(np.zeros(2)))]
+)  # fmt: skip
+
+
+@njit(cache=True)
+def _pack_learner_state(
+    kernel: AgentKernel,
+    arrays: LearnerArrays,
+    row_traces: RowTracePair,
+    alphas: np.ndarray,
+    drawn: np.ndarray,
+) -> LearnerState:
+    state = structref.new(_LEARNER_STATE_TYPE)
+    state.agent = kernel
+    state.arrays = arrays
+    state.row_traces = row_traces
+    state.alphas = alphas
+    state.drawn = drawn
+    return state
+
+
+def learner_state(
+    kernel: AgentKernel,
+    arrays: LearnerArrays,
+    row_traces: RowTracePair,
+    alphas: np.ndarray,
+    drawn: np.ndarray,
+) -> LearnerState:
+    """The learner's `LearnerState` over these values (the same arrays, nothing copied)."""
+    return _pack_learner_state(kernel, arrays, row_traces, alphas, drawn)
+
+
+@njit(cache=True)
+def learn_transition(
+    state: LearnerState,
+    phi: np.ndarray,
+    values: np.ndarray | None,
+    action: int,
+    reward: float,
+    is_terminal: int,
+    q_next: np.ndarray,
+    next_action: int,
+    next_legal: np.ndarray,
+    episode: int,
+    is_tracing: int,
+) -> tuple[bool, float]:
+    """The Python learners' ``learn``: Q⁺(s, a) by `bootstrap`, α_t, then `td_update`.
+
+    Algorithms 10-12, lines 4-9, through the kernels the compiled loop calls, the actor (if
+    any) on φ. ``q_next``: the chooser's values at a non-terminal s' (θ's; the critic's
+    θᵀφ(s') for Actor-Critic). α_t (and the actor's α'_t) come from the schedules' forms at
+    episode max(episode, 1) with k_t = |φ(s)|₁, or from the state's ``alphas`` for a schedule
+    of kind `PYTHON_PART`; the log-policy actor reads π(s, ·) from its ``drawn``.
+    ``is_terminal`` and ``is_tracing`` are 0 or 1 (an int costs the call less than a bool);
+    ``is_tracing`` 0 (an imagined transition) updates without the traces, and after a terminal
+    step SARSA(λ) clears them (`end_of_episode_traces`).
+    Returns (False, nan) before touching anything when the traces might not fit
+    (`traces_fit`: the caller grows them and calls again), else (True, δ).
+    """
+    return _learn_transition(
+        state, phi, values, phi, values, action, reward, is_terminal, q_next, next_action,
+        next_legal, episode, is_tracing,
+    )  # fmt: skip
+
+
+@njit(cache=True)
+def learn_transition_with_actor_features(
+    state: LearnerState,
+    phi: np.ndarray,
+    values: np.ndarray | None,
+    psi: np.ndarray,
+    psi_values: np.ndarray | None,
+    action: int,
+    reward: float,
+    is_terminal: int,
+    q_next: np.ndarray,
+    next_action: int,
+    next_legal: np.ndarray,
+    episode: int,
+    is_tracing: int,
+) -> tuple[bool, float]:
+    """`learn_transition` for an actor on its own features ψ(s) (k'_t = |ψ(s)|₁ for α'_t)."""
+    return _learn_transition(
+        state, phi, values, psi, psi_values, action, reward, is_terminal, q_next, next_action,
+        next_legal, episode, is_tracing,
+    )  # fmt: skip
+
+
+@njit(cache=True, inline="always")
+def _learn_transition(
+    state: LearnerState,
+    phi: np.ndarray,
+    values: np.ndarray | None,
+    psi: np.ndarray,
+    psi_values: np.ndarray | None,
+    action: int,
+    reward: float,
+    is_terminal: int,
+    q_next: np.ndarray,
+    next_action: int,
+    next_legal: np.ndarray,
+    episode: int,
+    is_tracing: int,
+) -> tuple[bool, float]:
+    agent, arrays, row_traces = state.agent, state.arrays, state.row_traces
+    if is_tracing != 0 and not traces_fit(
+        agent, arrays, row_traces, max(phi.shape[0], psi.shape[0])
+    ):
+        return False, np.nan
+    target = reward
+    if is_terminal == 0:
+        target = bootstrap(agent, reward, q_next, next_action, next_legal, q_next)
+    counted = max(episode, 1)
+    alpha, actor_alpha = state.alphas[0], state.alphas[1]
+    if agent.schedule.kind != PYTHON_PART:
+        alpha = step_size(agent.schedule, counted, _num_active(phi, values))
+    if agent.actor_schedule.kind != PYTHON_PART:
+        actor_alpha = step_size(agent.actor_schedule, counted, _num_active(psi, psi_values))
+    delta = td_update(
+        agent, arrays, row_traces, phi, values, psi, psi_values, action, target, alpha,
+        actor_alpha, state.drawn, is_tracing != 0,
+    )  # fmt: skip
+    if is_terminal != 0 and is_tracing != 0:
+        end_of_episode_traces(agent, arrays)
+    return True, delta
+
+
+@njit(cache=True)
+def begin_learner_episode(state: LearnerState) -> None:
+    """The Python learners' ``begin_episode``: `clear_learner_traces`, as the loop does."""
+    clear_learner_traces(state.agent, state.arrays, state.row_traces)

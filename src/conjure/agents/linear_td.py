@@ -1,11 +1,12 @@
 """Shared machinery of the linear online TD learners (Algorithms 10-12).
 
 `LinearTDAgent` holds θ (n_features × |A|), the representation, the policy, the step-size
-schedule, the episode counter and the generator; subclasses say how the bootstrap target
-Q⁺(s, a) is formed. φ(s) is the representation's `encode` (`SparseFeatures`: indices with their
-values), so binary and real-valued features take one code path. ``act`` caches φ and Q of the
-states it saw so ``learn`` does not encode a state twice: per step the learners pay one feature
-activation, one Q evaluation and one update.
+schedule, the episode counter and the generator; subclasses give their kind (which target
+Q⁺(s, a) the shared kernel `conjure.agents.compiled_agent.bootstrap` forms) and traces. φ(s)
+is the representation's `encode` (`SparseFeatures`: indices with their values), so binary
+and real-valued features take one code path. ``act`` caches φ and Q of the states it saw so
+``learn`` does not encode a state twice: per step the learners pay one feature activation,
+one Q evaluation and one update.
 
 Notes
 -----
@@ -18,17 +19,22 @@ Notes
   episode's α, whatever the learner's traces (a fresh episode's trace is φ(s, a), cleared at
   its end); it counts no learning step. ``learn`` marks the weights changed, so the Q(s', ·)
   cached by ``act`` is recomputed for the next real update.
-- Choice: ``learn`` composes the update kernels itself instead of calling the compiled
-  loop's `conjure.agents.compiled_agent.td_learn` and `bootstrap`. Those read an
-  `AgentKernel`, which exists only when the policy and every schedule have a compiled form,
-  so a learner with a user's Python schedule or policy would need this path anyway; and a
-  call would box θ, the traces and the kernels' named tuples for a single update, on the
-  path whose per-step cost `run_episode` reports. What the two share is the arithmetic: θ's
-  update is `_kernels.td_step` / `td_step_traces` on both paths, α_t comes from
-  `conjure.core.schedules`' rate functions on both (``value`` here, the schedule's compiled
-  form there), and new features' rows from `compiled_agent.grow_learner_rows`. Only the
-  orchestration (which φ, which target, when to grow) is written twice; the differential
-  tests (``tests/compiled``) hold both to the same θ bit for bit.
+- The learner's compiled form is its state: ``setup`` builds its `AgentKernel` (``kernel_``),
+  θ, ω and SARSA(λ)'s traces (``arrays_``, a `LearnerArrays`), Actor-Critic's traces
+  (``row_traces_``) and the `LearnerState` holding the three (``state_``). ``weights_`` is
+  the leading rows of ``arrays_.weights`` in use (the representation's ``num_features_``),
+  never a copy. ``learn`` is one call of `conjure.agents.compiled_agent.learn_transition`:
+  Q⁺(s, a) by `bootstrap`, α_t by the schedule's form and the update by `td_update`, the
+  kernels the compiled loop's `td_learn` calls; new features' rows come from
+  `grow_learner_rows` on both paths. The compiled loop updates the same arrays in place,
+  so nothing is taken back after it ran (only ``act``'s cache is dropped, `forget_cache`).
+- Choice: a step-size schedule or policy with no compiled form (a user's Python part) is
+  marked `PYTHON_PART` in ``kernel_``: ``learn`` then passes α_t from the schedule's
+  ``value`` (the same rate functions, `conjure.core.schedules`), and the learner has no
+  compiled form for the loop (`compiled_form` is None).
+- Choice: when θ (or the traces) must grow past their capacity (`reserve_rows`,
+  ``grow_trace_capacity``) the arrays are reallocated (doubling) and a new ``arrays_`` and
+  ``state_`` replace the old ones.
 """
 
 from __future__ import annotations
@@ -54,9 +60,10 @@ from conjure.core.interfaces import (
     check_is_set_up,
 )
 from conjure.core.params import InstanceOf, Interval
-from conjure.core.schedules import ALPHA_0, ConstantStepSize, StepSizeSchedule
+from conjure.core.schedules import ALPHA_0, ConstantStepSize, ScheduleKernel, StepSizeSchedule
 from conjure.core.seeding import make_rng, rng_from_state, rng_state, split_seed
 from conjure.policies import EpsilonGreedy, greedy_action
+from conjure.policies.compiled_policy import PolicyKernel
 from conjure.representations.weights import expansion_parents, initial_weights, with_room
 
 __all__ = ["STEP_SIZE", "LinearTDAgent", "state_key"]
@@ -65,15 +72,21 @@ STEP_SIZE = ALPHA_0 | InstanceOf(StepSizeSchedule, "a StepSizeSchedule")
 _FLOAT64 = np.dtype(np.float64)
 _NDARRAY = np.ndarray
 _q_values = _kernels.q_values
-#: The trace arrays of `compiled_arrays` for a learner without traces.
-_NO_TRACES = {
-    "trace_slots": np.zeros((0, 0), dtype=np.int64),
-    "trace_features": np.zeros(0, dtype=np.int64),
-    "trace_actions": np.zeros(0, dtype=np.int64),
-    "trace_values": np.zeros(0),
-    "trace_count": np.zeros(1, dtype=np.int64),
-}
 _l1_norm = _kernels.l1_norm
+_learn_transition = forms.learn_transition
+#: The schedule part of an `AgentKernel` for a schedule with no compiled form.
+_PYTHON_SCHEDULE = ScheduleKernel(kind=forms.PYTHON_PART, alpha_0=math.nan, n_0=math.nan)
+
+
+def _no_traces() -> dict[str, np.ndarray]:
+    """SARSA(λ)'s trace arrays of `LearnerArrays`, empty (a learner without them)."""
+    return {
+        "trace_slots": np.zeros((0, 0), dtype=np.int64),
+        "trace_features": np.zeros(0, dtype=np.int64),
+        "trace_actions": np.zeros(0, dtype=np.int64),
+        "trace_values": np.zeros(0),
+        "trace_count": np.zeros(1, dtype=np.int64),
+    }
 
 
 def state_key(state: np.ndarray) -> bytes:
@@ -101,17 +114,23 @@ class LinearTDAgent(Agent):
     default_policy: ClassVar[type[Policy]] = EpsilonGreedy
     #: The methods a compiled form stands in for (`conjure.core.compiled_form`).
     compiled_methods: ClassVar[tuple[str, ...]] = (
-        "act", "learn", "begin_episode", "_bootstrap", "_update", "_after_update",
+        "act", "learn", "begin_episode", "_learn_from", "_after_update", "_next_q_values",
     )  # fmt: skip
     #: θ's initial value is folded into θ at ``setup``; the compiled form need not carry it.
     compiled_irrelevant_params: ClassVar[frozenset[str]] = frozenset({"initial_weight"})
     #: What the compiled loop covers of the learner (said when a run falls back to Python).
     compiled_variant: ClassVar[str] = ""
+    #: The learner's kind in its `AgentKernel` (`conjure.agents.compiled_agent`).
+    kernel_kind: ClassVar[int] = -1
+    _has_traces = False
 
     # ------------------------------------------------------------------ lifecycle
 
     def setup(self, spec: DomainSpec, seed: int | np.random.SeedSequence) -> LinearTDAgent:
-        """Validate parameters, set up the representation and build θ for ``spec``."""
+        """Validate parameters, set up the representation and build the compiled form.
+
+        θ, the traces and the `AgentKernel` are the learner's state from here on (Notes).
+        """
         self.validate_params()
         seeds = split_seed(seed, ("representation", "policy", "actor"))
         self.seeds_ = seeds
@@ -121,23 +140,67 @@ class LinearTDAgent(Agent):
         self.policy_ = (self.default_policy() if self.policy is None else self.policy).clone()
         self.policy_.validate_params()
         self.schedule_ = make_schedule(self.step_size)
+        self.actor_schedule_ = self.schedule_
         self.rng_ = make_rng(seeds["policy"])
         check_weight_size(self.representation_, spec)
-        self.weights_ = initial_weights(
-            (self.representation_.num_features_, spec.num_actions), self.initial_weight
-        )
         self.episode_ = 0
         self.num_learning_steps_ = 0
         self._all_actions = np.arange(spec.num_actions, dtype=np.int64)
         self._encode = self.representation_.encode
+        self._set_up_learner(spec)
+        self.kernel_ = self._make_kernel()
+        self._has_python_parts = forms.PYTHON_PART in (
+            self.kernel_.schedule.kind,
+            self.kernel_.actor_schedule.kind,
+            self.kernel_.policy.kind,
+        )
+        self._has_python_schedule = forms.PYTHON_PART in (
+            self.kernel_.schedule.kind,
+            self.kernel_.actor_schedule.kind,
+        )
+        self._no_values = np.zeros(spec.num_actions)  # Q(s', ·) of a terminal s': unread
+        self._alphas = np.full(2, math.nan)  # α_t, α'_t of Python schedules (`LearnerState`)
+        self._drawn = np.zeros(spec.num_actions)  # π(s, ·) for the log-policy actor
+        self._tracing = int(self._has_traces)
+        self.row_traces_ = forms.NO_ROW_TRACE_PAIR
+        self._set_arrays(self._initial_arrays(spec))
         self.forget_cache()
         self.is_set_up_ = True
         return self
 
+    def _set_up_learner(self, spec: DomainSpec) -> None:
+        """Set the learner's own parameters before its form is built (subclasses)."""
+
+    def _make_kernel(self) -> forms.AgentKernel:
+        """The learner's `AgentKernel` (subclasses, through `_kernel`)."""
+        return self._kernel(self.kernel_kind)
+
+    def _initial_arrays(self, spec: DomainSpec) -> forms.LearnerArrays:
+        """θ at ``initial_weight`` (ω is θ itself) and no traces."""
+        weights = initial_weights(
+            (self.representation_.num_features_, spec.num_actions), self.initial_weight
+        )
+        return forms.LearnerArrays(weights=weights, actor_weights=weights, **_no_traces())
+
+    def _set_arrays(
+        self, arrays: forms.LearnerArrays, row_traces: forms.RowTracePair | None = None
+    ) -> None:
+        """Make ``arrays`` (and ``row_traces``) the learner's state: a new `LearnerState`."""
+        if row_traces is not None:
+            self.row_traces_ = row_traces
+        self.arrays_ = arrays
+        self.state_ = forms.learner_state(
+            self.kernel_, arrays, self.row_traces_, self._alphas, self._drawn
+        )
+        self._theta = arrays.weights
+        self._omega = arrays.actor_weights
+
     def begin_episode(self) -> None:
-        """Count a new episode (the schedules' ``Episode #``)."""
+        """Count a new episode (the schedules' ``Episode #``) and clear the traces, if any."""
         check_is_set_up(self, "begin_episode")
         self.episode_ += 1
+        if self._has_traces:
+            forms.begin_learner_episode(self.state_)
 
     def _kernel(
         self,
@@ -145,53 +208,62 @@ class LinearTDAgent(Agent):
         traces: int = forms.NO_TRACES,
         trace_decay: float = 0.0,
         min_trace: float = 0.0,
-        actor_schedule: StepSizeSchedule | None = None,
         is_state_value: bool = False,
         is_log_policy: bool = False,
-    ) -> forms.AgentKernel | None:
-        """The `AgentKernel` of a set-up learner, or None if its policy or a schedule has none."""
-        check_is_set_up(self, "compiled_form")
-        parts = (self.policy_, self.schedule_, actor_schedule or self.schedule_)
-        policy, schedule, actor = (compiled_form(part) for part in parts)
-        if policy is None or schedule is None or actor is None:
-            return None
+    ) -> forms.AgentKernel:
+        """The learner's `AgentKernel`; a part with no compiled form is a `PYTHON_PART`."""
+        schedule, actor = compiled_form(self.schedule_), compiled_form(self.actor_schedule_)
+        policy = compiled_form(self.policy_)
+        if policy is None:  # τ, read by the log-policy actor only
+            temperature = float(getattr(self.policy_, "temperature", math.nan))
+            policy = PolicyKernel(kind=forms.PYTHON_PART, parameter=temperature)
         return forms.AgentKernel(
             kind=kind,
             traces=traces,
             trace_decay=trace_decay,
             min_trace=min_trace,
             discount=self.discount_,
-            schedule=schedule,
-            actor_schedule=actor,
+            schedule=_PYTHON_SCHEDULE if schedule is None else schedule,
+            actor_schedule=_PYTHON_SCHEDULE if actor is None else actor,
             policy=policy,
             is_state_value=is_state_value,
             is_log_policy=is_log_policy,
         )
 
-    def compiled_arrays(self, rows: int = 0) -> forms.LearnerArrays:
-        """θ, ω and the traces for the compiled loop, with room for ``rows`` features.
+    def compiled_form(self) -> forms.AgentKernel | None:
+        """The learner's `AgentKernel` (``kernel_``) for the compiled loop, or None.
 
-        The arrays are the learner's own (or buffers they lead, `with_room`), updated in
-        place; `load_compiled_arrays` takes them back.
+        None when the policy or a schedule has no compiled form (Notes).
         """
-        check_is_set_up(self, "compiled_arrays")
-        weights = with_room(self.weights_, rows)
-        return forms.LearnerArrays(weights=weights, actor_weights=weights, **_NO_TRACES)
+        check_is_set_up(self, "compiled_form")
+        return None if self._has_python_parts else self.kernel_
 
-    def compiled_row_traces(self) -> forms.RowTracePair:
-        """Actor-Critic's traces for the compiled loop; `NO_ROW_TRACE_PAIR` for the others."""
-        return forms.NO_ROW_TRACE_PAIR
+    def reserve_rows(self, rows: int) -> None:
+        """Give θ (and ω, SARSA(λ)'s trace slots, when they grow with it) ``rows`` rows.
 
-    def load_compiled_arrays(
-        self, arrays: forms.LearnerArrays, num_features: int | None = None
-    ) -> None:
-        """Take θ back from the compiled loop and drop the cache.
-
-        The first ``num_features`` rows (default: as many as now) stay in use.
+        Reallocates (doubling, `with_room`) only when they have fewer; the leading rows are
+        kept and a new ``arrays_`` / ``state_`` replaces the old. The compiled loop asks for
+        as many rows as an adaptive representation's tables hold features.
         """
-        rows = self.weights_.shape[0] if num_features is None else num_features
-        self.weights_ = arrays.weights[:rows]
-        self.forget_cache()
+        check_is_set_up(self, "reserve_rows")
+        arrays = self.arrays_
+        if arrays.weights.shape[0] >= rows:
+            return
+        is_actor_growing, has_trace_slots = self._grown_arrays()
+        weights = with_room(arrays.weights, rows)
+        actor = arrays.actor_weights
+        if actor is arrays.weights:
+            actor = weights
+        elif is_actor_growing:
+            actor = with_room(actor, rows)
+        slots = with_room(arrays.trace_slots, rows) if has_trace_slots else arrays.trace_slots
+        self._set_arrays(arrays._replace(weights=weights, actor_weights=actor, trace_slots=slots))
+
+    @property
+    def weights_(self) -> np.ndarray:
+        """θ: the rows of ``arrays_.weights`` in use (the representation's features), a view."""
+        check_is_set_up(self, "weights_")
+        return self._theta[: self.representation_.num_features_]
 
     @property
     def num_features(self) -> int:
@@ -217,7 +289,7 @@ class LinearTDAgent(Agent):
         if greedy:
             return int(greedy_action(self.q_values(state), legal))
         phi = encode(state)
-        q = _q_values(self.weights_, phi[0], phi[1])
+        q = _q_values(self._theta, phi[0], phi[1])
         self._remember(state, phi, q)
         return int(self.policy_.select(q, self.rng_, legal))
 
@@ -225,33 +297,70 @@ class LinearTDAgent(Agent):
         """Return Q(s, ·) under the current weights; stores nothing (`Representation.peek`)."""
         check_is_set_up(self, "q_values")
         indices, values = self.representation_.peek(state)
-        return _q_values(self.weights_, indices, values)
+        return _q_values(self._theta, indices, values)
 
     # ------------------------------------------------------------------ learning
 
     def learn(self, transition: Transition) -> float:
         """One TD update from ``transition``; returns δ (Algorithm 10/11, lines 4-7)."""
-        check_is_set_up(self, "learn")
-        phi = self._features(transition.state)
-        target = transition.reward
-        if not transition.terminated:
-            target += self.discount_ * self._bootstrap(transition)  # line 5: Q⁺(s, a)
-        step_size = self._step_size(self.schedule_, phi)
-        if transition.is_imagined:  # a one-step episode of its own: e = φ(s, a), no live trace
-            delta = _kernels.td_step(
-                self.weights_, phi[0], phi[1], transition.action, target, step_size
-            )
-        else:
-            delta = self._update(phi, transition.action, target, step_size)  # lines 6-7
+        try:
+            phi = self._features(transition.state)
+        except AttributeError:
+            check_is_set_up(self, "learn")
+            raise
+        if transition.terminated:
+            return self._learn_from(transition, phi, phi, self._no_values, 0, self._all_actions)
+        legal, next_action = transition.next_legal_actions, transition.next_action
+        return self._learn_from(
+            transition,
+            phi,
+            phi,
+            self._next_q_values(transition.next_state),  # Q(s', ·) for Q⁺(s, a), line 5
+            0 if next_action is None else next_action,  # Q-Learning may be given none
+            self._all_actions if legal is None else legal,
+        )
+
+    def _learn_from(
+        self,
+        transition: Transition,
+        phi: SparseFeatures,
+        psi: SparseFeatures,
+        q_next: np.ndarray,
+        next_action: int,
+        next_legal: np.ndarray,
+        drawn: np.ndarray | None = None,
+    ) -> float:
+        """Lines 5-9 in one `learn_transition` call (traces grown first if they might not fit).
+
+        An imagined transition updates without the traces (module Notes).
+        """
+        is_tracing = 0 if transition.is_imagined else self._tracing
+        is_terminal = 1 if transition.terminated else 0
+        if self._has_python_schedule:  # else from the schedules' forms
+            self._alphas[0] = self._step_size(self.schedule_, phi)
+            self._alphas[1] = self._step_size(self.actor_schedule_, psi)
+        if drawn is not None:
+            self._drawn[:] = drawn
+        while True:
+            if psi is phi:
+                fits, delta = _learn_transition(
+                    self.state_, phi[0], phi[1], transition.action, transition.reward,
+                    is_terminal, q_next, next_action, next_legal, self.episode_, is_tracing,
+                )  # fmt: skip
+            else:
+                fits, delta = forms.learn_transition_with_actor_features(
+                    self.state_, phi[0], phi[1], psi[0], psi[1], transition.action,
+                    transition.reward, is_terminal, q_next, next_action, next_legal,
+                    self.episode_, is_tracing,
+                )  # fmt: skip
+            if fits:
+                break
+            self.grow_trace_capacity()
         self._after_update(transition, phi, delta)
         return delta
 
-    def _bootstrap(self, transition: Transition) -> float:
-        """Return the estimate of the next state's value used in Q⁺(s, a)."""
-        raise NotImplementedError
-
-    def _update(self, phi: SparseFeatures, action: int, target: float, step_size: float) -> float:
-        return _kernels.td_step(self.weights_, phi[0], phi[1], action, target, step_size)
+    def grow_trace_capacity(self) -> None:
+        """Make room for more live traces (learners with traces; the compiled loop asks)."""
 
     def _after_update(self, transition: Transition, phi: SparseFeatures, delta: float) -> None:
         if not transition.is_imagined:
@@ -271,15 +380,15 @@ class LinearTDAgent(Agent):
     def _grow(self, expansion: Expansion) -> None:
         """Add rows for new features, θ_f = θ_g + θ_h (Section 4.1.1), and drop stale caches.
 
-        Through the arrays the compiled loop uses and its growth kernel
-        (`conjure.agents.compiled_agent.grow_learner_rows`), so the rule exists once.
+        Through the compiled loop's growth kernel
+        (`conjure.agents.compiled_agent.grow_learner_rows`), so the rule exists once. The
+        representation already counts the new features.
         """
-        first = self.weights_.shape[0]
+        first = self.representation_.num_features_ - expansion.num_new
         parents = expansion_parents(expansion, first)
-        rows = first + parents.shape[0]
-        arrays = self.compiled_arrays(rows)
-        forms.grow_learner_rows(arrays, first, parents, *self._grown_arrays())
-        self.load_compiled_arrays(arrays, rows)
+        self.reserve_rows(first + parents.shape[0])
+        forms.grow_learner_rows(self.arrays_, first, parents, *self._grown_arrays())
+        self.forget_cache()
 
     def _grown_arrays(self) -> tuple[bool, bool]:
         """Whether a new feature also gets the actor's ω row and SARSA(λ)'s trace slots."""
@@ -337,7 +446,7 @@ class LinearTDAgent(Agent):
                 return q
         else:
             phi = self._features(state)
-        return _q_values(self.weights_, phi[0], phi[1])
+        return _q_values(self._theta, phi[0], phi[1])
 
     # ------------------------------------------------------------------ persistence
 
@@ -374,9 +483,10 @@ class LinearTDAgent(Agent):
         self.num_learning_steps_ = int(state["num_learning_steps"])
         self.rng_ = rng_from_state(state["rng"])
         self._encode = self.representation_.encode
-        self.weights_ = saved.array(
-            "weights", (self.representation_.num_features_, self.weights_.shape[1])
-        )
+        arrays = self.arrays_
+        weights = saved.array("weights", (self.representation_.num_features_, self._theta.shape[1]))
+        actor = weights if arrays.actor_weights is arrays.weights else arrays.actor_weights
+        self._set_arrays(arrays._replace(weights=weights, actor_weights=actor))
         self.forget_cache()
 
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from conjure.agents import compiled_agent as forms
 from conjure.agents.linear_td import LinearTDAgent
-from conjure.core.interfaces import Policy, Representation, Transition
+from conjure.core.interfaces import Policy, Representation
 from conjure.core.schedules import StepSizeSchedule
 
 __all__ = ["QLearning"]
@@ -57,6 +57,8 @@ class QLearning(LinearTDAgent):
     300
     """
 
+    kernel_kind = forms.Q_LEARNING
+
     def __init__(
         self,
         *,
@@ -69,12 +71,3 @@ class QLearning(LinearTDAgent):
         self.policy = policy
         self.step_size = step_size
         self.initial_weight = initial_weight
-
-    def compiled_form(self) -> forms.AgentKernel | None:
-        """Q-Learning for the compiled loop (no parameters beyond the shared ones)."""
-        return self._kernel(forms.Q_LEARNING)
-
-    def _bootstrap(self, transition: Transition) -> float:
-        q_next = self._next_q_values(transition.next_state)
-        legal = transition.next_legal_actions
-        return float(q_next.max() if legal is None else q_next[legal].max())  # max_a' Q(s', a')

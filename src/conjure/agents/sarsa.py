@@ -4,19 +4,16 @@ from __future__ import annotations
 
 import numpy as np
 
-from conjure.agents import _kernels, persistence
 from conjure.agents import compiled_agent as forms
+from conjure.agents import persistence
 from conjure.agents.linear_td import LinearTDAgent
 from conjure.core.interfaces import (
     DomainSpec,
     Policy,
     Representation,
-    SparseFeatures,
-    Transition,
 )
 from conjure.core.params import Interval, Options
 from conjure.core.schedules import StepSizeSchedule
-from conjure.representations.weights import with_room
 
 __all__ = ["SARSA"]
 
@@ -91,6 +88,8 @@ class SARSA(LinearTDAgent):
         "min_trace": Interval(float, 0, 1, closed="neither"),
     }
 
+    kernel_kind = forms.SARSA
+
     def __init__(
         self,
         *,
@@ -110,14 +109,10 @@ class SARSA(LinearTDAgent):
         self.min_trace = min_trace
         self.initial_weight = initial_weight
 
-    def setup(self, spec: DomainSpec, seed: int | np.random.SeedSequence) -> SARSA:
-        """Set up as `LinearTDAgent.setup`, plus the eligibility traces when λ > 0."""
-        super().setup(spec, seed)
+    def _set_up_learner(self, spec: DomainSpec) -> None:
+        """The eligibility traces when λ > 0: γλ, their kind and the smallest kept."""
         self._has_traces = self.trace_decay > 0
-        if self._has_traces:
-            self._trace_factor = self.discount_ * self.trace_decay
-            self._make_traces()
-        return self
+        self._trace_factor = self.discount_ * self.trace_decay
 
     @property
     def compiled_irrelevant_params(self) -> frozenset[str]:
@@ -125,96 +120,58 @@ class SARSA(LinearTDAgent):
         unused = {"trace_kind", "min_trace"} if self.trace_decay == 0 else set()
         return frozenset({"initial_weight", *unused})
 
-    def compiled_form(self) -> forms.AgentKernel | None:
-        """SARSA(λ) for the compiled loop: γλ, the trace kind and the smallest trace kept."""
+    def _make_kernel(self) -> forms.AgentKernel:
+        """SARSA(λ)'s `AgentKernel`: γλ, the trace kind and the smallest trace kept."""
         if not self._has_traces:
             return self._kernel(forms.SARSA)
         kind = forms.REPLACING if self.trace_kind == "replacing" else forms.ACCUMULATING
         return self._kernel(forms.SARSA, kind, self._trace_factor, float(self.min_trace))
 
-    def compiled_arrays(self, rows: int = 0) -> forms.LearnerArrays:
-        """θ and, with λ > 0, the sparse traces (their slots with room for ``rows`` features)."""
-        arrays = super().compiled_arrays(rows)
+    def _initial_arrays(self, spec: DomainSpec) -> forms.LearnerArrays:
+        """θ and, with λ > 0, empty sparse traces (`td_step_traces`' arrays)."""
+        arrays = super()._initial_arrays(spec)
         if not self._has_traces:
             return arrays
-        slots = with_room(self.trace_slots_, rows)
-        return arrays._replace(
-            trace_slots=slots,
-            trace_features=self.trace_features_,
-            trace_actions=self.trace_actions_,
-            trace_values=self.trace_values_,
-            trace_count=self.trace_count_,
-        )
-
-    def load_compiled_arrays(
-        self, arrays: forms.LearnerArrays, num_features: int | None = None
-    ) -> None:
-        rows = self.weights_.shape[0] if num_features is None else num_features
-        super().load_compiled_arrays(arrays, rows)
-        if self._has_traces:
-            self.trace_slots_ = arrays.trace_slots[:rows]
-
-    def _bootstrap(self, transition: Transition) -> float:
-        return self._next_q_values(transition.next_state)[transition.next_action]  # Q(s', a')
+        return arrays._replace(**_new_traces(arrays.weights.shape))
 
     # ------------------------------------------------------------------ eligibility traces
 
-    def _make_traces(self) -> None:
-        n, num_actions = self.weights_.shape
-        self.trace_slots_ = np.zeros((n, num_actions), dtype=np.int64)  # 1 + slot; 0: none
-        capacity = 1024
-        self.trace_features_ = np.zeros(capacity, dtype=np.int64)
-        self.trace_actions_ = np.zeros(capacity, dtype=np.int64)
-        self.trace_values_ = np.zeros(capacity)
-        self.trace_count_ = np.zeros(1, dtype=np.int64)
+    @property
+    def trace_slots_(self) -> np.ndarray:
+        """1 + the slot of trace (f, a), 0 for none: the rows of the features in use."""
+        return self.arrays_.trace_slots[: self.representation_.num_features_]
 
-    def begin_episode(self) -> None:
-        """Count a new episode and clear the eligibility traces."""
-        super().begin_episode()
-        if self._has_traces:
-            self._clear_traces()
+    @property
+    def trace_features_(self) -> np.ndarray:
+        """The features of the live traces (the first ``trace_count_[0]`` slots)."""
+        return self.arrays_.trace_features
 
-    def _clear_traces(self) -> None:
-        _kernels.clear_traces(
-            self.trace_slots_, self.trace_features_, self.trace_actions_, self.trace_count_
-        )
+    @property
+    def trace_actions_(self) -> np.ndarray:
+        """The actions of the live traces."""
+        return self.arrays_.trace_actions
 
-    def _update(self, phi: SparseFeatures, action: int, target: float, step_size: float) -> float:
-        indices, values = phi
-        if not self._has_traces:
-            return _kernels.td_step(self.weights_, indices, values, action, target, step_size)
-        while True:
-            delta = _kernels.td_step_traces(
-                self.weights_,
-                indices,
-                values,
-                action,
-                target,
-                step_size,
-                self._trace_factor,
-                self.trace_kind == "replacing",
-                self.min_trace,
-                self.trace_slots_,
-                self.trace_features_,
-                self.trace_actions_,
-                self.trace_values_,
-                self.trace_count_,
-            )
-            if not np.isnan(delta):
-                return delta
-            self.grow_trace_capacity()
+    @property
+    def trace_values_(self) -> np.ndarray:
+        """The values of the live traces."""
+        return self.arrays_.trace_values
+
+    @property
+    def trace_count_(self) -> np.ndarray:
+        """The number of live traces, in a one-element array."""
+        return self.arrays_.trace_count
 
     def grow_trace_capacity(self) -> None:
         """Double the room of the sparse traces (the compiled loop asks before it overflows)."""
-        extra = self.trace_values_.shape[0]
-        self.trace_features_ = np.concatenate([self.trace_features_, np.zeros(extra, np.int64)])
-        self.trace_actions_ = np.concatenate([self.trace_actions_, np.zeros(extra, np.int64)])
-        self.trace_values_ = np.concatenate([self.trace_values_, np.zeros(extra)])
-
-    def _after_update(self, transition: Transition, phi: SparseFeatures, delta: float) -> None:
-        super()._after_update(transition, phi, delta)
-        if self._has_traces and transition.terminated and not transition.is_imagined:
-            self._clear_traces()
+        arrays = self.arrays_
+        extra = arrays.trace_values.shape[0]
+        self._set_arrays(
+            arrays._replace(
+                trace_features=np.concatenate([arrays.trace_features, np.zeros(extra, np.int64)]),
+                trace_actions=np.concatenate([arrays.trace_actions, np.zeros(extra, np.int64)]),
+                trace_values=np.concatenate([arrays.trace_values, np.zeros(extra)]),
+            )
+        )
 
     def _grown_arrays(self) -> tuple[bool, bool]:
         return False, self._has_traces  # a new feature's trace slots start empty
@@ -234,8 +191,8 @@ class SARSA(LinearTDAgent):
         super().load_state(saved)
         if not self._has_traces:
             return
-        self._make_traces()
         n, num_actions = self.weights_.shape
+        self._set_arrays(self.arrays_._replace(**_new_traces((n, num_actions))))
         if "traces" in saved.arrays:  # the dense layout of earlier saves (RBF, λ > 0)
             dense = saved.array("traces", (n, num_actions))
             features, actions = np.nonzero(dense)
@@ -255,3 +212,15 @@ class SARSA(LinearTDAgent):
         self.trace_values_[:count] = values
         self.trace_slots_[features, actions] = np.arange(1, count + 1)
         self.trace_count_[0] = count
+
+
+def _new_traces(shape: tuple[int, int]) -> dict[str, np.ndarray]:
+    """Empty sparse traces for θ of ``shape``: slots per (feature, action), room for 1024."""
+    capacity = 1024
+    return {
+        "trace_slots": np.zeros(shape, dtype=np.int64),  # 1 + slot; 0: none
+        "trace_features": np.zeros(capacity, dtype=np.int64),
+        "trace_actions": np.zeros(capacity, dtype=np.int64),
+        "trace_values": np.zeros(capacity),
+        "trace_count": np.zeros(1, dtype=np.int64),
+    }

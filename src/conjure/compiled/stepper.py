@@ -19,15 +19,16 @@ Notes
   goes in through ``domain.compiled_form()`` and back through ``load_compiled_form``, and the
   episode and learning-step counters are written back after every ``advance``, so policy
   checks, `Agent.save` and the Python path see the same objects.
-- Choice: a learner's act/learn cache is dropped after every call (``load_compiled_arrays``:
-  θ changed under it).
+- The learner's compiled form is its state (`conjure.agents.linear_td`): the loop reads and
+  updates the learner's own ``arrays_`` and ``row_traces_`` in place, so nothing is taken
+  back; its act/learn cache is dropped after every call (`forget_cache`: θ changed under it).
 - Choice (with `OnlineIFDD`): the representation's tables are its own arrays, updated in
   place; when a discovery would not fit, the kernel returns, the representation grows them
   with its own method and the kernel continues. θ (and Actor-Critic's ω, SARSA(λ)'s
-  ``trace_slots_``) is passed with as many rows as the representation can hold features (a
-  buffer that `append_rows` keeps using) and set to its first n_t rows after every call, as
-  the Python learner's ``_grow`` (`conjure.agents.compiled_agent.grow_learner_rows`) would
-  leave it.
+  trace slots) has as many rows as the representation can hold features (the learner's
+  ``reserve_rows``, which reallocates and replaces its form only when they do not fit); its
+  ``weights_`` are the first n_t rows, grown by the same kernel as the Python learner's
+  (`conjure.agents.compiled_agent.grow_learner_rows`).
 - Choice: ``advance`` calls the kernel in chunks sized in time, not in steps (`next_chunk`):
   the first call of a stepper takes one step, each next one as many as the last call's rate
   fits in `CHUNK_SECONDS`, at most `CHUNK_GROWTH` times the last chunk and `MAX_KERNEL_STEPS`
@@ -293,18 +294,19 @@ class CompiledStepper:
         return InvalidParameterError(f"A full index could not store state {self._obs.tolist()}.")
 
     def _call(self, num_steps: int, domain_form: DomainKernel, max_episodes: int) -> tuple:
-        """One call of the loop with the learner's current arrays (iFDD may have grown them)."""
+        """One call of the loop over the learner's compiled form, its state, updated in place.
+
+        With iFDD θ first gets a row for every feature the tables hold (`reserve_rows`).
+        """
         agent = learner_of(self.agent)
-        representation = agent.representation_
         rep = representation_form(agent)
         assert rep is not None  # `select` checked it
-        rows = representation.feature_capacity_ if rep.is_ifdd else 0
-        arrays = agent.compiled_arrays(rows)
+        if rep.is_ifdd:
+            agent.reserve_rows(agent.representation_.feature_capacity_)
         box = box_form(self.agent, rep, greedy=not self.learn)
-        args = (domain_form, self.domain.np_random, rep, agent_form(agent), arrays,
-                agent.compiled_row_traces(), agent.rng_,
-                self.selection.max_episode_steps, self._obs, self._state, box.box,
-                packed_parts(box.parts), self.learn)  # fmt: skip
+        args = (domain_form, self.domain.np_random, rep, agent_form(agent), agent.arrays_,
+                agent.row_traces_, agent.rng_, self.selection.max_episode_steps, self._obs,
+                self._state, box.box, packed_parts(box.parts), self.learn)  # fmt: skip
         name = _kernel_name(self.selection)
         if name not in _COMPILE_SECONDS:  # a zero-step call: compile (or load the cache) alone
             started = time.perf_counter()
@@ -312,9 +314,8 @@ class CompiledStepper:
             _COMPILE_SECONDS[name] = time.perf_counter() - started
         try:
             return lp.learning_loop(num_steps, *args, max_episodes)
-        finally:  # θ's rows in use: n_t after the discoveries (a fixed φ keeps its n)
-            rows_in_use = representation.num_features_ if rep.is_ifdd else None
-            agent.load_compiled_arrays(arrays, rows_in_use)
+        finally:
+            agent.forget_cache()  # θ changed under ``act``'s cached Q-values
             if agent is not self.agent:  # a box: what its kernels changed (Algorithm 26)
                 self.agent.load_compiled_form(box)
 

@@ -482,7 +482,7 @@ class Agent(Configurable):
 
     Two contracts complete it: persistence (``state_metadata``, ``state_arrays``,
     ``load_state``, behind ``save`` and ``restore``) and, for an agent with a compiled form,
-    the compiled state (``compiled_arrays``, ``load_compiled_arrays``).
+    the compiled state (the form is the agent's state; ``reserve_rows`` grows it).
     """
 
     def setup(self, spec: DomainSpec, seed: int | np.random.SeedSequence) -> Agent:
@@ -553,21 +553,15 @@ class Agent(Configurable):
         raise NotImplementedError
 
     # The compiled-state contract, for agents with a ``compiled_form``
-    # (`conjure.core.compiled_form`): the compiled loop (`conjure.compiled.stepper`) takes
-    # the arrays, updates them in place and hands them back.
+    # (`conjure.core.compiled_form`): the agent's compiled form is its state, built in
+    # ``setup`` (``kernel_``, ``arrays_``, ``row_traces_``); the compiled loop
+    # (`conjure.compiled.stepper`) updates those arrays in place and takes nothing back.
 
-    def compiled_arrays(self, rows: int = 0) -> Any:
-        """The arrays the compiled loop updates in place, with room for ``rows`` features.
+    def reserve_rows(self, rows: int) -> None:
+        """Give the compiled form's weights (and what grows with them) ``rows`` feature rows.
 
-        A `conjure.agents.compiled_agent.LearnerArrays` (θ, ω and SARSA(λ)'s traces): the
-        agent's own arrays, or buffers they lead, so nothing is copied per call.
-        """
-        raise NotImplementedError
-
-    def load_compiled_arrays(self, arrays: Any, num_features: int | None = None) -> None:
-        """Take back the arrays `compiled_arrays` handed out after the loop ran.
-
-        The first ``num_features`` rows (default: as many as now) stay in use; caches derived
-        from the weights are dropped.
+        For an adaptive representation (Section 4.1.1): when they have fewer, the arrays are
+        reallocated with their leading rows kept and the new form replaces the old as the
+        agent's state (a `conjure.agents.compiled_agent.LearnerArrays` in ``arrays_``).
         """
         raise NotImplementedError

@@ -715,9 +715,14 @@ def check_actions_in_space(agent: Agent) -> None:
 
 
 def _learned_weights(agent: Agent, prefix: str = "") -> dict[str, np.ndarray]:
-    """Every ``*weights_`` array of the agent and of the agents it holds (e.g. ``learner_``)."""
+    """Every ``*weights_`` array of the agent and of the agents it holds (e.g. ``learner_``).
+
+    Attributes and properties alike (a TD learner's ``weights_`` is a view of its form).
+    """
     weights = {}
-    for name, value in vars(agent).items():
+    names = [*vars(agent), *(n for n in dir(type(agent)) if n.endswith("weights_"))]
+    for name in dict.fromkeys(names):
+        value = getattr(agent, name)
         if name.endswith("weights_"):
             weights[prefix + name] = value
         elif name.endswith("_") and isinstance(value, Agent):
