@@ -28,9 +28,9 @@ choice.
 The loop's own state (phase, action, counters, return so far) is `LoopState`, resumable
 between calls; an episode may span calls.
 
-Choice: the forms passed per step hold fewer than ten arrays each (iFDD's tables are one
-structref): numba counts a reference per array wherever a tuple of ten or more arrays is
-passed (it prunes the counts of smaller ones), a cost paid on every call.
+Choice: the loop reads its arguments through borrowed views (`conjure.core.compiled_form.borrowed`):
+numba counts a reference per array each time a kernel binds a form, atomically, and prunes few
+of those counts in a function this large.
 
 Compilation: one function serves every combination (the compiled forms have fixed field
 types), with a second compilation for real-valued φ (`RBF`), so binary φ never reads a value.
@@ -61,6 +61,7 @@ from conjure.agents.compiled_agent import (
     td_learn,
     traces_fit,
 )
+from conjure.core.compiled_form import borrowed
 from conjure.domains.compiled_domain import DomainKernel, legal_into, reset_into, step_into
 from conjure.policies.compiled_policy import gibbs_policy, select_action
 from conjure.representations.compiled_ifdd import (
@@ -225,6 +226,9 @@ def learning_loop(
     state, the step is not counted and the episode cannot be continued).
     θ (and ω, the trace slots) must have a row for every feature iFDD's tables can hold.
     """
+    domain, domain_rng, agent_rng = borrowed(domain), borrowed(domain_rng), borrowed(agent_rng)
+    rep, arrays, obs, box = borrowed(rep), borrowed(arrays), borrowed(obs), borrowed(box)
+    state = borrowed(state)
     num_actions = arrays.actor_weights.shape[1]  # θ has one column for a V critic
     has_traces = agent.traces != NO_TRACES
     is_tracing = learn and has_traces
