@@ -6,7 +6,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from conjure.core.compiled_form import borrowed, compiled_form
+from conjure.core.compiled_form import borrowed, compiled_form, release
 from conjure.core.schedules import ConstantStepSize
 from conjure.domains import ChainMDP
 from conjure.planners import ValueIteration
@@ -75,3 +75,19 @@ def test_borrowed_views_write_through_and_leave_reference_counts_alone():
     assert weights[0] == 4.0 and extra[0] == 8.0
     assert total == np.random.default_rng(5).random(4).sum()  # the generator's own state
     assert (sys.getrefcount(weights), sys.getrefcount(extra)) == before
+
+
+@njit
+def _sum_of_own_scratch(n: int) -> float:
+    first, second = np.zeros(n), np.ones(n)
+    owners = (first, second)
+    first, second = borrowed(owners)
+    for i in range(n):
+        first[i] = second[i] + i
+    total = first.sum()
+    release(owners)
+    return total
+
+
+def test_borrowed_views_of_a_functions_own_arrays_live_until_release():
+    assert _sum_of_own_scratch(1000) == 1000 + 999 * 1000 / 2

@@ -31,7 +31,7 @@ from llvmlite import ir
 from numba.core import cgutils, types
 from numba.extending import intrinsic
 
-__all__ = ["borrowed", "compiled_form"]
+__all__ = ["borrowed", "compiled_form", "release"]
 
 
 def compiled_form(component: Any) -> Any | None:
@@ -79,6 +79,20 @@ def borrowed(typingctx, value):
         return _borrow(context, builder, signature.args[0], args[0])
 
     return value(value), codegen
+
+
+@intrinsic
+def release(typingctx, owners):
+    """Nothing, but ``owners`` live until here: a function's own arrays seen `borrowed`.
+
+    numba frees an array after its last use; borrowed views of a function's own arrays stay
+    valid while their owners are passed here after the views' last use.
+    """
+
+    def codegen(context, builder, signature, args):
+        return context.get_dummy_value()
+
+    return types.none(owners), codegen
 
 
 def _borrow(context: Any, builder: ir.IRBuilder, kind: types.Type, value: ir.Value) -> ir.Value:
