@@ -4,12 +4,14 @@ Usage: ``python benchmarks/worker_memory.py [--figure fig_5_5] [--workers 2] [--
 
 Runs ``conjure reproduce FIGURE --scale quick --max-workers N`` into a temporary folder and
 samples, every ``--interval`` seconds while it runs, ``Private_Clean + Private_Dirty`` of
-``/proc/PID/smaps_rollup`` for every process the local pool forked from its forkserver (the
-warm-up worker and the pool's workers; issue 33's target: at most 60 MiB each). Pages a
-worker shares with the forkserver it forked from (the modules and kernels the server loaded
-before forking) are not private. Prints each worker's peak private memory and peak RSS, the
-forkserver's, and the CPU model and load average beside them (the machine may be shared).
-Linux only.
+``/proc/PID/smaps_rollup`` for every process forked from the local pools' forkserver, in the
+order they started: for ``conjure reproduce``, the preflight checker
+(`conjure.experiments.preflight`, which sets up every (domain, agent) pair), the warm-up's
+worker (`conjure.experiments.parallel.warm_up`), then the pool's workers, which run the runs
+(issue 33's target: at most 60 MiB each). Pages a process shares with the forkserver it forked
+from (the modules and kernels the server loaded before forking) are not private. Prints each
+process's peak private memory and peak RSS, the forkserver's, and the CPU model and load
+average beside them (the machine may be shared). Linux only.
 """
 
 from __future__ import annotations
@@ -114,12 +116,13 @@ def main() -> None:
     table = Table(title=f"conjure reproduce {args.figure} --scale quick, {args.workers} workers")
     for column in ("process", "pid", "peak private MiB", "peak RSS MiB"):
         table.add_column(column, justify="right")
-    for label, found in (("forkserver", servers), ("worker", workers)):
-        for pid, (private, rss) in sorted(found.items()):
-            table.add_row(label, str(pid), f"{private / MIB:.0f}", f"{rss / MIB:.0f}")
+    for label, found in (("forkserver", servers), ("forked", workers)):
+        for k, (pid, (private, rss)) in enumerate(sorted(found.items()), start=1):
+            name = label if label == "forkserver" else f"{label} #{k}"
+            table.add_row(name, str(pid), f"{private / MIB:.0f}", f"{rss / MIB:.0f}")
     console.print(table)
     peak = max((private for private, _ in workers.values()), default=0)
-    console.print(f"largest worker private memory: {peak / MIB:.0f} MiB; run took {seconds:.0f} s")
+    console.print(f"largest private memory forked: {peak / MIB:.0f} MiB; run took {seconds:.0f} s")
     console.print(f"CPU: {cpu_model()}; load average at end: {os.getloadavg()}")
 
 
