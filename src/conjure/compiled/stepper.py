@@ -331,7 +331,9 @@ def compiled_function(dispatcher: Any, args: tuple) -> Callable[..., Any]:
     """The compiled function ``dispatcher`` runs for ``args``, callable without typing them.
 
     numba types every argument on every call to pick a compilation, about a millisecond for
-    the loop's nested named tuples; a stepper's argument types never change, so it picks once.
+    the loop's nested named tuples; a stepper's argument types never change (the forms'
+    builders fix every field: C-contiguous arrays of fixed dtypes), so it picks once. The
+    returned function does not check its arguments' types.
     Reads numba's table of compilations (``Dispatcher.overloads``, a private numba API); if
     that API changes, the dispatcher itself is returned, which only costs speed.
     """
