@@ -375,6 +375,9 @@ def main() -> None:
         "rbf": ("SARSA + RBF(3x3 + bias)", "compiled"),
     }
     console = Console()
+    from call_cost import cpu_model  # here: call_cost imports this module
+
+    console.print(f"CPU: {cpu_model()}; load average: {os.getloadavg()}")
     for workload, (title, reference_path) in titles.items():
         reference = medians[(workload, reference_path)]
         out = Table(title=f"{title}, InvertedPendulum (median of {args.repeats}, interleaved)")

@@ -4,6 +4,7 @@ import time
 
 import numpy as np
 import pytest
+from numba import njit
 
 from conjure.agents import SARSA, ActorCritic, QLearning
 from conjure.compiled import (
@@ -521,3 +522,24 @@ def test_a_call_judges_at_most_chunk_simulated_steps_of_rollouts():
     assert stepper_module.max_chunk(box(5)) == stepper_module.CHUNK_SIMULATED_STEPS // 500
     plain = SARSA(representation=Tabular()).setup(world.domain_spec, 0)
     assert stepper_module.max_chunk(plain) == stepper_module.CHUNK_SIMULATED_STEPS
+
+
+def test_a_stepper_calls_the_compilation_numba_picked_for_its_argument_types():
+    @njit
+    def plus_one(x):
+        return x + 1
+
+    plus_one(1)
+    picked = stepper_module.compiled_function(plus_one, (1,))
+    assert picked is not plus_one and picked(41) == 42
+    # no compilation for these types yet: the dispatcher itself (it compiles on the call)
+    assert stepper_module.compiled_function(plus_one, (1.5,)) is plus_one
+
+
+def test_a_cached_only_warm_up_compiles_nothing(monkeypatch):
+    def refuse(self, num_steps):
+        raise AssertionError("a cold compilation was run")
+
+    monkeypatch.setattr(stepper_module, "is_warm", lambda stepper=None: False)
+    monkeypatch.setattr(CompiledStepper, "advance", refuse)
+    assert warm_up(cached_only=True) == (compile_seconds() or 0.0)

@@ -28,9 +28,10 @@ choice.
 The loop's own state (phase, action, counters, return so far) is `LoopState`, resumable
 between calls; an episode may span calls.
 
-Choice: the forms passed per step hold fewer than ten arrays each (iFDD's tables are one
-structref): numba counts a reference per array wherever a tuple of ten or more arrays is
-passed (it prunes the counts of smaller ones), a cost paid on every call.
+Choice: the loop reads its arguments and its scratch arrays through borrowed views
+(`conjure.core.compiled_form.borrowed`, `release`): numba counts a reference to every array of
+a form each time a kernel binds it, with an atomic add, and prunes few of those counts in a
+function this large.
 
 Compilation: one function serves every combination (the compiled forms have fixed field
 types), with a second compilation for real-valued φ (`RBF`), so binary φ never reads a value.
@@ -61,6 +62,7 @@ from conjure.agents.compiled_agent import (
     td_learn,
     traces_fit,
 )
+from conjure.core.compiled_form import borrowed, release
 from conjure.domains.compiled_domain import DomainKernel, legal_into, reset_into, step_into
 from conjure.policies.compiled_policy import gibbs_policy, select_action
 from conjure.representations.compiled_ifdd import (
@@ -225,6 +227,9 @@ def learning_loop(
     state, the step is not counted and the episode cannot be continued).
     θ (and ω, the trace slots) must have a row for every feature iFDD's tables can hold.
     """
+    domain, domain_rng, agent_rng = borrowed(domain), borrowed(domain_rng), borrowed(agent_rng)
+    rep, arrays, obs, box = borrowed(rep), borrowed(arrays), borrowed(obs), borrowed(box)
+    state = borrowed(state)
     num_actions = arrays.actor_weights.shape[1]  # θ has one column for a V critic
     has_traces = agent.traces != NO_TRACES
     is_tracing = learn and has_traces
@@ -252,6 +257,11 @@ def learning_loop(
     q = np.empty(num_actions)
     critic_q = np.empty(arrays.weights.shape[1])
     drawn, next_drawn = state.drawn, np.empty(num_actions)
+    # The scratch as borrowed views too, its owners held until the call ends (`release`).
+    owners = (row_buffer, quanta, phi_buffer, next_buffer, all_actions, legal_buffer,
+              next_legal_buffer, next_obs, q, critic_q, next_drawn)  # fmt: skip
+    (row_buffer, quanta, phi_buffer, next_buffer, all_actions, legal_buffer, next_legal_buffer,
+     next_obs, q, critic_q, next_drawn) = borrowed(owners)  # fmt: skip
     ep_float = np.empty((16, 2))
     ep_int = np.empty((16, 2), dtype=np.int64)
     is_buffered = base.kind == TILES and not is_ifdd  # φ(s) lives in phi_buffer
@@ -429,4 +439,5 @@ def learning_loop(
     state.episode[0], state.learning_steps[0] = episode, learning_steps
     state.episode_failures[0], state.total[0] = episode_failures, total
     state.discounted[0], state.weight[0] = discounted, weight
+    release(owners)
     return status, done, failures, delta, ep_float[:num_ended], ep_int[:num_ended]

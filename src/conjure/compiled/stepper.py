@@ -39,6 +39,9 @@ Notes
   step in progress ending, however slow a step is (a Monte-Carlo risk analyser of 10⁶
   rollouts), while fast loops reach long chunks after a few calls. The kernel's pausable
   episodes make the split invisible in the results: same seed, same numbers.
+- Choice: a stepper picks the loop's compilation for its arguments' types at its first call
+  and calls it directly afterwards (`compiled_function`): numba's typing of the nested named
+  tuples on every call cost more than the steps of a short call.
 - Compilation: one loop, `conjure.compiled.learning_loop.learning_loop`, serves every
   combination (the compiled forms have fixed field types), compiled once per machine and
   cached on disk, with one more compilation for real-valued φ (`RBF`: its form carries the
@@ -49,7 +52,8 @@ Notes
 from __future__ import annotations
 
 import time
-from typing import NamedTuple
+from collections.abc import Callable
+from typing import Any, NamedTuple
 
 import numpy as np
 from numba.core import types
@@ -73,6 +77,7 @@ __all__ = [
     "AdvanceStats",
     "CompiledStepper",
     "compile_seconds",
+    "compiled_function",
     "for_combination",
     "is_warm",
     "next_chunk",
@@ -168,6 +173,7 @@ class CompiledStepper:
         self._state = lp.new_loop_state(domain.domain_spec.num_actions)
         self._chunk = 1  # steps of the next kernel call (`next_chunk`)
         self._max_chunk = max_chunk(agent)  # and never more than these
+        self._compiled = None  # the loop's compiled function for these arguments' types
 
     @property
     def is_mid_episode(self) -> bool:
@@ -312,12 +318,31 @@ class CompiledStepper:
             started = time.perf_counter()
             lp.learning_loop(0, *args, max_episodes)
             _COMPILE_SECONDS[name] = time.perf_counter() - started
+        if self._compiled is None:
+            self._compiled = compiled_function(lp.learning_loop, (num_steps, *args, max_episodes))
         try:
-            return lp.learning_loop(num_steps, *args, max_episodes)
+            return self._compiled(num_steps, *args, max_episodes)
         finally:
             agent.forget_cache()  # θ changed under ``act``'s cached Q-values
             if agent is not self.agent:  # a box: what its kernels changed (Algorithm 26)
                 self.agent.load_compiled_form(box)
+
+
+def compiled_function(dispatcher: Any, args: tuple) -> Callable[..., Any]:
+    """The compiled function ``dispatcher`` runs for ``args``, callable without typing them.
+
+    numba types every argument on every call to pick a compilation, about a millisecond for
+    the loop's nested named tuples; a stepper's argument types never change (the forms'
+    builders fix every field: C-contiguous arrays of fixed dtypes), so it picks once. The
+    returned function does not check its arguments' types.
+    Reads numba's table of compilations (``Dispatcher.overloads``, a private numba API); if
+    that API changes, the dispatcher itself is returned, which only costs speed.
+    """
+    try:
+        signature = tuple(dispatcher.typeof_pyval(value) for value in args)
+        return dispatcher.overloads[signature].entry_point
+    except (AttributeError, KeyError, TypeError):
+        return dispatcher
 
 
 def next_chunk(chunk: int, steps: int, seconds: float) -> int:
@@ -389,12 +414,13 @@ def is_warm(stepper: CompiledStepper | None = None) -> bool:
         return False
 
 
-def warm_up() -> float:
+def warm_up(*, cached_only: bool = False) -> float:
     """Compile the loop (or load it from the disk cache) and return `compile_seconds`.
 
     One compilation serves every combination of binary φ and one every real-valued φ, so a
     parent process can call this once before starting workers, which then load the cached
-    code.
+    code. ``cached_only``: load the compilations found in numba's disk cache and compile
+    none (0.0 when none was found).
     """
     from conjure.agents.sarsa import SARSA
     from conjure.domains.chain import ChainMDP
@@ -405,10 +431,11 @@ def warm_up() -> float:
         agent = SARSA(representation=representation).setup(domain.domain_spec, 0)
         stepper = for_combination(domain, agent, seed=0)
         assert stepper is not None  # both combinations are compiled ones
-        stepper.advance(1)
+        if not cached_only or is_warm(stepper):
+            stepper.advance(1)
     seconds = compile_seconds()
-    assert seconds is not None  # the advances above called the loop
-    return seconds
+    assert seconds is not None or cached_only  # the advances above called the loop
+    return seconds or 0.0
 
 
 def for_combination(

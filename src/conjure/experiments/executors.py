@@ -362,7 +362,11 @@ class _ProcessPool:
         self._context = multiprocessing.get_context(method)
         if method == "forkserver":  # workers fork from a warm server that dies with us
             self._context.set_forkserver_preload(
-                ["conjure.experiments._forkserver_guard", "conjure.experiments.run"]
+                [
+                    "conjure.experiments._forkserver_guard",
+                    "conjure.experiments.run",
+                    "conjure.experiments._forkserver_kernels",
+                ]
             )
         self.num_workers = num_workers
         self.max_memory = max_memory
