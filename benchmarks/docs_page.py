@@ -60,6 +60,13 @@ COMMANDS: tuple[tuple[str, str, tuple[str, ...]], ...] = (
         ("benchmarks/uav_speed.py", "--steps", "50000", "--repeats", "3", "--skip-10-2"),
     ),
     (
+        "Dispatch options: cold compile, cache and step",
+        "Today's union-form loop against prototypes that reach the same kernels by "
+        "per-combination specialisation, structref forms or first-class functions "
+        "(SARSA + tiles on the pendulum; θ compared by checksum).",
+        ("benchmarks/dispatch_cost.py", "--steps", "1000000", "--repeats", "3"),
+    ),
+    (
         "Start-up",
         "`conjure --help`, `import conjure` and one run's peak memory.",
         ("benchmarks/startup.py", "--repeats", "3"),

@@ -35,7 +35,13 @@ function this large.
 
 Compilation: one function serves every combination (the compiled forms have fixed field
 types), with a second compilation for real-valued φ (`RBF`), so binary φ never reads a value.
-It is cached on disk (``cache=True``).
+It is cached on disk (``cache=True``). Choice: the kernels the loop calls at several places
+that are not on the plain learner's step or whose own work outweighs a call (the box's
+`box_action` and `greedy_box_action`, the policy checks' `peek_into`, iFDD's `sparsify` and
+`_discover`, the action masks' `legal_into`) are compiled once and called, not inlined by numba
+at each call site (``inline="always"`` types and lowers a body again per site, which made most
+of the cold compile); `encode_into`, `step_into`, the policy's and the learner's kernels stay
+inlined.
 """
 
 from __future__ import annotations
@@ -166,7 +172,7 @@ def _copy(target: np.ndarray, source: np.ndarray) -> None:
         target[i] = source[i]
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _discover(
     rep: IFDDKernel,
     arrays: LearnerArrays,

@@ -495,7 +495,7 @@ def _persistent_surveillance(
     return reward, terminated, 1.0 if terminated else 0.0
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def legal_into(domain: DomainKernel, is_filled: bool, out: np.ndarray) -> np.ndarray:
     """The sorted legal actions of the current state (a view of ``out``).
 

@@ -52,7 +52,7 @@ def fixed(base: RepresentationKernel) -> IFDDKernel:
     return IFDDKernel(base=base, is_ifdd=False, tables=empty_tables())
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def sparsify(rep: IFDDKernel, initial: np.ndarray) -> np.ndarray:
     """φ̇(s) from φ⁰(s)'s indices (Algorithm 19, `OnlineIFDD.active_features`).
 

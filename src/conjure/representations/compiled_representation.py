@@ -150,7 +150,7 @@ def encode_into(
     return np.flatnonzero(state)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def peek_into(
     rep: RepresentationKernel, state: np.ndarray, quanta: np.ndarray, out: np.ndarray
 ) -> np.ndarray:

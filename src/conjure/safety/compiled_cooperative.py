@@ -807,7 +807,7 @@ def cooperative_learner_action(
     return planner_action, delta, True
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def box_action(
     box: BoxKernel,
     parts: BoxParts,
@@ -858,7 +858,7 @@ def for_evaluation(form: CompiledBox, rng: np.random.Generator) -> CompiledBox:
     return form._replace(parts=parts._replace(rollouts=rollouts, grid=grid))
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def greedy_box_action(
     box: BoxKernel,
     parts: BoxParts,
