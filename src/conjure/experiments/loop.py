@@ -326,7 +326,7 @@ LearningLoop = Stepper
 #: share of the same Python step's (the largest share measured, rounded up); and the Python
 #: step a run is assumed to take when its own cost has not been measured (the fastest
 #: measured).
-COMPILE_SECONDS = {False: 220.0, True: 220.0}
+COMPILE_SECONDS = {False: 120.0, True: 120.0}
 COMPILED_SHARE = 0.17
 PYTHON_STEP_SECONDS = 24e-6
 
