@@ -74,7 +74,7 @@ def runner(steps_per_call):
         dom, rep = proto.as_structrefs(dom, rep)
     elif option == "first-class":
         functions = (proto.pendulum_reset, proto.pendulum_step, proto.tiles_encode)
-    weights = agent.compiled_arrays(0).weights
+    weights = agent.arrays_.weights
     args = (dom, rep, functions, steps_per_call, domain.np_random, agent_form(agent), weights,
             agent.rng_, domain.domain_spec.max_episode_steps)
 
@@ -105,7 +105,7 @@ if steps:
         call, agent = runner(steps)
         spent.append(timed(call)[1])
     got["us_per_step"] = statistics.median(spent) / steps * 1e6
-    theta = np.ascontiguousarray(agent.compiled_arrays(0).weights)
+    theta = np.ascontiguousarray(agent.arrays_.weights)
     got["theta"] = hashlib.sha1(theta.tobytes()).hexdigest()[:12]
 print(json.dumps(got))
 """
