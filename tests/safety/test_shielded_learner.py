@@ -92,3 +92,12 @@ seeds: 2
     runs = sorted((out / "runs").iterdir())
     assert len(runs) == 2
     assert all(read_run(path)["curve"]["learning_failures"].iloc[-1] == 0 for path in runs)
+
+
+def test_the_shield_takes_the_python_path():
+    # The compiled loop has no shield kernel: running the learner alone there would drop it.
+    from conjure.compiled.combination import select
+
+    agent, domain = shielded()
+    reason = select(domain, agent)
+    assert isinstance(reason, str) and "ShieldedLearner" in reason
