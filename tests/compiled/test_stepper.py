@@ -374,6 +374,7 @@ def test_failures_are_counted_like_the_python_path():
     stats = for_combination(domain, agent, seed=3).advance(500)
     # Every pendulum episode that ends before the cap ends with a fall (one failure).
     assert stats.num_failures == int(stats.episode_failures.sum()) == len(stats.episode_lengths)
+    assert stats.cost == stats.episode_costs.sum() == stats.num_failures  # c_t = 1 per fall
     assert stats.episode_returns.tolist() == [-1.0] * len(stats.episode_lengths)
 
 

@@ -106,9 +106,10 @@ class LoopState(NamedTuple):
     """The loop's resumable state: one-element arrays, updated in place by `learning_loop`.
 
     ``phase`` (`NEEDS_RESET`, `NEEDS_BEGIN`, `IN_EPISODE`), the chosen ``action``, the
-    episode's ``episode_steps``, ``episode_failures``, return ``total``, ``discounted`` return
-    and γ^t ``weight``; the learner's ``episode`` count and ``learning_steps``; ``drawn``,
-    π(s, ·) when the action was chosen (read by the log-policy actor only).
+    episode's ``episode_steps``, ``episode_failures``, return ``total``, ``discounted`` return,
+    γ^t ``weight`` and cost Σ c_t ``episode_cost``; the learner's ``episode`` count and
+    ``learning_steps``; ``drawn``, π(s, ·) when the action was chosen (read by the log-policy
+    actor only).
     """
 
     phase: np.ndarray
@@ -120,6 +121,7 @@ class LoopState(NamedTuple):
     total: np.ndarray
     discounted: np.ndarray
     weight: np.ndarray
+    episode_cost: np.ndarray
     drawn: np.ndarray
 
 
@@ -131,6 +133,7 @@ def new_loop_state(num_actions: int) -> LoopState:
         total=np.zeros(1),
         discounted=np.zeros(1),
         weight=np.ones(1),
+        episode_cost=np.zeros(1),
         drawn=np.zeros(num_actions),
     )
 
@@ -142,20 +145,23 @@ def _record_episode(
     index: int,
     total: float,
     discounted: float,
+    cost: float,
     length: int,
     failures: int,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Write an ended episode's statistics at row ``index`` (doubling the arrays when full)."""
     if index == ep_float.shape[0]:
-        grown_float = np.empty((2 * index, 2))
+        grown_float = np.empty((2 * index, 3))
         grown_int = np.empty((2 * index, 2), dtype=np.int64)
         for i in range(index):
-            for j in range(2):
+            for j in range(3):
                 grown_float[i, j] = ep_float[i, j]
+            for j in range(2):
                 grown_int[i, j] = ep_int[i, j]
         ep_float, ep_int = grown_float, grown_int
     ep_float[index, 0] = total
     ep_float[index, 1] = discounted
+    ep_float[index, 2] = cost
     ep_int[index, 0] = length
     ep_int[index, 1] = failures
     return ep_float, ep_int
@@ -211,7 +217,7 @@ def learning_loop(
     parts: BoxParts,
     learn: bool,
     max_episodes: int,
-) -> tuple[int, int, int, float, np.ndarray, np.ndarray]:
+) -> tuple[int, int, int, float, float, np.ndarray, np.ndarray]:
     """Take up to ``num_steps`` steps; stop early on a status other than `DONE`.
 
     ``cap``: the episode cap; ``obs``: s, updated in place; ``box`` and ``parts``: iCCA's
@@ -220,9 +226,9 @@ def learning_loop(
     `NO_BOX` and `NO_PARTS`. ``learn``: learning steps, or greedy ones (a policy check:
     `greedy_box_action`; no begin_episode, update, discovery or model update, as the Python
     `Stepper` with ``learn=False``); the call also stops when ``max_episodes`` episodes
-    ended. Returns (status, steps taken, failures, last δ, episodes (m, 2)
-    float64 [return, discounted return], episodes (m, 2) int64 [length, failures]) for the m
-    episodes that ended during the call.
+    ended. Returns (status, steps taken, failures, Σ c_t over the steps, last δ, episodes
+    (m, 3) float64 [return, discounted return, cost], episodes (m, 2) int64 [length,
+    failures]) for the m episodes that ended during the call.
 
     `GROW_REPRESENTATION` and `GROW_TRACES` stop before a step whose discoveries or traces
     might not fit (the caller grows them with the component's own method and calls again);
@@ -268,18 +274,19 @@ def learning_loop(
               next_legal_buffer, next_obs, q, critic_q, next_drawn)  # fmt: skip
     (row_buffer, quanta, phi_buffer, next_buffer, all_actions, legal_buffer, next_legal_buffer,
      next_obs, q, critic_q, next_drawn) = borrowed(owners)  # fmt: skip
-    ep_float = np.empty((16, 2))
+    ep_float = np.empty((16, 3))
     ep_int = np.empty((16, 2), dtype=np.int64)
     is_buffered = base.kind == TILES and not is_ifdd  # φ(s) lives in phi_buffer
     is_indexed = learn and base.kind == HASHED_TABULAR  # φ(s) may be [FULL] (not on peeking)
     num_ended = done = failures = 0
-    delta = 0.0
+    delta = costs = 0.0
     status = DONE
     # The loop state, in locals while running (LLVM keeps them in registers).
     phase, action, episode_steps = state.phase[0], state.action[0], state.episode_steps[0]
     episode, learning_steps = state.episode[0], state.learning_steps[0]
     episode_failures, total = state.episode_failures[0], state.total[0]
     discounted, weight = state.discounted[0], state.weight[0]
+    episode_cost = state.episode_cost[0]
     phi = phi_buffer
     values = values_of(base, obs)  # φ(s)'s values (None: binary φ)
     if phase == IN_EPISODE:
@@ -334,7 +341,7 @@ def learning_loop(
             if is_log_policy:
                 gibbs_policy(agent.policy, q, legal, drawn)
             episode_steps = episode_failures = 0
-            total, discounted, weight = 0.0, 0.0, 1.0
+            total, discounted, weight, episode_cost = 0.0, 0.0, 1.0, 0.0
             phase = IN_EPISODE
         room = room_for(rep, phi) if is_discovering else 0
         if room < 0 or (is_growing_box and not has_room_for(rep, 2)):  # discoveries at s', s
@@ -418,13 +425,16 @@ def learning_loop(
         if cost > 0.0:  # a failure step (`info["cost"] > 0`)
             failures += 1
             episode_failures += 1
+            costs += cost
+            episode_cost += cost
         total += reward
         discounted += weight * reward
         weight *= agent.discount
         if terminated or episode_steps >= cap:
             ep_float, ep_int = _record_episode(
-                ep_float, ep_int, num_ended, total, discounted, episode_steps, episode_failures
-            )
+                ep_float, ep_int, num_ended, total, discounted, episode_cost, episode_steps,
+                episode_failures,
+            )  # fmt: skip
             num_ended += 1
             phase = NEEDS_RESET
             if num_ended >= max_episodes:
@@ -445,5 +455,6 @@ def learning_loop(
     state.episode[0], state.learning_steps[0] = episode, learning_steps
     state.episode_failures[0], state.total[0] = episode_failures, total
     state.discounted[0], state.weight[0] = discounted, weight
+    state.episode_cost[0] = episode_cost
     release(owners)
-    return status, done, failures, delta, ep_float[:num_ended], ep_int[:num_ended]
+    return status, done, failures, costs, delta, ep_float[:num_ended], ep_int[:num_ended]

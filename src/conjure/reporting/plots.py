@@ -78,6 +78,9 @@ METRIC_LABELS = {
     "wall_time_s": "Learning wall time (s)",
     "learning_episodes": "Learning episodes",
     "learning_failures": "Failures during learning (cumulative)",
+    "learning_cost": "Cost during learning (cumulative)",
+    "cost_rate": "Cost rate while learning (cost per step)",
+    "episode_cost": "Greedy episodic cost",
 }
 #: Line styles and markers, cycled beside the ten colours (lines 0 and 1 differ in all three).
 LINE_STYLES = ("-", "--", ":", "-.")
