@@ -55,21 +55,26 @@ from numba import njit
 from conjure.agents.compiled_agent import (
     ACCUMULATING,
     ACTOR_CRITIC,
+    NO_CONSTRAINT,
     NO_TRACES,
     REPLACING,
     AgentKernel,
     LearnerArrays,
     RowTracePair,
+    acting_values,
     bootstrap,
     clear_learner_traces,
+    cost_bootstrap,
     end_of_episode_traces,
     grow_learner_rows,
+    multiplier,
     q_values_into,
     td_learn,
     traces_fit,
 )
 from conjure.core.compiled_form import borrowed, release
 from conjure.domains.compiled_domain import DomainKernel, legal_into, reset_into, step_into
+from conjure.policies import greedy_action
 from conjure.policies.compiled_policy import gibbs_policy, select_action
 from conjure.representations.compiled_ifdd import (
     IFDDKernel,
@@ -250,6 +255,8 @@ def learning_loop(
     is_log_policy = learn and agent.is_log_policy  # keeps π(s, ·) as drawn (`drawn`)
     is_box = learn and box.kind != NO_BOX  # a learning box (greedy acting: `greedy_box_action`)
     is_adaptive_box = is_box and parts.is_adaptive
+    is_constrained = agent.constraint.kind != NO_CONSTRAINT  # a cost critic and λ
+    is_penalized = is_constrained and not is_actor_critic  # acting on Q − λQ_C
     row_buffer = np.empty(1, dtype=np.int64)
     # The actor's preferences choose actions for Actor-Critic (shared features), θ otherwise.
     chooser = arrays.actor_weights
@@ -268,12 +275,13 @@ def learning_loop(
     next_obs = np.empty_like(obs)
     q = np.empty(num_actions)
     critic_q = np.empty(arrays.weights.shape[1])
+    cost_q, choice = np.zeros(arrays.weights.shape[1]), np.empty(num_actions)
     drawn, next_drawn = state.drawn, np.empty(num_actions)
     # The scratch as borrowed views too, its owners held until the call ends (`release`).
     owners = (row_buffer, quanta, phi_buffer, next_buffer, all_actions, legal_buffer,
-              next_legal_buffer, next_obs, q, critic_q, next_drawn)  # fmt: skip
+              next_legal_buffer, next_obs, q, critic_q, next_drawn, cost_q, choice)  # fmt: skip
     (row_buffer, quanta, phi_buffer, next_buffer, all_actions, legal_buffer, next_legal_buffer,
-     next_obs, q, critic_q, next_drawn) = borrowed(owners)  # fmt: skip
+     next_obs, q, critic_q, next_drawn, cost_q, choice) = borrowed(owners)  # fmt: skip
     ep_float = np.empty((16, 3))
     ep_int = np.empty((16, 2), dtype=np.int64)
     is_buffered = base.kind == TILES and not is_ifdd  # φ(s) lives in phi_buffer
@@ -307,7 +315,7 @@ def learning_loop(
                 break
             if learn:
                 episode += 1
-                clear_learner_traces(agent, arrays, row_traces)
+                clear_learner_traces(agent, arrays, row_traces, episode - 1)
                 phi = encode_into(base, obs, quanta, phi_buffer)
             else:  # a policy check stores nothing (`Representation.peek`)
                 phi = peek_into(base, obs, quanta, phi_buffer)
@@ -318,7 +326,10 @@ def learning_loop(
                 phi = sparsify(rep, phi)
             values = values_of(base, obs)
             legal = legal_into(domain, False, legal_buffer) if is_masked else all_actions
-            if not learn:
+            if not learn and is_penalized:  # a constrained learner's greedy action (no box)
+                q_values_into(chooser, phi, values, q)
+                action = greedy_action(acting_values(agent, arrays, phi, values, q, choice), legal)
+            elif not learn:
                 action = greedy_box_action(box, parts, chooser, phi, values, q, legal, obs)
             elif is_box:  # the box fills q (after moving ρ, for Algorithm 23)
                 action, vetoed, imagined = box_action(
@@ -337,7 +348,8 @@ def learning_loop(
                         phi = sparsify(rep, encode_into(base, obs, quanta, phi_buffer))
             else:
                 q_values_into(chooser, phi, values, q)
-                action = select_action(agent.policy, q, legal, agent_rng)
+                acting = acting_values(agent, arrays, phi, values, q, choice)
+                action = select_action(agent.policy, acting, legal, agent_rng)
             if is_log_policy:
                 gibbs_policy(agent.policy, q, legal, drawn)
             episode_steps = episode_failures = 0
@@ -358,7 +370,7 @@ def learning_loop(
         episode_steps += 1
         next_phi, next_values = phi, values
         next_action = 0
-        target = reward
+        target, cost_target = reward, cost
         if not terminated:  # φ(s'), a' = π(s') and Q⁺(s, a) (Algorithms 10-12, lines 4-5)
             next_phi = encode_into(base, next_obs, quanta, next_buffer) if learn else peek_into(
                 base, next_obs, quanta, next_buffer
@@ -371,7 +383,11 @@ def learning_loop(
                 next_phi = sparsify(rep, next_phi)
             next_values = values_of(base, next_obs)
             next_legal = legal_into(domain, True, next_legal_buffer) if is_masked else all_actions
-            if not learn:
+            if not learn and is_penalized:
+                q_values_into(chooser, next_phi, next_values, q)
+                acting = acting_values(agent, arrays, next_phi, next_values, q, choice)
+                next_action = greedy_action(acting, next_legal)
+            elif not learn:
                 next_action = greedy_box_action(
                     box, parts, chooser, next_phi, next_values, q, next_legal, next_obs
                 )
@@ -399,16 +415,28 @@ def learning_loop(
                         room = room_for(rep, phi)
             else:
                 q_values_into(chooser, next_phi, next_values, q)
-                next_action = select_action(agent.policy, q, next_legal, agent_rng)
+                acting = acting_values(agent, arrays, next_phi, next_values, q, choice)
+                next_action = select_action(agent.policy, acting, next_legal, agent_rng)
             if is_log_policy:
                 gibbs_policy(agent.policy, q, next_legal, next_drawn)
             if learn:
                 if is_actor_critic:
                     q_values_into(arrays.weights, next_phi, next_values, critic_q)
-                target = bootstrap(agent, reward, q, next_action, next_legal, critic_q)
+                lagrange = multiplier(agent, arrays)
+                if is_constrained:  # θ_Cᵀφ(s') and the cost critic's target
+                    q_values_into(arrays.cost_weights, next_phi, next_values, cost_q)
+                    cost_target = cost_bootstrap(
+                        agent, cost, q, next_action, next_legal, cost_q, lagrange
+                    )
+                target = bootstrap(
+                    agent, reward, q, next_action, next_legal, critic_q, cost_q, lagrange
+                )
         grew = False
         if learn:
-            delta = td_learn(agent, arrays, row_traces, phi, values, action, target, episode, drawn)
+            delta = td_learn(
+                agent, arrays, row_traces, phi, values, action, target, episode, drawn, cost,
+                cost_target,
+            )  # fmt: skip
             learning_steps += 1
             if not math.isfinite(delta):
                 status = DIVERGED
