@@ -1091,6 +1091,13 @@ FIGURES: dict[str, Figure] = {
                 (*_CONSTRAINED, "actor_critic_pid_lagrangian"),
                 ("csarsa", "icca"),
             ),
+            (
+                "safe_rl_gridworld_1_1e5",
+                "GridWorld-1 with 10⁵ steps",
+                0.15,
+                (*_CONSTRAINED, "actor_critic_pid_lagrangian"),
+                ("csarsa", "icca"),
+            ),
             ("safe_rl_gridworld_2", "GridWorld-2", 0.05, _CONSTRAINED, ("icca", "am_icca")),
             (
                 "safe_rl_uav_7_2",
