@@ -155,7 +155,10 @@ def select_best(
         "run_id",
     ]
     table = pd.DataFrame(rows, columns=columns)
-    table.insert(len(method) + 2, "criterion", f"{criterion} of {metric} ({mode})")
+    rule = f"{criterion} of {metric} ({mode})"
+    if cost_limit is not None:
+        rule += f", final episodic cost ≤ {cost_limit:g}"
+    table.insert(len(method) + 2, "criterion", rule)
     return table
 
 
