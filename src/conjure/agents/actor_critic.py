@@ -69,16 +69,16 @@ class ActorCritic(LinearTDAgent):
         θ += αδz^θ, ω += α'δz^ω. With λ = 1 on an episodic task δ's sum along the episode is
         the return minus the critic's value (a Monte-Carlo advantage).
     constraint : CostConstraint or None, default None
-        A cost limit per episode and its multiplier rule (`Lagrangian`, `PIDLagrangian`;
-        `conjure.agents.constraints`): a cost critic θ_C (V_C with critic "v") and λ; the actor
-        steps on δ − λδ_C.
+        A cost limit per episode: a cost critic θ_C (V_C with critic "v") and λ, the actor
+        stepping on δ − λδ_C (`Lagrangian`, `PIDLagrangian`), or the remaining budget as
+        budget blocks of θ and ω (`Saute`; `conjure.agents.constraints`).
 
     Attributes
     ----------
     weights_ : ndarray of shape (n_features, n_actions), or (n_features, 1) for critic "v"
-        The critic's θ.
+        The critic's θ (with `Saute`, B + 1 blocks of such rows).
     actor_weights_ : ndarray of shape (m_features, n_actions)
-        The actor's ω.
+        The actor's ω (with `Saute`, B + 1 blocks of such rows, as θ).
 
     Notes
     -----

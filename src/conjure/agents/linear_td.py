@@ -206,6 +206,7 @@ class LinearTDAgent(Agent):
         self._num_blocks = constraint.num_budget_bins + 1 if self._is_saute else 1
         if not self._is_saute:
             return
+        check_weight_size(self.representation_, self.spec_, self._num_blocks)
         if self.representation_.is_adaptive or getattr(
             getattr(self, "actor_representation_", None), "is_adaptive", False
         ):
@@ -655,14 +656,20 @@ class LinearTDAgent(Agent):
 MAX_WEIGHT_BYTES = 8 * 2**30
 
 
-def check_weight_size(representation: Representation, spec: DomainSpec) -> None:
-    """Raise a clear error instead of a numpy MemoryError when θ cannot fit in memory."""
-    num_bytes = 8 * representation.num_features_ * spec.num_actions
+def check_weight_size(
+    representation: Representation, spec: DomainSpec, num_blocks: int = 1
+) -> None:
+    """Raise a clear error instead of a numpy MemoryError when θ cannot fit in memory.
+
+    ``num_blocks``: copies of θ's rows (Sauté's budget blocks).
+    """
+    num_bytes = 8 * representation.num_features_ * spec.num_actions * num_blocks
     if num_bytes > MAX_WEIGHT_BYTES:
+        blocks = f" in {num_blocks} budget blocks" if num_blocks > 1 else ""
         raise IncompatibleComponentsError(
             f"{type(representation).__name__} gives {representation.num_features_:,} features "
             f"on {spec.name!r}: θ would take {num_bytes / 2**30:,.0f} GiB for "
-            f"{spec.num_actions} actions (limit {MAX_WEIGHT_BYTES // 2**30} GiB). Use a "
+            f"{spec.num_actions} actions{blocks} (limit {MAX_WEIGHT_BYTES // 2**30} GiB). Use a "
             f"representation that generalises (OnlineIFDD, TileCoding with memory_size) or "
             f"fewer buckets."
         )
