@@ -187,7 +187,7 @@ def figure_order(page: Path) -> tuple[int, ...]:
 def pages(texts: dict[Path, str]) -> list[Path]:
     """The figure pages (those on disk and ``texts``'s), in the thesis's order."""
     found = {*HERE.glob("*.md"), *texts} - {INDEX}
-    return sorted(found, key=figure_order)
+    return sorted(found, key=lambda page: (figure_order(page), page.name))
 
 
 def new_pages(texts: dict[Path, str]) -> dict[Path, str]:
