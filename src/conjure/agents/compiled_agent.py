@@ -117,11 +117,22 @@ ACTED_SPENT, PREVIOUS_SPENT, GREEDY_SPENT = 4, 5, 6
 
 
 class ConstraintKernel(NamedTuple):
-    """A cost constraint as the kernels read it (`conjure.agents.constraints`).
+    """A cost constraint of Algorithms 10-12 as the kernels read it (`conjure.agents.constraints`).
 
-    ``kind`` `NO_CONSTRAINT`, `LAGRANGIAN`, `PID_LAGRANGIAN` or `SAUTE`; ``cost_limit`` d;
-    the Lagrangian's multiplier step size ``step_size``; PID's gains ``kp``, ``ki``, ``kd``;
-    Sauté's ``unsafe_reward`` and ``num_budget_bins`` (0 for the others).
+    Parameters
+    ----------
+    kind : int
+        `NO_CONSTRAINT`, `LAGRANGIAN`, `PID_LAGRANGIAN` or `SAUTE`.
+    cost_limit : float
+        d, the cost allowed per episode.
+    step_size : float, default 0.0
+        The Lagrangian's multiplier step size η.
+    kp, ki, kd : float, default 0.0
+        The PID-Lagrangian's gains.
+    unsafe_reward : float, default 0.0
+        Sauté's reward of a step after which the budget is spent.
+    num_budget_bins : int, default 0
+        Sauté's B, the bins of the remaining budget in (0, 1].
     """
 
     kind: int

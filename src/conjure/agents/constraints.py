@@ -39,7 +39,7 @@ _GAIN = Interval(float, 0, None)
 
 
 class CostConstraint(Configurable):
-    """A cost limit d per episode and the rule that moves λ (`update_multiplier`)."""
+    """A cost limit d per episode for the linear TD learners (Algorithms 10-12)."""
 
     def compiled_form(self) -> ConstraintKernel:
         """The constraint as the learners' kernels read it."""
@@ -48,6 +48,8 @@ class CostConstraint(Configurable):
 
 class Lagrangian(CostConstraint):
     """Dual ascent on λ: λ ← max(0, λ + η (J_C − d)) after each episode of cost J_C.
+
+    The learner (Algorithms 10-12) acts on Q − λQ_C (module docstring).
 
     Parameters
     ----------
@@ -138,7 +140,8 @@ class Saute(CostConstraint):
     The learner acts and learns on (s, z), z the share of the per-episode cost limit d still
     unspent, with the reward replaced by ``unsafe_reward`` once the budget is spent, so that
     with ``unsafe_reward`` low enough the best policy of the augmented MDP keeps
-    Σ_t c_t ≤ d almost surely (Sootla et al. 2022, Section 3).
+    Σ_t c_t ≤ d almost surely (Sootla et al. 2022). The learners (Algorithms 10-12) are
+    unchanged but for their features, their target's reward and their weights' blocks.
 
     Parameters
     ----------
