@@ -122,7 +122,7 @@ class Transition(NamedTuple):
     progress is untouched (SARSA(λ)'s eligibility traces are neither used, decayed nor
     cleared) and it counts no learning step; batch learners store it as any other sample.
     ``cost`` is the step's c_t (``info["cost"]``, 0 when the domain reports none), read by a
-    learner with a cost constraint (`conjure.safety.constraints`).
+    learner with a cost constraint (`conjure.agents.constraints`).
     """
 
     state: np.ndarray
