@@ -5,7 +5,7 @@ Usage: ``python benchmarks/constrained_speed.py [--steps N] [--repeats R]``
 Workloads (`WORKLOADS`): SARSA + tile coding on the inverted pendulum (every episode ends in a
 fall, so λ moves every episode), SARSA and Q-Learning + a table on GridWorld-1 and the
 advantage actor-critic (V critic, log-policy actor) on GridWorld-1, each plain and with each
-`conjure.agents.constraints` rule (`Lagrangian`, `PIDLagrangian`). Every learner runs
+`conjure.agents.constraints` rule (`Lagrangian`, `PIDLagrangian`, `Saute`). Every learner runs
 ``steps`` learning steps through `conjure.compiled.for_combination` (warm kernels: a short
 run compiles first), interleaved repeat by repeat; the median µs per step and its ratio to
 the plain learner's are printed with the CPU model and the load average (the machine may be
@@ -25,7 +25,7 @@ from rich.console import Console
 from rich.table import Table
 
 from conjure.agents import SARSA, ActorCritic, QLearning
-from conjure.agents.constraints import CostConstraint, Lagrangian, PIDLagrangian
+from conjure.agents.constraints import CostConstraint, Lagrangian, PIDLagrangian, Saute
 from conjure.compiled import for_combination
 from conjure.domains import GridWorld, InvertedPendulum
 from conjure.policies import Gibbs
@@ -35,6 +35,7 @@ RULES: dict[str, Callable[[], CostConstraint | None]] = {
     "plain": lambda: None,
     "Lagrangian": lambda: Lagrangian(cost_limit=0.1),
     "PID-Lagrangian": lambda: PIDLagrangian(cost_limit=0.1, kp=0.5, ki=0.2, kd=0.1),
+    "Sauté": lambda: Saute(cost_limit=0.1, num_budget_bins=4),
 }
 WORKLOADS: dict[str, tuple[Callable, Callable]] = {
     "pendulum SARSA + tiles": (

@@ -5,6 +5,7 @@ import inspect
 import pytest
 
 from conjure.agents import SARSA, ActorCritic, QLearning
+from conjure.agents.constraints import Saute
 from conjure.domains import BlocksWorld, GridWorld, UAVMission
 from conjure.experiments.registry import LAYERS
 from conjure.models.approximate_model import ApproximateModel
@@ -44,6 +45,7 @@ REQUIRED = {
     "model": grid_model,
     "conservative": lambda: ShortestPathPlanner(),
     "aggressive": lambda: ModelPlanner(),
+    "cost_limit": lambda: 1.0,
 }
 
 #: Variants beyond each registered class's defaults.
@@ -53,6 +55,7 @@ VARIANTS = [
     QLearning(representation=RBF()),
     SARSA(representation=HashedTabular(capacity=64)),
     ActorCritic(representation=Tabular(), actor_representation=RBF()),
+    ActorCritic(representation=Tabular(), constraint=Saute(cost_limit=0.5, num_budget_bins=2)),
     GridWorld(map_name="gridworld2", step_reward=-0.01, noise=0.2),
     UAVMission(scenario="uav-10-2", traverse_failure=0.05),
     BlocksWorld(num_blocks=4, illegal_action="penalize", illegal_action_penalty=0.5),

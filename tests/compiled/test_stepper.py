@@ -7,7 +7,7 @@ import pytest
 from numba import njit
 
 from conjure.agents import SARSA, ActorCritic, QLearning
-from conjure.agents.constraints import Lagrangian, PIDLagrangian
+from conjure.agents.constraints import Lagrangian, PIDLagrangian, Saute
 from conjure.compiled import (
     CompiledStepper,
     compile_seconds,
@@ -32,6 +32,7 @@ from conjure.representations import (
     TileCoding,
 )
 from conjure.safety import CooperativeLearner, MonteCarloRiskAnalyzer
+from cost_corridor import register as register_corridor
 
 DECAY = FeatureNormalizedDecay(alpha_0=1.0, n_0=100)
 
@@ -230,6 +231,37 @@ COMBINATIONS = {
             constraint=PIDLagrangian(cost_limit=0.1, kp=0.5, ki=0.2)
         ),
     ),
+    # Sauté (`conjure.agents.constraints.Saute`): θ's budget blocks and the reshaped reward,
+    # on GridWorld (a pit's cost ends the episode) and on a corridor whose cost does not.
+    "gridworld-tabular-sarsa-saute": (
+        GridWorld.gridworld_1,
+        lambda: SARSA(
+            representation=Tabular(),
+            step_size=0.5,
+            constraint=Saute(cost_limit=0.5, unsafe_reward=-2.0, num_budget_bins=2),
+        ),
+    ),
+    "gridworld-tabular-qlearning-saute": (
+        GridWorld.gridworld_2,
+        lambda: QLearning(
+            representation=Tabular(), step_size=0.5, constraint=Saute(cost_limit=1.0)
+        ),
+    ),
+    "corridor-tabular-qlearning-saute": (
+        lambda: from_gymnasium(register_corridor(), discount=0.95),
+        lambda: QLearning(
+            representation=Tabular(),
+            step_size=0.5,
+            policy=EpsilonGreedy(epsilon=0.5),
+            constraint=Saute(cost_limit=2.0, unsafe_reward=-0.5, num_budget_bins=2),
+        ),
+    ),
+    "corridor-tabular-advantage-actor-critic-saute": (
+        lambda: from_gymnasium(register_corridor(), discount=0.95),
+        lambda: _advantage_actor_critic(actor_alpha=0.1, trace_decay=0.0).set_params(
+            constraint=Saute(cost_limit=2.0, num_budget_bins=3)
+        ),
+    ),
     # A Gymnasium environment: the loop calls the domain's own reset and step back.
     "mountaincar-gymnasium-tiles-sarsa": (
         lambda: from_gymnasium("MountainCar-v0", discount=1.0),
@@ -305,7 +337,12 @@ def test_same_seed_gives_the_same_curve_on_both_paths(name, seed):
     np.testing.assert_array_equal(agent.weights_, python_agent.weights_)
     np.testing.assert_array_equal(agent.cost_weights_, python_agent.cost_weights_)
     assert agent.multiplier_ == python_agent.multiplier_
-    if agent.constraint is not None:  # λ moved: the runs exceeded the limit
+    if isinstance(agent.constraint, Saute):  # no cost critic; blocks of θ by budget bin
+        assert agent.multiplier_ == 0.0 and agent.cost_weights_.size == 0
+        blocks = np.split(agent.weights_, agent.constraint.num_budget_bins + 1)
+        # The corridor's costs do not end its episodes: the spent block z ≤ 0 learned too.
+        assert blocks[-1].any() and (blocks[0].any() or not name.startswith("corridor"))
+    elif agent.constraint is not None:  # λ moved: the runs exceeded the limit
         assert agent.multiplier_ > 0.0 and agent.cost_weights_.any()
     if isinstance(agent, ActorCritic):
         np.testing.assert_array_equal(agent.actor_weights_, python_agent.actor_weights_)

@@ -8,6 +8,8 @@ from gymnasium.utils.env_checker import check_env
 
 from conjure.core.errors import IncompatibleComponentsError, InvalidParameterError
 from conjure.domains import GymnasiumDomain, from_gymnasium
+from cost_corridor import CORRIDOR_ID
+from cost_corridor import register as register_corridor
 
 CLASSIC = ["CartPole-v1", "MountainCar-v0", "Acrobot-v1"]
 
@@ -146,36 +148,10 @@ def test_pickle_round_trip_continues_identically():
         np.testing.assert_array_equal(domain.step(action)[0], copy.step(action)[0])
 
 
-class _HazardCorridor(gym.Env):
-    """A safety-gymnasium-style corridor: cells 0..4, start 1, goal 4; cell 0 costs 1.
-
-    Its ``step`` returns six values, (obs, reward, cost, terminated, truncated, info), and it
-    counts the costs it reported in ``costs_reported``.
-    """
-
-    def __init__(self, cost_value=1.0):
-        self.observation_space = gym.spaces.Discrete(5)
-        self.action_space = gym.spaces.Discrete(2)
-        self.cost_value = cost_value
-        self.costs_reported = 0.0
-
-    def reset(self, *, seed=None, options=None):
-        super().reset(seed=seed)
-        self.cell = 1
-        return self.cell, {}
-
-    def step(self, action):
-        self.cell = min(max(self.cell + (1 if action == 1 else -1), 0), 4)
-        cost = self.cost_value if self.cell == 0 else 0.0
-        self.costs_reported += cost if isinstance(cost, float) else 0.0
-        return self.cell, float(self.cell == 4), cost, self.cell == 4, False, {}
-
-
 @pytest.fixture
 def hazard_corridor():
-    gym.register(id="ConjureTestHazard-v0", entry_point=_HazardCorridor, max_episode_steps=20)
-    yield "ConjureTestHazard-v0"
-    del gym.registry["ConjureTestHazard-v0"]
+    yield register_corridor()
+    del gym.registry[CORRIDOR_ID]
 
 
 def test_six_value_step_puts_the_cost_in_info(hazard_corridor):

@@ -6,6 +6,7 @@ The fakes defined here (`FakeWalk`, `FakeAgent`) are reused by the other experim
 from __future__ import annotations
 
 import itertools
+import re
 from typing import Any, ClassVar
 
 import numpy as np
@@ -417,3 +418,66 @@ def test_greedy_and_timed_steppers_take_the_learning_steppers_steps():
         results.append((actions, a.events_, stepper.num_episodes, stepper.last_episode))
     assert results[0] == results[1]
     assert stepper.timings["step_calls"] == stepper.timings["learn_calls"] == 40
+
+
+class BudgetWatcher(FakeAgent):
+    """A `FakeAgent` that observes the episode's cost (`Agent.observes_budget`) and logs calls."""
+
+    observes_budget = True
+
+    def setup(self, spec: DomainSpec, seed: Any) -> BudgetWatcher:
+        super().setup(spec, seed)
+        self.calls_: list[tuple] = []
+        return self
+
+    def begin_episode(self) -> None:
+        super().begin_episode()
+        self.calls_.append(("begin",))
+
+    def observe_episode_cost(self, spent: float, greedy: bool = False) -> None:
+        self.calls_.append(("observe", spent, greedy))
+
+    def act(self, state, greedy=False, legal_actions=None) -> int:
+        self.calls_.append(("act", float(state[0]), greedy))
+        return super().act(state, greedy, legal_actions)
+
+    def learn(self, transition: Transition) -> float:
+        self.calls_.append(("learn", transition.cost))
+        return super().learn(transition)
+
+
+def test_an_agent_that_observes_the_budget_is_told_the_cost_so_far_before_every_act():
+    domain = FakeWalk(length=5, max_episode_steps=4, wall_cost=True)
+    start = int(domain.reset(seed=0)[0][0])
+    agent = BudgetWatcher(greedy_action=0).setup(domain.domain_spec, 0)  # greedy: always left
+    run_episode(domain, agent, seed=0)
+    # x_k = max(0, start − k); entering or staying at 0 costs 1; the cap ends after 4 steps,
+    # and a' is still chosen for the last s' (a truncation).
+    xs = [max(0, start - k) for k in range(5)]
+    spent = np.cumsum([0.0] + [float(x == 0) for x in xs[1:]]).tolist()
+    expected = [
+        call
+        for x, cost in zip(xs, spent, strict=True)
+        for call in (("observe", cost, True), ("act", x, True))
+    ]
+    assert agent.calls_ == expected
+    # Learning: after begin the cost so far before every act, each step's learn after the
+    # act of its s' (so the observe before act(s') counts the step's cost already).
+    learner = BudgetWatcher().setup(domain.domain_spec, 1)
+    LearningLoop(domain, learner, seed=3).advance(60)
+    letters = {"begin": "B", "observe": "O", "act": "A", "learn": "L"}
+    kinds = "".join(letters[call[0]] for call in learner.calls_)
+    assert re.fullmatch(r"(BOA(OAL)*L?)+", kinds) and kinds.count("L") == 60
+    episodes = kinds.count("B")
+    assert episodes > 5
+    for episode in re.finditer(r"B[^B]*", kinds):
+        calls = learner.calls_[episode.start() : episode.end()]
+        costs = [call[1] for call in calls if call[0] == "learn"]
+        told = [call[1:] for call in calls if call[0] == "observe"]
+        assert told == [(float(spent), False) for spent in np.cumsum([0.0, *costs])[: len(told)]]
+    assert sum(call[1] for call in learner.calls_ if call[0] == "learn") > 0
+    # An agent that does not observe the budget is never told it.
+    silent = BudgetWatcher().set_params(greedy_action=1).setup(domain.domain_spec, 0)
+    silent.observes_budget = False
+    LearningLoop(domain, silent, seed=3).advance(10)
+    assert all(call[0] != "observe" for call in silent.calls_)

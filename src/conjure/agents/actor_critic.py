@@ -69,16 +69,16 @@ class ActorCritic(LinearTDAgent):
         θ += αδz^θ, ω += α'δz^ω. With λ = 1 on an episodic task δ's sum along the episode is
         the return minus the critic's value (a Monte-Carlo advantage).
     constraint : CostConstraint or None, default None
-        A cost limit per episode and its multiplier rule (`Lagrangian`, `PIDLagrangian`;
-        `conjure.agents.constraints`): a cost critic θ_C (V_C with critic "v") and λ; the actor
-        steps on δ − λδ_C.
+        A cost limit per episode: a cost critic θ_C (V_C with critic "v") and λ, the actor
+        stepping on δ − λδ_C (`Lagrangian`, `PIDLagrangian`), or the remaining budget as
+        budget blocks of θ and ω (`Saute`; `conjure.agents.constraints`).
 
     Attributes
     ----------
     weights_ : ndarray of shape (n_features, n_actions), or (n_features, 1) for critic "v"
-        The critic's θ.
+        The critic's θ (with `Saute`, B + 1 blocks of such rows).
     actor_weights_ : ndarray of shape (m_features, n_actions)
-        The actor's ω.
+        The actor's ω (with `Saute`, B + 1 blocks of such rows, as θ).
 
     Notes
     -----
@@ -247,9 +247,9 @@ class ActorCritic(LinearTDAgent):
 
     @property
     def actor_weights_(self) -> np.ndarray:
-        """ω: the rows of ``arrays_.actor_weights`` in use, a view."""
+        """ω: the rows of ``arrays_.actor_weights`` in use, a view (with `Saute`, every block's)."""
         check_is_set_up(self, "actor_weights_")
-        return self._omega[: self.actor_representation_.num_features_]
+        return self._omega[: self.actor_representation_.num_features_ * self._num_blocks]
 
     def grow_trace_capacity(self) -> None:
         """Double the live rows of both traces (the compiled loop asks before it overflows)."""
@@ -266,7 +266,7 @@ class ActorCritic(LinearTDAgent):
         if greedy:  # stores nothing (`preferences`)
             return int(greedy_action(self.preferences(state), legal))
         psi = self._encode_actor(state)
-        preferences = _kernels.q_values(self._omega, psi[0], psi[1])
+        preferences = _kernels.q_values(self._acting_omega, psi[0], psi[1])
         policy = self.policy_.probabilities(preferences, legal) if self._is_log_policy else None
         self._remember(state, psi, policy)
         return int(self.policy_.select(preferences, self.rng_, legal))
@@ -282,9 +282,12 @@ class ActorCritic(LinearTDAgent):
         return super().q_values(state)
 
     def preferences(self, state: np.ndarray) -> np.ndarray:
-        """Return ρ(s, ·) = ωᵀψ(s, ·) (Eq. 2.33); stores nothing (`Representation.peek`)."""
+        """Return ρ(s, ·) = ωᵀψ(s, ·) (Eq. 2.33); stores nothing (`Representation.peek`).
+
+        With `Saute`, ρ(s, z, ·) at the greedy ``act``'s budget z, as `q_values`.
+        """
         check_is_set_up(self, "preferences")
-        return _kernels.q_values(self._omega, *self.actor_representation_.peek(state))
+        return _kernels.q_values(self._greedy_omega, *self.actor_representation_.peek(state))
 
     def shift_preference(self, state: np.ndarray, action: int, amount: float) -> None:
         """ρ(s, a) += ``amount``: the bias and penalty λ of iCCA (Section 5.3.2; Algorithm 23).
@@ -311,7 +314,7 @@ class ActorCritic(LinearTDAgent):
         else:  # line 6: the critic's Q(s', a') or V(s')
             state = transition.next_state
             next_phi = self._critic_features(state)
-            q_next = _kernels.q_values(self._theta, next_phi[0], next_phi[1])
+            q_next = _kernels.q_values(self._acting_theta, next_phi[0], next_phi[1])
         return self._learn_from(
             transition, phi, psi, q_next, transition.next_action, self._all_actions, drawn
         )
@@ -371,7 +374,8 @@ class ActorCritic(LinearTDAgent):
         super().load_state(saved)
         if not self._is_shared:
             self.actor_representation_.load_state_arrays(saved.with_prefix("actor_representation."))
-        shape = (self.actor_representation_.num_features_, self.spec_.num_actions)
+        rows = self.actor_representation_.num_features_ * self._num_blocks
+        shape = (rows, self.spec_.num_actions)
         actor = saved.array("actor_weights", shape)
         row_traces = None
         if self._has_traces:

@@ -11,7 +11,8 @@ loop's `td_learn` and by the Python ``learn``'s `learn_transition`; the targets 
 and `cost_bootstrap`; ``begin_episode``'s trace clearing and multiplier update
 (`clear_learner_traces`, `update_multiplier`); the rows of new features (`grow_learner_rows`,
 Section 4.1.1, on both paths); `q_values_into` is Q(s, ·) = θᵀφ(s) and `acting_values` the
-values a constrained learner acts on.
+values a constrained learner acts on; Sauté's budget (`budget_bin`, `budget_rows`,
+`budget_arrays`: the block of θ and ω for the episode's cost so far; `saute_reward`).
 """
 
 from __future__ import annotations
@@ -63,6 +64,7 @@ __all__ = [
     "REPLACING",
     "ROW_TRACES",
     "SARSA",
+    "SAUTE",
     "AgentKernel",
     "ConstraintKernel",
     "LearnerArrays",
@@ -71,10 +73,14 @@ __all__ = [
     "acting_values",
     "begin_learner_episode",
     "bootstrap",
+    "budget_arrays",
+    "budget_bin",
+    "budget_rows",
     "clear_learner_traces",
     "cost_bootstrap",
     "end_of_episode_traces",
     "grow_learner_rows",
+    "has_cost_critic",
     "imagined_learn",
     "learn_transition",
     "learn_transition_with_actor_features",
@@ -83,12 +89,14 @@ __all__ = [
     "penalized_values",
     "q_values_into",
     "row_trace_pair",
+    "saute_reward",
     "shift_preference_into",
     "step_size",
     "td_learn",
     "td_update",
     "traces_fit",
     "update_multiplier",
+    "weight_block",
 ]
 
 
@@ -98,25 +106,43 @@ SARSA, Q_LEARNING, ACTOR_CRITIC = 0, 1, 2
 #: replacing or accumulating, and Actor-Critic's traces of θ and ω by feature row (`RowTraces`).
 NO_TRACES, REPLACING, ACCUMULATING, ROW_TRACES = 0, 1, 2, 3
 #: Cost constraints of `ConstraintKernel` (`conjure.agents.constraints`).
-NO_CONSTRAINT, LAGRANGIAN, PID_LAGRANGIAN = 0, 1, 2
+NO_CONSTRAINT, LAGRANGIAN, PID_LAGRANGIAN, SAUTE = 0, 1, 2, 3
 #: The slots of `LearnerArrays.constraint_state`: λ, the PID integral I, the previous
-#: episode's cost J_prev and the cost of the episode in progress.
+#: episode's cost J_prev and the cost of the episode in progress; with `SAUTE` three more,
+#: the episode's cost spent before the state of the last learning ``act``, before the one
+#: of the learning ``act`` before it, and before the state of the last greedy ``act``
+#: (``observe_episode_cost``).
 MULTIPLIER, INTEGRAL, PREVIOUS_COST, EPISODE_COST = 0, 1, 2, 3
+ACTED_SPENT, PREVIOUS_SPENT, GREEDY_SPENT = 4, 5, 6
 
 
 class ConstraintKernel(NamedTuple):
-    """A cost constraint as the kernels read it (`conjure.agents.constraints`).
+    """A cost constraint of Algorithms 10-12 as the kernels read it (`conjure.agents.constraints`).
 
-    ``kind`` `NO_CONSTRAINT`, `LAGRANGIAN` or `PID_LAGRANGIAN`; ``cost_limit`` d; the
-    Lagrangian's multiplier step size ``step_size``; PID's gains ``kp``, ``ki``, ``kd``.
+    Parameters
+    ----------
+    kind : int
+        `NO_CONSTRAINT`, `LAGRANGIAN`, `PID_LAGRANGIAN` or `SAUTE`.
+    cost_limit : float
+        d, the cost allowed per episode.
+    step_size : float, default 0.0
+        The Lagrangian's multiplier step size η.
+    kp, ki, kd : float, default 0.0
+        The PID-Lagrangian's gains.
+    unsafe_reward : float, default 0.0
+        Sauté's reward of a step after which the budget is spent.
+    num_budget_bins : int, default 0
+        Sauté's B, the bins of the remaining budget in (0, 1].
     """
 
     kind: int
     cost_limit: float
-    step_size: float
-    kp: float
-    ki: float
-    kd: float
+    step_size: float = 0.0
+    kp: float = 0.0
+    ki: float = 0.0
+    kd: float = 0.0
+    unsafe_reward: float = 0.0
+    num_budget_bins: int = 0
 
 
 #: The `ConstraintKernel` of an unconstrained learner.
@@ -175,9 +201,12 @@ class LearnerArrays(NamedTuple):
     trace_slots, trace_features, trace_actions, trace_values, trace_count : ndarray
         SARSA(λ)'s sparse traces of `td_step_traces` (empty stand-ins without them).
     cost_weights : ndarray of shape (n, θ's columns)
-        θ_C, the cost critic of a constrained learner (no rows without a constraint).
-    constraint_state : ndarray of shape (4,)
-        λ, I, J_prev and the episode's cost so far (slots `MULTIPLIER` ... `EPISODE_COST`).
+        θ_C, the cost critic of a `LAGRANGIAN` or `PID_LAGRANGIAN` learner (else no rows).
+    constraint_state : ndarray of shape (4,), or (7,) with `SAUTE`
+        λ, I, J_prev and the episode's cost so far (slots `MULTIPLIER` ... `EPISODE_COST`);
+        Sauté's costs spent (`ACTED_SPENT`, `PREVIOUS_SPENT`, `GREEDY_SPENT`).
+
+    With `SAUTE`, θ and ω hold one block of rows per budget bin (`budget_rows`).
 
     Actor-Critic's traces are a separate `RowTracePair`: numba counts a reference per array
     wherever a tuple of ten or more arrays is passed, which slowed every learner's step.
@@ -276,7 +305,7 @@ def bootstrap(
         return reward + agent.discount * q[next_action]
     if agent.kind == ACTOR_CRITIC:
         return reward + agent.discount * critic_q[0 if agent.is_state_value else next_action]
-    if agent.constraint.kind != NO_CONSTRAINT:
+    if has_cost_critic(agent.constraint):
         return reward + agent.discount * q[_best_action(q, cost_q, lagrange, next_legal)]
     best = q[next_legal[0]]
     for i in range(1, next_legal.shape[0]):
@@ -319,10 +348,90 @@ def cost_bootstrap(
 
 @njit(cache=True, inline="always")
 def multiplier(agent: AgentKernel, arrays: LearnerArrays) -> float:
-    """λ, the Lagrange multiplier (0 without a constraint)."""
-    if agent.constraint.kind == NO_CONSTRAINT:
+    """λ, the Lagrange multiplier (0 without a cost critic)."""
+    if not has_cost_critic(agent.constraint):
         return 0.0
     return arrays.constraint_state[MULTIPLIER]
+
+
+@njit(cache=True, inline="always")
+def has_cost_critic(constraint: ConstraintKernel) -> bool:
+    """Whether the constraint learns a cost critic θ_C and λ (`LAGRANGIAN`, `PID_LAGRANGIAN`)."""
+    return constraint.kind == LAGRANGIAN or constraint.kind == PID_LAGRANGIAN
+
+
+def budget_bin(spent: float, cost_limit: float, num_bins: int) -> int:
+    """Sauté's budget bin b(z) of the remaining budget z = 1 − ``spent``/d.
+
+    0 when z ≤ 0 (the budget is spent), else ⌈z·B⌉ clipped to [1, B] for B = ``num_bins``:
+    bin b > 0 holds z in ((b − 1)/B, b/B], so z = 1 (nothing spent) is bin B.
+
+    Examples
+    --------
+    >>> [budget_bin(spent, 2.0, 4) for spent in (0.0, 0.5, 1.0, 1.9, 2.0, 3.0)]
+    [4, 3, 2, 1, 0, 0]
+    """
+    remaining = 1.0 - spent / cost_limit
+    if remaining <= 0.0:
+        return 0
+    return min(max(math.ceil(remaining * num_bins), 1), num_bins)
+
+
+def weight_block(weights: np.ndarray, block: int, num_blocks: int) -> np.ndarray:
+    """Block ``block`` of ``weights`` cut in ``num_blocks``: rows [b·n, (b + 1)·n), a view."""
+    num_rows = weights.shape[0] // num_blocks
+    return weights[block * num_rows : (block + 1) * num_rows]
+
+
+_budget_bin = njit(cache=True, inline="always")(budget_bin)
+_weight_block = njit(cache=True, inline="always")(weight_block)
+
+
+@njit(cache=True, inline="always")
+def budget_rows(constraint: ConstraintKernel, weights: np.ndarray, spent: float) -> np.ndarray:
+    """The rows of ``weights`` a learner reads after spending ``spent`` in the episode.
+
+    ``weights`` itself, or with `SAUTE` the block θ_b of the bin b = `budget_bin`
+    (`weight_block`: ``weights`` holds B + 1 blocks).
+    """
+    if constraint.kind != SAUTE:
+        return weights
+    bins = constraint.num_budget_bins
+    block = _budget_bin(spent, constraint.cost_limit, bins)
+    return _weight_block(weights, block, bins + 1)
+
+
+@njit(cache=True, inline="always")
+def budget_arrays(agent: AgentKernel, arrays: LearnerArrays, spent: float) -> LearnerArrays:
+    """``arrays`` with θ and ω as `budget_rows` (``arrays`` itself without `SAUTE`)."""
+    if agent.constraint.kind != SAUTE:
+        return arrays
+    weights = budget_rows(agent.constraint, arrays.weights, spent)
+    actor = weights
+    if agent.kind == ACTOR_CRITIC:
+        actor = budget_rows(agent.constraint, arrays.actor_weights, spent)
+    return LearnerArrays(
+        weights=weights,
+        actor_weights=actor,
+        trace_slots=arrays.trace_slots,
+        trace_features=arrays.trace_features,
+        trace_actions=arrays.trace_actions,
+        trace_values=arrays.trace_values,
+        trace_count=arrays.trace_count,
+        cost_weights=arrays.cost_weights,
+        constraint_state=arrays.constraint_state,
+    )
+
+
+@njit(cache=True, inline="always")
+def saute_reward(constraint: ConstraintKernel, reward: float, next_spent: float) -> float:
+    """Sauté's r̃: ``reward`` while z' = 1 − ``next_spent``/d > 0, else the unsafe reward.
+
+    ``reward`` itself without `SAUTE`.
+    """
+    if constraint.kind != SAUTE or 1.0 - next_spent / constraint.cost_limit > 0.0:
+        return reward
+    return constraint.unsafe_reward
 
 
 @njit(cache=True, inline="always")
@@ -336,10 +445,10 @@ def acting_values(
 ) -> np.ndarray:
     """The values the learner acts on at s, ``q`` holding the chooser's values there.
 
-    ``q`` itself, or for SARSA and Q-Learning with a cost constraint Q − λQ_C written into
+    ``q`` itself, or for SARSA and Q-Learning with a cost critic Q − λQ_C written into
     ``choice`` (`penalized_values`; ``q`` is kept for the target).
     """
-    if agent.constraint.kind == NO_CONSTRAINT or agent.kind == ACTOR_CRITIC:
+    if not has_cost_critic(agent.constraint) or agent.kind == ACTOR_CRITIC:
         return q
     for a in range(q.shape[0]):
         choice[a] = q[a]
@@ -459,7 +568,7 @@ def td_update(
     left alone when δ is not finite.
     """
     actor_offset = 0.0
-    if agent.constraint.kind != NO_CONSTRAINT:
+    if has_cost_critic(agent.constraint):
         column = 0 if agent.is_state_value else action
         cost_delta = td_step(arrays.cost_weights, phi, values, column, cost_target, alpha)
         arrays.constraint_state[EPISODE_COST] += cost
@@ -599,10 +708,10 @@ def clear_learner_traces(
 ) -> None:
     """``begin_episode`` of a learner that has begun ``episode`` episodes before this one.
 
-    A cost constraint updates λ from the episode that ended (`update_multiplier`; none before
-    the first); the traces, if any, are forgotten.
+    A cost critic's constraint updates λ from the episode that ended (`update_multiplier`;
+    none before the first); the traces, if any, are forgotten.
     """
-    if agent.constraint.kind != NO_CONSTRAINT and episode > 0:
+    if has_cost_critic(agent.constraint) and episode > 0:
         update_multiplier(agent.constraint, arrays.constraint_state)
     if agent.traces == ROW_TRACES:
         critic, actor = row_traces.critic, row_traces.actor
@@ -833,13 +942,20 @@ def _learn_transition(
         agent, arrays, row_traces, max(phi.shape[0], psi.shape[0])
     ):
         return False, np.nan
+    if agent.constraint.kind == SAUTE:  # the budget bins of s and s' (`observe_episode_cost`)
+        spent = arrays.constraint_state[ACTED_SPENT if is_terminal != 0 else PREVIOUS_SPENT]
+        next_spent = arrays.constraint_state[ACTED_SPENT]
+        if is_terminal != 0 and cost > 0.0:  # no act at a terminal s': the step's cost added
+            next_spent = spent + cost
+        reward = saute_reward(agent.constraint, reward, next_spent)
+        arrays = budget_arrays(agent, arrays, spent)
     target, cost_target = reward, cost
     if is_terminal == 0:
         lagrange = multiplier(agent, arrays)
         target = bootstrap(
             agent, reward, q_next, next_action, next_legal, q_next, cost_next, lagrange
         )
-        if agent.constraint.kind != NO_CONSTRAINT:
+        if has_cost_critic(agent.constraint):
             cost_target = cost_bootstrap(
                 agent, cost, q_next, next_action, next_legal, cost_next, lagrange
             )

@@ -1,4 +1,4 @@
-"""Cost constraints of the linear TD learners: a cost critic and a Lagrange multiplier.
+"""Cost constraints of the linear TD learners: a Lagrange multiplier, or Sauté's budget.
 
 A constrained MDP (Altman 1999) asks for the best return subject to a cost limit d on the
 expected cost per episode, J_C(π) = E[Σ_t c_t] ≤ d, with c_t the domain's ``info["cost"]``
@@ -20,22 +20,26 @@ Choices: θ_C starts at 0 and learns without eligibility traces (one-step TD, wh
 learner's λ); λ is updated once per episode (Stooke et al. update once per batch of
 episodes); a constraint is refused inside an iCCA box (`conjure.safety`), whose planner and
 risk analyser already decide what is safe.
+
+`Saute` instead augments the state with the remaining budget (Sootla et al. 2022): no cost
+critic and no λ; the learner acts and learns on (s, z) with one block of θ (and ω) per
+budget bin and a reshaped reward (`Saute`'s Notes).
 """
 
 from __future__ import annotations
 
-from conjure.agents.compiled_agent import LAGRANGIAN, PID_LAGRANGIAN, ConstraintKernel
+from conjure.agents.compiled_agent import LAGRANGIAN, PID_LAGRANGIAN, SAUTE, ConstraintKernel
 from conjure.core.errors import InvalidParameterError
 from conjure.core.params import Configurable, Interval
 
-__all__ = ["CostConstraint", "Lagrangian", "PIDLagrangian"]
+__all__ = ["CostConstraint", "Lagrangian", "PIDLagrangian", "Saute"]
 
 _COST_LIMIT = Interval(float, 0, None, closed="neither")
 _GAIN = Interval(float, 0, None)
 
 
 class CostConstraint(Configurable):
-    """A cost limit d per episode and the rule that moves λ (`update_multiplier`)."""
+    """A cost limit d per episode for the linear TD learners (Algorithms 10-12)."""
 
     def compiled_form(self) -> ConstraintKernel:
         """The constraint as the learners' kernels read it."""
@@ -44,6 +48,8 @@ class CostConstraint(Configurable):
 
 class Lagrangian(CostConstraint):
     """Dual ascent on λ: λ ← max(0, λ + η (J_C − d)) after each episode of cost J_C.
+
+    The learner (Algorithms 10-12) acts on Q − λQ_C (module docstring).
 
     Parameters
     ----------
@@ -125,4 +131,70 @@ class PIDLagrangian(CostConstraint):
             kp=float(self.kp),
             ki=float(self.ki),
             kd=float(self.kd),
+        )
+
+
+class Saute(CostConstraint):
+    """Sauté RL: the state augmented with the remaining budget (Sootla et al. 2022).
+
+    The learner acts and learns on (s, z), z the share of the per-episode cost limit d still
+    unspent, with the reward replaced by ``unsafe_reward`` once the budget is spent, so that
+    with ``unsafe_reward`` low enough the best policy of the augmented MDP keeps
+    Σ_t c_t ≤ d almost surely (Sootla et al. 2022). The learners (Algorithms 10-12) are
+    unchanged but for their features, their target's reward and their weights' blocks.
+
+    Parameters
+    ----------
+    cost_limit : float
+        d, the cost allowed per episode, in (0, inf).
+    unsafe_reward : float, default -1.0
+        The reward of every step after which z ≤ 0, in (-inf, inf).
+    num_budget_bins : int, default 4
+        B, the equal bins of z in (0, 1], in [1, inf); one more bin holds z ≤ 0.
+
+    Notes
+    -----
+    - z_0 = 1 at an episode's start and z_{t+1} = z_t − c_t/d, kept as z = 1 − spent/d with
+      spent = Σ c so far in the episode (the run loop's ``episode_cost``). Choice: no budget
+      discount (Sootla et al. divide by γ each step): d is an undiscounted limit per episode.
+    - r̃_t = r_t if z_{t+1} > 0, else ``unsafe_reward`` (the budget after the step, as
+      OmniSafe's Saute adapter); the learner's TD target uses r̃ in place of r.
+    - Choice: z enters the linear features as φ(s) ⊗ onehot(b(z)), b(z) ∈ {0, ..., B}
+      (`conjure.agents.compiled_agent.budget_bin`: 0 for z ≤ 0, bin B for z = 1). θ (and
+      Actor-Critic's ω) holds B + 1 blocks of n rows, block b the rows [b·n, (b + 1)·n), all
+      at the learner's ``initial_weight``: Q(s, z, ·) = θ_{b(z)}ᵀφ(s), and the target at s'
+      reads θ_{b(z')}. ``weights_`` is every block.
+    - z' is not in the `Transition` that ``learn`` gets after ``act(s')`` chose a'; the run
+      loop tells the learner the episode's cost before every ``act``
+      (``Agent.observe_episode_cost``) and the learner keeps the spent budgets of the last two
+      learning states and of the last greedy one (a policy check never moves the learning
+      episode's). The compiled loop reads its own episode cost.
+    - Refused (one-line `IncompatibleComponentsError`): an adaptive representation (θ's
+      blocks would each have to grow with it) and eligibility traces (a trace keyed by
+      (feature, action) would have to carry the block it was set in).
+
+    Examples
+    --------
+    >>> Saute(cost_limit=2.0, num_budget_bins=4).compiled_form().num_budget_bins
+    4
+    """
+
+    parameter_constraints = {
+        "cost_limit": _COST_LIMIT,
+        "unsafe_reward": Interval(float, None, None),
+        "num_budget_bins": Interval(int, 1, None),
+    }
+
+    def __init__(self, *, cost_limit: float, unsafe_reward: float = -1.0, num_budget_bins: int = 4):
+        self.cost_limit = cost_limit
+        self.unsafe_reward = unsafe_reward
+        self.num_budget_bins = num_budget_bins
+
+    def compiled_form(self) -> ConstraintKernel:
+        """D, the unsafe reward and B for the learners' kernels."""
+        return ConstraintKernel(
+            kind=SAUTE,
+            cost_limit=float(self.cost_limit),
+            unsafe_reward=float(self.unsafe_reward),
+            num_budget_bins=int(self.num_budget_bins),
         )

@@ -36,6 +36,10 @@ Notes
   ``cost_weights``, the rows of ``cost_weights_``) and λ (``multiplier_``) to the form, read
   and updated by the same kernels on both paths; SARSA and Q-Learning then act on
   Q − λQ_C (`penalized_values`).
+- A `Saute` constraint (`conjure.agents.constraints`) makes θ (and ω) B + 1 blocks, one
+  per budget bin; ``act`` reads the block of the budget the run loop last told
+  (``observe_episode_cost``: learning and greedy apart), ``learn``'s kernel the blocks of s
+  and s' and Sauté's reward, and ``weights_`` is every block's rows.
 - Choice: when θ (or the traces) must grow past their capacity (`reserve_rows`,
   ``grow_trace_capacity``) the arrays are reallocated (doubling) and a new ``arrays_`` and
   ``state_`` replace the old ones.
@@ -151,7 +155,6 @@ class LinearTDAgent(Agent):
         self.constraint_ = None if self.constraint is None else self.constraint.clone()
         if self.constraint_ is not None:
             self.constraint_.validate_params()
-        self._is_constrained = self.constraint_ is not None
         self.actor_schedule_ = self.schedule_
         self.rng_ = make_rng(seeds["policy"])
         check_weight_size(self.representation_, spec)
@@ -161,6 +164,7 @@ class LinearTDAgent(Agent):
         self._encode = self.representation_.encode
         self._set_up_learner(spec)
         self.kernel_ = self._make_kernel()
+        self._set_up_constraint()
         self._has_python_parts = forms.PYTHON_PART in (
             self.kernel_.schedule.kind,
             self.kernel_.actor_schedule.kind,
@@ -175,7 +179,7 @@ class LinearTDAgent(Agent):
         self._drawn = np.zeros(spec.num_actions)  # π(s, ·) for the log-policy actor
         self._tracing = int(self._has_traces)
         self.row_traces_ = forms.NO_ROW_TRACE_PAIR
-        self._set_arrays(self._with_cost_critic(self._initial_arrays(spec)))
+        self._set_arrays(self._with_constraint(self._initial_arrays(spec)))
         self.forget_cache()
         self.is_set_up_ = True
         return self
@@ -194,11 +198,47 @@ class LinearTDAgent(Agent):
         )
         return forms.LearnerArrays(weights=weights, actor_weights=weights, **_no_traces())
 
-    def _with_cost_critic(self, arrays: forms.LearnerArrays) -> forms.LearnerArrays:
-        """θ_C at 0, shaped as θ, for a constrained learner (λ starts at 0)."""
-        if not self._is_constrained:
+    def _set_up_constraint(self) -> None:
+        """Which constraint the form holds; refuse what Sauté's blocks cannot serve."""
+        constraint = self.kernel_.constraint
+        self._has_cost_critic = constraint.kind in (forms.LAGRANGIAN, forms.PID_LAGRANGIAN)
+        self._is_saute = constraint.kind == forms.SAUTE
+        self._num_blocks = constraint.num_budget_bins + 1 if self._is_saute else 1
+        if not self._is_saute:
+            return
+        check_weight_size(self.representation_, self.spec_, self._num_blocks)
+        if self.representation_.is_adaptive or getattr(
+            getattr(self, "actor_representation_", None), "is_adaptive", False
+        ):
+            raise IncompatibleComponentsError(
+                f"Saute cannot augment an adaptive representation "
+                f"({type(self.representation_).__name__}): θ's budget blocks would each have "
+                f"to grow with it; use a fixed one (Tabular, TileCoding, RBF)."
+            )
+        if self._has_traces:
+            raise IncompatibleComponentsError(
+                f"Saute cannot combine with eligibility traces (trace_decay="
+                f"{self.trace_decay!r}): a trace would have to carry its budget block; use "
+                f"trace_decay=0."
+            )
+
+    def _with_constraint(self, arrays: forms.LearnerArrays) -> forms.LearnerArrays:
+        """θ_C at 0, shaped as θ, for a cost critic (λ starts at 0); Sauté's blocks of θ, ω.
+
+        Sauté: B + 1 copies of θ (and of Actor-Critic's own ω), block b the rows of bin b
+        (`conjure.agents.compiled_agent.weight_block`), and the spent budgets' slots.
+        """
+        if self._has_cost_critic:
+            return arrays._replace(cost_weights=np.zeros_like(arrays.weights))
+        if not self._is_saute:
             return arrays
-        return arrays._replace(cost_weights=np.zeros_like(arrays.weights))
+        blocks = (self._num_blocks, 1)
+        weights = np.tile(arrays.weights, blocks)
+        actor = arrays.actor_weights
+        actor = weights if actor is arrays.weights else np.tile(actor, blocks)
+        return arrays._replace(
+            weights=weights, actor_weights=actor, constraint_state=np.zeros(forms.GREEDY_SPENT + 1)
+        )
 
     def _set_arrays(
         self, arrays: forms.LearnerArrays, row_traces: forms.RowTracePair | None = None
@@ -213,12 +253,51 @@ class LinearTDAgent(Agent):
         self._theta = arrays.weights
         self._omega = arrays.actor_weights
         self._cost_theta = arrays.cost_weights
+        self._use_budget()
+
+    @property
+    def observes_budget(self) -> bool:
+        """Whether the learner acts on the episode's cost so far (a `Saute` constraint)."""
+        return getattr(self, "_is_saute", False)
+
+    def observe_episode_cost(self, spent: float, greedy: bool = False) -> None:
+        """Take the episode's cost before the state the next ``act`` sees (Sauté's z).
+
+        A learning ``act``'s becomes the last learning state's and that state's the one
+        before (the pair ``learn`` reads, `learn_transition`); a greedy one is kept apart.
+        Nothing without `Saute`.
+        """
+        if not self._is_saute:
+            return
+        state = self.arrays_.constraint_state
+        if greedy:
+            state[forms.GREEDY_SPENT] = spent
+        else:
+            state[forms.PREVIOUS_SPENT] = state[forms.ACTED_SPENT]
+            state[forms.ACTED_SPENT] = spent
+        self._use_budget()
+
+    def _use_budget(self) -> None:
+        """θ and ω's rows for learning and greedy ``act`` (Sauté's blocks of the spent budgets)."""
+        theta, omega = self._theta, self._omega
+        if not self._is_saute:
+            self._acting_theta = self._greedy_theta = theta
+            self._acting_omega = self._greedy_omega = omega
+            return
+        state, constraint = self.arrays_.constraint_state, self.kernel_.constraint
+        limit, bins, blocks = constraint.cost_limit, constraint.num_budget_bins, self._num_blocks
+        acting = forms.budget_bin(state[forms.ACTED_SPENT], limit, bins)
+        greedy = forms.budget_bin(state[forms.GREEDY_SPENT], limit, bins)
+        self._acting_theta = forms.weight_block(theta, acting, blocks)
+        self._greedy_theta = forms.weight_block(theta, greedy, blocks)
+        self._acting_omega = forms.weight_block(omega, acting, blocks)
+        self._greedy_omega = forms.weight_block(omega, greedy, blocks)
 
     def begin_episode(self) -> None:
         """Count a new episode (the schedules' ``Episode #``) and clear the traces, if any."""
         check_is_set_up(self, "begin_episode")
         self.episode_ += 1
-        if self._has_traces or self._is_constrained:
+        if self._has_traces or self._has_cost_critic:
             forms.begin_learner_episode(self.state_, self.episode_ - 1)
 
     def _kernel(
@@ -280,7 +359,7 @@ class LinearTDAgent(Agent):
             actor = with_room(actor, rows)
         slots = with_room(arrays.trace_slots, rows) if has_trace_slots else arrays.trace_slots
         costs = (
-            with_room(arrays.cost_weights, rows) if self._is_constrained else arrays.cost_weights
+            with_room(arrays.cost_weights, rows) if self._has_cost_critic else arrays.cost_weights
         )
         self._set_arrays(
             arrays._replace(
@@ -290,9 +369,12 @@ class LinearTDAgent(Agent):
 
     @property
     def weights_(self) -> np.ndarray:
-        """θ: the rows of ``arrays_.weights`` in use (the representation's features), a view."""
+        """θ: the rows of ``arrays_.weights`` in use (the representation's features), a view.
+
+        With `Saute` every budget block's rows: B + 1 blocks of n rows.
+        """
         check_is_set_up(self, "weights_")
-        return self._theta[: self.representation_.num_features_]
+        return self._theta[: self.representation_.num_features_ * self._num_blocks]
 
     @property
     def cost_weights_(self) -> np.ndarray:
@@ -328,15 +410,15 @@ class LinearTDAgent(Agent):
             check_is_set_up(self, "act")
         legal = self._all_actions if legal_actions is None else legal_actions
         if greedy:
-            if self._is_constrained:
+            if self._has_cost_critic:
                 phi = self.representation_.peek(state)
                 q = self._penalized(phi, _q_values(self._theta, phi[0], phi[1]))
                 return int(greedy_action(q, legal))
             return int(greedy_action(self.q_values(state), legal))
         phi = encode(state)
-        q = _q_values(self._theta, phi[0], phi[1])
+        q = _q_values(self._acting_theta, phi[0], phi[1])
         self._remember(state, phi, q)
-        if self._is_constrained:
+        if self._has_cost_critic:
             q = self._penalized(phi, q)
         return int(self.policy_.select(q, self.rng_, legal))
 
@@ -347,10 +429,13 @@ class LinearTDAgent(Agent):
         return values
 
     def q_values(self, state: np.ndarray) -> np.ndarray:
-        """Return Q(s, ·) under the current weights; stores nothing (`Representation.peek`)."""
+        """Return Q(s, ·) under the current weights; stores nothing (`Representation.peek`).
+
+        With `Saute`, Q(s, z, ·) at the greedy ``act``'s budget z (``observe_episode_cost``).
+        """
         check_is_set_up(self, "q_values")
         indices, values = self.representation_.peek(state)
-        return _q_values(self._theta, indices, values)
+        return _q_values(self._greedy_theta, indices, values)
 
     # ------------------------------------------------------------------ learning
 
@@ -390,7 +475,7 @@ class LinearTDAgent(Agent):
         is_tracing = 0 if transition.is_imagined else self._tracing
         is_terminal = 1 if transition.terminated else 0
         cost_next = self._no_values
-        if self._is_constrained and not transition.terminated:  # θ_Cᵀφ(s')
+        if self._has_cost_critic and not transition.terminated:  # θ_Cᵀφ(s')
             next_phi = self._critic_features(transition.next_state)
             cost_next = _q_values(self._cost_theta, next_phi[0], next_phi[1])
         if self._has_python_schedule:  # else from the schedules' forms
@@ -508,7 +593,7 @@ class LinearTDAgent(Agent):
                 return q
         else:
             phi = self._features(state)
-        return _q_values(self._theta, phi[0], phi[1])
+        return _q_values(self._acting_theta, phi[0], phi[1])
 
     # ------------------------------------------------------------------ persistence
 
@@ -536,12 +621,14 @@ class LinearTDAgent(Agent):
 
     def state_arrays(self) -> dict[str, np.ndarray]:
         """The agent's own arrays for `save` (the representation saves its own)."""
-        if self._is_constrained:
+        if self._has_cost_critic:
             return {
                 "weights": self.weights_,
                 "cost_weights": self.cost_weights_,
                 "constraint_state": self.arrays_.constraint_state,
             }
+        if self._is_saute:
+            return {"weights": self.weights_, "constraint_state": self.arrays_.constraint_state}
         return {"weights": self.weights_}
 
     def load_state(self, saved: persistence.SavedAgent) -> None:
@@ -552,14 +639,15 @@ class LinearTDAgent(Agent):
         self.rng_ = rng_from_state(state["rng"])
         self._encode = self.representation_.encode
         arrays = self.arrays_
-        weights = saved.array("weights", (self.representation_.num_features_, self._theta.shape[1]))
+        rows = self.representation_.num_features_ * self._num_blocks
+        weights = saved.array("weights", (rows, self._theta.shape[1]))
         actor = weights if arrays.actor_weights is arrays.weights else arrays.actor_weights
         arrays = arrays._replace(weights=weights, actor_weights=actor)
-        if self._is_constrained:
-            arrays = arrays._replace(
-                cost_weights=saved.array("cost_weights", weights.shape),
-                constraint_state=saved.array("constraint_state", (4,)),
-            )
+        if self._has_cost_critic:
+            arrays = arrays._replace(cost_weights=saved.array("cost_weights", weights.shape))
+        if self._has_cost_critic or self._is_saute:
+            shape = arrays.constraint_state.shape
+            arrays = arrays._replace(constraint_state=saved.array("constraint_state", shape))
         self._set_arrays(arrays)
         self.forget_cache()
 
@@ -568,14 +656,20 @@ class LinearTDAgent(Agent):
 MAX_WEIGHT_BYTES = 8 * 2**30
 
 
-def check_weight_size(representation: Representation, spec: DomainSpec) -> None:
-    """Raise a clear error instead of a numpy MemoryError when θ cannot fit in memory."""
-    num_bytes = 8 * representation.num_features_ * spec.num_actions
+def check_weight_size(
+    representation: Representation, spec: DomainSpec, num_blocks: int = 1
+) -> None:
+    """Raise a clear error instead of a numpy MemoryError when θ cannot fit in memory.
+
+    ``num_blocks``: copies of θ's rows (Sauté's budget blocks).
+    """
+    num_bytes = 8 * representation.num_features_ * spec.num_actions * num_blocks
     if num_bytes > MAX_WEIGHT_BYTES:
+        blocks = f" in {num_blocks} budget blocks" if num_blocks > 1 else ""
         raise IncompatibleComponentsError(
             f"{type(representation).__name__} gives {representation.num_features_:,} features "
             f"on {spec.name!r}: θ would take {num_bytes / 2**30:,.0f} GiB for "
-            f"{spec.num_actions} actions (limit {MAX_WEIGHT_BYTES // 2**30} GiB). Use a "
+            f"{spec.num_actions} actions{blocks} (limit {MAX_WEIGHT_BYTES // 2**30} GiB). Use a "
             f"representation that generalises (OnlineIFDD, TileCoding with memory_size) or "
             f"fewer buckets."
         )

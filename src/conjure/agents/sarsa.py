@@ -40,13 +40,14 @@ class SARSA(LinearTDAgent):
     initial_weight : float, default 0.0
         θ's initial value.
     constraint : CostConstraint or None, default None
-        A cost limit per episode and its multiplier rule (`Lagrangian`, `PIDLagrangian`;
-        `conjure.agents.constraints`): a cost critic θ_C and λ.
+        A cost limit per episode: a cost critic θ_C and λ (`Lagrangian`, `PIDLagrangian`), or
+        the remaining budget as budget blocks of θ (`Saute`; `conjure.agents.constraints`).
 
     Attributes
     ----------
     weights_ : ndarray of shape (n_features, n_actions)
-        θ; row f holds feature f's weight for every action (φ(s, a) of Eq. 2.11).
+        θ; row f holds feature f's weight for every action (φ(s, a) of Eq. 2.11); with
+        `Saute`, B + 1 blocks of such rows.
     representation_ : Representation
         The set-up copy of ``representation``.
     episode_ : int

@@ -14,7 +14,10 @@ arithmetic: every step calls the components' own kernels through their compiled 
   the policy's `select_action` (and `gibbs_policy` for the log-policy actor).
 
 Per step: a = π(s) was chosen; s', r = step(a); unless terminal, φ(s') and a' = π(s') over the
-legal actions of s'; Q⁺(s, a); δ and the updates; with iFDD, discovery on φ(s) with δ and the
+legal actions of s'; Q⁺(s, a); δ and the updates (with a `Saute` constraint, acting at s' and
+Q⁺ read the blocks of θ and ω for the episode's cost up to s', the update those up to s, and
+r is Sauté's r̃: `budget_rows`, `budget_arrays`, `saute_reward`, from the loop's own
+``episode_cost``, learning and greedy steps alike); with iFDD, discovery on φ(s) with δ and the
 new features' rows; then s ← s', a ← a' (φ(s) recomputed after a discovery, as the Python
 learner re-encodes). Inside an iCCA box (`conjure.safety.compiled_cooperative`) the box
 chooses a and a'; a vetoed proposal it learns (Algorithm 24's veto rule) is followed by its
@@ -55,7 +58,6 @@ from numba import njit
 from conjure.agents.compiled_agent import (
     ACCUMULATING,
     ACTOR_CRITIC,
-    NO_CONSTRAINT,
     NO_TRACES,
     REPLACING,
     AgentKernel,
@@ -63,12 +65,16 @@ from conjure.agents.compiled_agent import (
     RowTracePair,
     acting_values,
     bootstrap,
+    budget_arrays,
+    budget_rows,
     clear_learner_traces,
     cost_bootstrap,
     end_of_episode_traces,
     grow_learner_rows,
+    has_cost_critic,
     multiplier,
     q_values_into,
+    saute_reward,
     td_learn,
     traces_fit,
 )
@@ -255,11 +261,13 @@ def learning_loop(
     is_log_policy = learn and agent.is_log_policy  # keeps π(s, ·) as drawn (`drawn`)
     is_box = learn and box.kind != NO_BOX  # a learning box (greedy acting: `greedy_box_action`)
     is_adaptive_box = is_box and parts.is_adaptive
-    is_constrained = agent.constraint.kind != NO_CONSTRAINT  # a cost critic and λ
+    is_constrained = has_cost_critic(agent.constraint)  # a cost critic and λ
     is_penalized = is_constrained and not is_actor_critic  # acting on Q − λQ_C
+    constraint = agent.constraint  # Sauté: blocks of θ and ω by the budget spent
     row_buffer = np.empty(1, dtype=np.int64)
-    # The actor's preferences choose actions for Actor-Critic (shared features), θ otherwise.
-    chooser = arrays.actor_weights
+    # The actor's preferences choose actions for Actor-Critic (shared features), θ otherwise
+    # (``chooser``: their rows for the episode's cost so far, `budget_rows`).
+    full_chooser = chooser = arrays.actor_weights
     # Scratch: φ(s) and φ(s') buffers of tile coding, legal-action lists, Q(s', ·).
     base, is_ifdd = rep.base, rep.is_ifdd
     is_discovering = learn and is_ifdd
@@ -326,6 +334,7 @@ def learning_loop(
                 phi = sparsify(rep, phi)
             values = values_of(base, obs)
             legal = legal_into(domain, False, legal_buffer) if is_masked else all_actions
+            chooser = budget_rows(constraint, full_chooser, 0.0)  # nothing spent yet
             if not learn and is_penalized:  # a constrained learner's greedy action (no box)
                 q_values_into(chooser, phi, values, q)
                 action = greedy_action(acting_values(agent, arrays, phi, values, q, choice), legal)
@@ -370,7 +379,8 @@ def learning_loop(
         episode_steps += 1
         next_phi, next_values = phi, values
         next_action = 0
-        target, cost_target = reward, cost
+        next_spent = episode_cost + cost if cost > 0.0 else episode_cost  # spent at s'
+        target, cost_target = saute_reward(constraint, reward, next_spent), cost
         if not terminated:  # φ(s'), a' = π(s') and Q⁺(s, a) (Algorithms 10-12, lines 4-5)
             next_phi = encode_into(base, next_obs, quanta, next_buffer) if learn else peek_into(
                 base, next_obs, quanta, next_buffer
@@ -383,6 +393,7 @@ def learning_loop(
                 next_phi = sparsify(rep, next_phi)
             next_values = values_of(base, next_obs)
             next_legal = legal_into(domain, True, next_legal_buffer) if is_masked else all_actions
+            chooser = budget_rows(constraint, full_chooser, next_spent)
             if not learn and is_penalized:
                 q_values_into(chooser, next_phi, next_values, q)
                 acting = acting_values(agent, arrays, next_phi, next_values, q, choice)
@@ -421,7 +432,8 @@ def learning_loop(
                 gibbs_policy(agent.policy, q, next_legal, next_drawn)
             if learn:
                 if is_actor_critic:
-                    q_values_into(arrays.weights, next_phi, next_values, critic_q)
+                    critic = budget_rows(constraint, arrays.weights, next_spent)
+                    q_values_into(critic, next_phi, next_values, critic_q)
                 lagrange = multiplier(agent, arrays)
                 if is_constrained:  # θ_Cᵀφ(s') and the cost critic's target
                     q_values_into(arrays.cost_weights, next_phi, next_values, cost_q)
@@ -429,13 +441,13 @@ def learning_loop(
                         agent, cost, q, next_action, next_legal, cost_q, lagrange
                     )
                 target = bootstrap(
-                    agent, reward, q, next_action, next_legal, critic_q, cost_q, lagrange
+                    agent, target, q, next_action, next_legal, critic_q, cost_q, lagrange
                 )
         grew = False
         if learn:
             delta = td_learn(
-                agent, arrays, row_traces, phi, values, action, target, episode, drawn, cost,
-                cost_target,
+                agent, budget_arrays(agent, arrays, episode_cost), row_traces, phi, values,
+                action, target, episode, drawn, cost, cost_target,
             )  # fmt: skip
             learning_steps += 1
             if not math.isfinite(delta):

@@ -122,7 +122,7 @@ class Transition(NamedTuple):
     progress is untouched (SARSA(λ)'s eligibility traces are neither used, decayed nor
     cleared) and it counts no learning step; batch learners store it as any other sample.
     ``cost`` is the step's c_t (``info["cost"]``, 0 when the domain reports none), read by a
-    learner with a cost constraint (`conjure.safety.constraints`).
+    learner with a cost constraint (`conjure.agents.constraints`).
     """
 
     state: np.ndarray
@@ -486,7 +486,15 @@ class Agent(Configurable):
     Two contracts complete it: persistence (``state_metadata``, ``state_arrays``,
     ``load_state``, behind ``save`` and ``restore``) and, for an agent with a compiled form,
     the compiled state (the form is the agent's state; ``reserve_rows`` grows it).
+
+    An agent whose ``observes_budget`` is true (a learner with a `Saute` constraint,
+    `conjure.agents.constraints`) is told the episode's cost so far before every ``act``
+    (``observe_episode_cost``): the run loop calls ``act(s')`` before ``learn`` gets the
+    step's cost.
     """
+
+    #: Whether the run loop calls ``observe_episode_cost`` before every ``act``.
+    observes_budget: ClassVar[bool] = False
 
     def setup(self, spec: DomainSpec, seed: int | np.random.SeedSequence) -> Agent:
         """Validate parameters, build weights and RNGs for ``spec`` and return ``self``."""
@@ -505,6 +513,13 @@ class Agent(Configurable):
     def learn(self, transition: Transition) -> float:
         """Update from one transition and return the TD error δ."""
         raise NotImplementedError
+
+    def observe_episode_cost(self, spent: float, greedy: bool = False) -> None:
+        """Take Σ c so far in the episode, before the state the next ``act`` sees; a no-op.
+
+        Called only when ``observes_budget``: 0 before the episode's first ``act``, for
+        learning and greedy (``greedy``) episodes alike.
+        """
 
     def before_policy_check(self) -> None:
         """Prepare the greedy policy the run loop is about to evaluate; a no-op by default.

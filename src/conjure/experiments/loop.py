@@ -16,7 +16,9 @@ every caller uses it:
 Per step: ``s', r, terminated, truncated, info = domain.step(a)``; ``a' = agent.act(s')``
 (skipped on termination, where ``a' = 0``); when learning,
 ``agent.learn(Transition(s, a, r, s', a', terminated, legal', cost=c))`` with
-c = ``info.get("cost", 0)``; the step is a failure when c > 0 (`Domain.is_constrained`); the
+c = ``info.get("cost", 0)``; the step is a failure when c > 0 (`Domain.is_constrained`),
+whose cost joins the episode's (an agent that ``observes_budget`` is told it before every
+``act``, `Agent.observe_episode_cost`); the
 episode ends at termination, truncation or the cap ``domain_spec.max_episode_steps``. A
 learning episode starts with ``agent.begin_episode()`` after the reset and acts with
 exploration; a greedy one does neither.
@@ -245,6 +247,8 @@ class Stepper:
         calls = (domain.step, agent.act, agent.learn)
         step, act, learn = self._timed_calls() if self.timed else calls
         is_constrained = domain.domain_spec.has_action_constraints
+        # Σ c so far before every act, for an agent that reads it (`Agent.observes_budget`)
+        observe = agent.observe_episode_cost if getattr(agent, "observes_budget", False) else None
         discount = float(domain.domain_spec.discount)
         greedy, cap = not learning, self._cap
         state, action = self._state, self._action
@@ -260,6 +264,8 @@ class Stepper:
                     if learning:
                         begin_episode()
                     legal = legal_actions(state) if is_constrained else None
+                    if observe is not None:
+                        observe(0.0, greedy)
                     action = act(state, greedy, legal)
                     episode_steps, total, discounted, weight = 0, 0.0, 0.0, 1.0
                     episode_failures, episode_cost = 0, 0.0
@@ -269,12 +275,14 @@ class Stepper:
                 total += reward
                 discounted += weight * reward
                 weight *= discount
+                cost = info.get("cost", 0.0)
                 if terminated:
                     next_action, next_legal = 0, None
                 else:
                     next_legal = legal_actions(next_state) if is_constrained else None
+                    if observe is not None:  # the cost spent before s' (as counted below)
+                        observe(episode_cost + cost if cost > 0.0 else episode_cost, greedy)
                     next_action = act(next_state, greedy, next_legal)
-                cost = info.get("cost", 0.0)
                 if learning:
                     learn(
                         Transition(

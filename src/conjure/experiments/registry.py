@@ -185,6 +185,7 @@ CONSTRAINTS = Registry(
     {
         "Lagrangian": "conjure.agents.constraints:Lagrangian",
         "PIDLagrangian": "conjure.agents.constraints:PIDLagrangian",
+        "Saute": "conjure.agents.constraints:Saute",
     }
 )
 
