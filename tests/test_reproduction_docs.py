@@ -112,3 +112,23 @@ def test_each_config_starts_at_the_settings_its_search_selected(path):
                 node = node[parent]["params"]
             expected = None if value == "None" else yaml.safe_load(value)  # describe_setting
             assert node[last] == expected, f"{figure}: {row['label']} {key}"
+
+
+def test_the_safe_rl_page_equals_what_its_stored_statistics_give():
+    safe_rl = load("safe_rl")
+    assert safe_rl.render(check=True) == 0, "run `python docs/reproduction/safe_rl.py render`"
+
+
+def test_the_safe_rl_statistics_are_the_stored_finals():
+    # The summary's counts and means are the stored finals' (the intervals are rliable's).
+    safe_rl = load("safe_rl")
+    summary = safe_rl.pd.read_csv(safe_rl.SUMMARY)
+    for figure, (domain, limit) in safe_rl.DOMAINS.items():
+        finals = safe_rl.finals(figure)
+        rows = summary[summary["domain"] == domain].set_index("method")
+        for label, runs in finals.groupby("label"):
+            row = rows.loc[label]
+            assert row["runs"] == len(runs)
+            assert row["learning_cost"] == pytest.approx(runs["learning_cost"].mean())
+            assert row["within_limit"] == pytest.approx((runs["episode_cost"] <= limit).mean())
+            assert row["return_low"] <= row["return_iqm"] <= row["return_high"]

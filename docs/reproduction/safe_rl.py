@@ -13,9 +13,9 @@
 - ``chapter5/safe_rl_improvement.csv``: per domain, P(X > Y) of the best cooperative learner
   X (by mean final return) over every other method Y, on the final return and on the cost
   while learning (lower is better, so P(X's cost < Y's)), each with its 95% interval;
-- ``chapter5/safe_rl_profiles.csv``: performance profiles of the final optimality (return
-  scaled between the domain's worst and best, so the three domains share an axis) of the
-  methods present on all three, the runs of the three domains pooled as tasks;
+- ``chapter5/safe_rl_profiles.csv``: performance profiles of the final return on one scale
+  (UAV 7-2's optimality, a GridWorld's (r + 1) / 2: `normalized`) of the methods present on
+  all three domains, the domains as tasks;
 - ``safe_rl_return_vs_cost.png`` (final return against cost while learning, per domain) and
   ``safe_rl_profiles.png``.
 
@@ -128,8 +128,19 @@ def improvement_rows(figure: str) -> list[dict]:
     return rows
 
 
+def normalized(frame: pd.DataFrame) -> pd.Series:
+    """The final return on one scale: the run's optimality, or (r + 1) / 2 on a GridWorld.
+
+    A GridWorld declares no value bounds (its optimality is NaN); its returns run from −1 (a
+    pit at once) to +1 (the goal at once), which (r + 1) / 2 maps onto [0, 1].
+    """
+    if frame["optimality"].notna().all():
+        return frame["optimality"]
+    return (frame["return"] + 1.0) / 2.0
+
+
 def profiles() -> pd.DataFrame:
-    """Performance profiles of the final optimality, the three domains' runs as tasks."""
+    """Performance profiles of the final return on one scale (`normalized`), domains as tasks."""
     frames = [finals(figure) for figure in FIGURES]
     common = [
         label
@@ -138,7 +149,7 @@ def profiles() -> pd.DataFrame:
     ]
     scores = {}
     for label in common:
-        columns = [frame.loc[frame["label"] == label, "optimality"].to_numpy() for frame in frames]
+        columns = [normalized(frame.loc[frame["label"] == label]).to_numpy() for frame in frames]
         runs = min(len(column) for column in columns)
         scores[label] = np.column_stack([column[:runs] for column in columns])
     return performance_profile(scores, np.linspace(0.0, 1.0, 41))
@@ -173,7 +184,7 @@ def compute() -> None:
     table.to_csv(PROFILES, index=False)
     plot_return_vs_cost(summary, HERE / "safe_rl_return_vs_cost.png")
     plot_performance_profiles(
-        table, HERE / "safe_rl_profiles.png", score="final optimality",
+        table, HERE / "safe_rl_profiles.png", score="final return on [0, 1]",
         title="Performance profiles over GridWorld-1, GridWorld-2 and UAV 7-2",
     )  # fmt: skip
     print(f"wrote {SUMMARY.name}, {IMPROVEMENT.name}, {PROFILES.name} and two plots")
@@ -222,7 +233,7 @@ def block() -> str:
     lines += [
         "![Final return against cost while learning](safe_rl_return_vs_cost.png)",
         "",
-        "![Performance profiles of the final optimality](safe_rl_profiles.png)",
+        "![Performance profiles of the final return on [0, 1]](safe_rl_profiles.png)",
     ]
     return "\n".join(lines)
 
