@@ -423,7 +423,7 @@ def test_the_box_tabulates_once_per_plan_and_again_after_a_restore(tmp_path):
     np.testing.assert_array_equal(again.safe, tables.safe)
 
 
-def test_a_static_box_keeps_one_compiled_form_and_an_adaptive_one_rebuilds_it(tmp_path):
+def test_a_box_keeps_one_compiled_form_its_state_until_a_restore(tmp_path):
     domain = GridWorld.gridworld_1()
     agent = _box(domain, "fading").setup(domain.domain_spec, 0)
     form = agent.compiled_form()
@@ -434,7 +434,11 @@ def test_a_static_box_keeps_one_compiled_form_and_an_adaptive_one_rebuilds_it(tm
     assert restored.compiled_form() is not form  # built anew around the restored state
     world = _gridworld_2()
     adaptive = _grid_am_icca(world, "adaptive").setup(world.domain_spec, 0)
-    assert adaptive.compiled_form() is not adaptive.compiled_form()  # T̂'s copies (Alg. 26)
+    form = adaptive.compiled_form()
+    for_combination(world, adaptive, seed=0).advance(300)
+    assert adaptive.compiled_form() is form  # Algorithm 26 too: η̂^p and the switch shared
+    assert adaptive.num_policy_changes_ >= 1  # written by the kernel, nothing taken back
+    assert adaptive.planned_noise_ == adaptive.model_.noise_  # ΔT = 0: η̂^p follows η̂
 
 
 @pytest.mark.parametrize(

@@ -22,6 +22,8 @@ Notes
 - The learner's compiled form is its state (`conjure.agents.linear_td`): the loop reads and
   updates the learner's own ``arrays_`` and ``row_traces_`` in place, so nothing is taken
   back; its act/learn cache is dropped after every call (`forget_cache`: θ changed under it).
+  So is a cooperative box's (`conjure.safety.compiled_cooperative.CompiledBox`): its tables,
+  T̂'s counts, η̂^p and the planner's switch are the box's and its parts' own arrays.
 - Choice (with `OnlineIFDD`): the representation's tables are its own arrays, updated in
   place; when a discovery would not fit, the kernel returns, the representation grows them
   with its own method and the kernel continues. θ (and Actor-Critic's ω, SARSA(λ)'s
@@ -41,7 +43,10 @@ Notes
   episodes make the split invisible in the results: same seed, same numbers.
 - Choice: a stepper picks the loop's compilation for its arguments' types at its first call
   and calls it directly afterwards (`compiled_function`): numba's typing of the nested named
-  tuples on every call cost more than the steps of a short call.
+  tuples on every call cost more than the steps of a short call. The arguments that stay the
+  same from call to call (the components' forms, which are their state, and the generators)
+  are one `LoopArguments`, built once per stepper and again only when a component replaced
+  its form; a call passes it and the domain's form (`run_loop`).
 - Compilation: one loop, `conjure.compiled.learning_loop.learning_loop`, serves every
   combination (the compiled forms have fixed field types), compiled once per machine and
   cached on disk, with one more compilation for real-valued φ (`RBF`: its form carries the
@@ -56,7 +61,9 @@ from collections.abc import Callable
 from typing import Any, NamedTuple
 
 import numpy as np
+from numba import njit, typeof
 from numba.core import types
+from numba.experimental import structref
 
 from conjure.compiled import learning_loop as lp
 from conjure.compiled.combination import (
@@ -70,12 +77,12 @@ from conjure.compiled.combination import (
 from conjure.core.errors import DivergenceError, InvalidParameterError
 from conjure.core.interfaces import Agent, Domain
 from conjure.domains.compiled_domain import DomainKernel, callback_error
-from conjure.safety.compiled_cooperative import packed_parts
 from conjure.safety.cooperative_agent import CooperativeAgent
 
 __all__ = [
     "AdvanceStats",
     "CompiledStepper",
+    "LoopArguments",
     "compile_seconds",
     "compiled_function",
     "for_combination",
@@ -99,6 +106,70 @@ _COMPILE_SECONDS: dict[str, float] = {}
 _NO_LIMIT = 2**62
 #: Position of the representation among `learning_loop`'s arguments.
 _REP_ARGUMENT = 3
+#: `LoopArguments`' fields: `learning_loop`'s arguments that stay the same from call to call.
+_ARGUMENT_FIELDS = (
+    "domain_rng", "rep", "agent", "arrays", "row_traces", "agent_rng", "obs", "state", "box",
+    "parts",
+)  # fmt: skip
+
+
+@structref.register
+class _LoopArgumentsType(types.StructRef):
+    """The numba type of `LoopArguments` (one per combination of field types)."""
+
+    def preprocess_fields(self, fields):
+        return tuple((name, types.unliteral(kind)) for name, kind in fields)
+
+
+class LoopArguments(structref.StructRefProxy):
+    """`learning_loop`'s arguments that stay the same from call to call, as one reference.
+
+    The components' forms, which are their state (the learner's `LearnerState` parts, the
+    representation's, the box's `CompiledBox`), the domain's and the learner's generators,
+    and the stepper's observation and `LoopState`: built once per `CompiledStepper` and again
+    only when a component replaced its form (`CompiledStepper._arguments`). A compiled call
+    then unboxes one value instead of six named tuples and three generators (numba unboxes a
+    `numpy.random.Generator` through its ctypes interface on every call, the largest part of
+    a short call's fixed cost). Made by `_pack_arguments`; fields `_ARGUMENT_FIELDS`.
+    """
+
+
+structref.define_boxing(_LoopArgumentsType, LoopArguments)
+
+
+@njit(cache=True)
+def _pack_arguments(
+    kind, domain_rng, rep, agent, arrays, row_traces, agent_rng, obs, state, box, parts
+):  # fmt: skip
+    arguments = structref.new(kind)
+    arguments.domain_rng = domain_rng
+    arguments.rep = rep
+    arguments.agent = agent
+    arguments.arrays = arrays
+    arguments.row_traces = row_traces
+    arguments.agent_rng = agent_rng
+    arguments.obs = obs
+    arguments.state = state
+    arguments.box = box
+    arguments.parts = parts
+    return arguments
+
+
+@njit(cache=True)
+def run_loop(
+    num_steps: int,
+    domain: DomainKernel,
+    arguments: LoopArguments,
+    cap: int,
+    learn: bool,
+    max_episodes: int,
+) -> tuple[int, int, int, float, np.ndarray, np.ndarray]:
+    """`learning_loop` over the domain's form and the stepper's `LoopArguments`."""
+    a = arguments
+    return lp.learning_loop(
+        num_steps, domain, a.domain_rng, a.rep, a.agent, a.arrays, a.row_traces, a.agent_rng,
+        cap, a.obs, a.state, a.box, a.parts, learn, max_episodes,
+    )  # fmt: skip
 
 
 class AdvanceStats(NamedTuple):
@@ -174,6 +245,10 @@ class CompiledStepper:
         self._chunk = 1  # steps of the next kernel call (`next_chunk`)
         self._max_chunk = max_chunk(agent)  # and never more than these
         self._compiled = None  # the loop's compiled function for these arguments' types
+        self._arguments: LoopArguments | None = None
+        rep = representation_form(learner_of(agent))
+        self._is_ifdd = rep is not None and rep.is_ifdd
+        self._sources: tuple = ()  # what the arguments were built from (`_arguments`)
 
     @property
     def is_mid_episode(self) -> bool:
@@ -276,8 +351,13 @@ class CompiledStepper:
             raise _divergence(agent, diverged)
         if raised is not None:  # the domain's own exception, as on the Python path
             raise raised
-        ep_float = np.concatenate([c[0] for c in chunks]) if chunks else np.zeros((0, 2))
-        ep_int = np.concatenate([c[1] for c in chunks]) if chunks else np.zeros((0, 2), np.int64)
+        if not chunks:
+            ep_float, ep_int = np.zeros((0, 2)), np.zeros((0, 2), np.int64)
+        elif len(chunks) == 1:
+            ep_float, ep_int = chunks[0]
+        else:
+            ep_float = np.concatenate([c[0] for c in chunks])
+            ep_int = np.concatenate([c[1] for c in chunks])
         return AdvanceStats(
             num_steps=done,
             num_failures=failures,
@@ -300,32 +380,56 @@ class CompiledStepper:
         return InvalidParameterError(f"A full index could not store state {self._obs.tolist()}.")
 
     def _call(self, num_steps: int, domain_form: DomainKernel, max_episodes: int) -> tuple:
-        """One call of the loop over the learner's compiled form, its state, updated in place.
+        """One call of the loop over the components' compiled forms, their state, in place.
 
         With iFDD θ first gets a row for every feature the tables hold (`reserve_rows`).
         """
         agent = learner_of(self.agent)
-        rep = representation_form(agent)
-        assert rep is not None  # `select` checked it
-        if rep.is_ifdd:
+        if self._is_ifdd:
             agent.reserve_rows(agent.representation_.feature_capacity_)
-        box = box_form(self.agent, rep, greedy=not self.learn)
-        args = (domain_form, self.domain.np_random, rep, agent_form(agent), agent.arrays_,
-                agent.row_traces_, agent.rng_, self.selection.max_episode_steps, self._obs,
-                self._state, box.box, packed_parts(box.parts), self.learn)  # fmt: skip
+        args = (domain_form, self._loop_arguments(), self.selection.max_episode_steps, self.learn)
         name = _kernel_name(self.selection)
         if name not in _COMPILE_SECONDS:  # a zero-step call: compile (or load the cache) alone
             started = time.perf_counter()
-            lp.learning_loop(0, *args, max_episodes)
+            run_loop(0, *args, max_episodes)
             _COMPILE_SECONDS[name] = time.perf_counter() - started
         if self._compiled is None:
-            self._compiled = compiled_function(lp.learning_loop, (num_steps, *args, max_episodes))
+            self._compiled = compiled_function(run_loop, (num_steps, *args, max_episodes))
         try:
             return self._compiled(num_steps, *args, max_episodes)
         finally:
             agent.forget_cache()  # θ changed under ``act``'s cached Q-values
-            if agent is not self.agent:  # a box: what its kernels changed (Algorithm 26)
-                self.agent.load_compiled_form(box)
+
+    def _loop_arguments(self) -> LoopArguments:
+        """The `LoopArguments`, built again only when a component replaced its form.
+
+        Read from the components' own state: the learner's ``state_`` (replaced when θ or its
+        traces are reallocated) and ``rng_``, the domain's ``np_random`` (replaced by a seeded
+        reset), iFDD's tables (replaced when they grow) and the box's kept form. A fixed
+        representation's form never changes after its ``setup``.
+        """
+        agent = learner_of(self.agent)
+        tables = agent.representation_.kernel_tables() if self._is_ifdd else None
+        box = self.agent.compiled_form() if agent is not self.agent else None
+        sources = (agent.state_, agent.rng_, self.domain.np_random, tables, box)
+        if self._arguments is not None and all(
+            old is new for old, new in zip(self._sources, sources, strict=True)
+        ):
+            return self._arguments
+        rep = representation_form(agent)
+        assert rep is not None  # `select` checked it
+        form = box_form(self.agent, rep)
+        values = (
+            self.domain.np_random, rep, agent_form(agent), agent.arrays_, agent.row_traces_,
+            agent.rng_, self._obs, self._state, form.box,
+            form.parts if self.learn else form.greedy_parts,
+        )  # fmt: skip
+        kind = _LoopArgumentsType(
+            [(name, typeof(value)) for name, value in zip(_ARGUMENT_FIELDS, values, strict=True)]
+        )
+        self._arguments = _pack_arguments(kind, *values)
+        self._sources = sources
+        return self._arguments
 
 
 def compiled_function(dispatcher: Any, args: tuple) -> Callable[..., Any]:
