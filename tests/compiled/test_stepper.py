@@ -13,7 +13,6 @@ from conjure.compiled import (
     for_combination,
     warm_up,
 )
-from conjure.compiled import learning_loop as loop_module
 from conjure.compiled import stepper as stepper_module
 from conjure.core.errors import DivergenceError, InvalidParameterError
 from conjure.core.schedules import EpisodicDecay, FeatureNormalizedDecay
@@ -453,7 +452,10 @@ def test_one_compilation_serves_every_binary_combination_and_one_every_rbf_one()
         domain, agent = _build(name, 1)
         for_combination(domain, agent, seed=1).advance(50)
     # The representation's base ends with None (binary φ) or RBF's arrays (real-valued φ).
-    last = sorted(str(sig[3].types[0].types[-1]) for sig in loop_module.learning_loop.overloads)
+    last = sorted(
+        str(stepper_module.representation_type(sig).types[0].types[-1])
+        for sig in stepper_module.run_loop.overloads
+    )
     assert len(last) == 2 and last[1] == "none" and last[0].startswith("UniTuple")
 
 

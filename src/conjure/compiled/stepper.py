@@ -88,6 +88,8 @@ __all__ = [
     "for_combination",
     "is_warm",
     "next_chunk",
+    "representation_type",
+    "run_loop",
     "warm_up",
 ]
 
@@ -104,8 +106,8 @@ MAX_KERNEL_STEPS = 2**18
 _COMPILE_SECONDS: dict[str, float] = {}
 #: No limit on the steps or episodes of one `CompiledStepper._run`.
 _NO_LIMIT = 2**62
-#: Position of the representation among `learning_loop`'s arguments.
-_REP_ARGUMENT = 3
+#: Position of the `LoopArguments` among `run_loop`'s arguments.
+_ARGUMENTS_POSITION = 2
 #: `LoopArguments`' fields: `learning_loop`'s arguments that stay the same from call to call.
 _ARGUMENT_FIELDS = (
     "domain_rng", "rep", "agent", "arrays", "row_traces", "agent_rng", "obs", "state", "box",
@@ -509,13 +511,21 @@ def is_warm(stepper: CompiledStepper | None = None) -> bool:
     if name in _COMPILE_SECONDS:
         return True
     try:
-        index = lp.learning_loop._cache._cache_file._load_index()
+        index = run_loop._cache._cache_file._load_index()
         return any(
-            (signature[_REP_ARGUMENT].types[0].types[-1] != types.none) == real_valued
+            (representation_type(signature).types[0].types[-1] != types.none) == real_valued
             for signature, *_ in index
         )
-    except (AttributeError, OSError, EOFError, ValueError, IndexError, TypeError):
+    except (AttributeError, OSError, EOFError, ValueError, IndexError, KeyError, TypeError):
         return False
+
+
+def representation_type(signature: tuple) -> types.Type:
+    """The numba type of the representation (`IFDDKernel`) in a `run_loop` signature.
+
+    Its base's last field is None for binary φ and RBF's arrays for real-valued φ.
+    """
+    return signature[_ARGUMENTS_POSITION].field_dict["rep"]
 
 
 def warm_up(*, cached_only: bool = False) -> float:
