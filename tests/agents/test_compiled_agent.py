@@ -4,7 +4,16 @@ import numpy as np
 import pytest
 
 from conjure.agents import SARSA, ActorCritic, QLearning
-from conjure.agents.compiled_agent import bootstrap, clear_learner_traces, step_size, td_learn
+from conjure.agents.compiled_agent import (
+    MULTIPLIER,
+    bootstrap,
+    cost_bootstrap,
+    end_of_episode_traces,
+    multiplier,
+    step_size,
+    td_learn,
+)
+from conjure.agents.constraints import Lagrangian, PIDLagrangian
 from conjure.core.interfaces import Transition
 from conjure.core.schedules import ConstantStepSize, EpisodicDecay, FeatureNormalizedDecay
 from conjure.domains import ChainMDP
@@ -41,6 +50,20 @@ AGENTS = {
     "actor-critic-traces": lambda: ActorCritic(
         representation=Tabular(), step_size=0.3, trace_decay=1.0
     ),
+    "sarsa-lagrangian": lambda: SARSA(
+        representation=Tabular(), step_size=0.3, constraint=Lagrangian(cost_limit=0.2)
+    ),
+    "qlearning-pid-lagrangian": lambda: QLearning(
+        representation=Tabular(), step_size=0.3, constraint=PIDLagrangian(cost_limit=0.2)
+    ),
+    "advantage-actor-critic-traces-lagrangian": lambda: ActorCritic(
+        representation=Tabular(),
+        step_size=0.3,
+        critic="v",
+        actor_update="log_policy",
+        trace_decay=0.8,
+        constraint=Lagrangian(cost_limit=0.2),
+    ),
 }
 
 
@@ -53,29 +76,38 @@ def test_td_learn_updates_as_learn(name):
     rng = np.random.default_rng(1)
     python.begin_episode()
     compiled.begin_episode()
+    python.arrays_.constraint_state[MULTIPLIER] = 0.7  # λ, read only with a constraint
+    arrays.constraint_state[MULTIPLIER] = 0.7
     for _ in range(40):
         s, a = float(rng.integers(0, 4)), int(rng.integers(0, 2))
         s_next, a_next, reward = s + 1.0, int(rng.integers(0, 2)), float(rng.normal())
-        terminated = s_next == 4.0
+        terminated, cost = s_next == 4.0, float(rng.random() < 0.3)
         delta = python.learn(
-            Transition(np.array([s]), a, reward, np.array([s_next]), a_next, terminated)
+            Transition(np.array([s]), a, reward, np.array([s_next]), a_next, terminated, cost=cost)
         )
         phi = compiled.representation_.active_features(np.array([s]))
-        target = reward
+        target, cost_target = reward, cost
         if not terminated:
             next_phi = compiled.representation_.active_features(np.array([s_next]))
             chooser = arrays.actor_weights
             q = chooser[next_phi[0]].copy()
             critic_q = arrays.weights[next_phi[0]].copy()
-            target = bootstrap(form, reward, q, a_next, np.arange(2), critic_q)
+            cost_q = arrays.cost_weights[next_phi[0]].copy() if form.constraint.kind else q
+            lagrange = multiplier(form, arrays)
+            legal = np.arange(2)
+            target = bootstrap(form, reward, q, a_next, legal, critic_q, cost_q, lagrange)
+            cost_target = cost_bootstrap(form, cost, q, a_next, legal, cost_q, lagrange)
         # π(s, ·) of the log-policy actor: learn met s without act, so over all actions now.
         drawn = Gibbs().probabilities(arrays.actor_weights[phi[0]], np.arange(2))
-        assert td_learn(form, arrays, traces, phi, None, a, target, 1, drawn) == delta
+        args = (form, arrays, traces, phi, None, a, target, 1, drawn, cost, cost_target)
+        assert td_learn(*args) == delta
         if terminated and not isinstance(compiled, ActorCritic):  # SARSA(λ)'s episode end
-            clear_learner_traces(form, arrays, traces)
+            end_of_episode_traces(form, arrays)
     np.testing.assert_array_equal(arrays.weights, python.weights_)
     actor = getattr(python, "actor_weights_", python.weights_)
     np.testing.assert_array_equal(arrays.actor_weights, actor)
+    np.testing.assert_array_equal(arrays.cost_weights, python.arrays_.cost_weights)
+    np.testing.assert_array_equal(arrays.constraint_state, python.arrays_.constraint_state)
 
 
 @pytest.mark.parametrize(

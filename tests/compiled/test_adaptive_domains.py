@@ -227,6 +227,7 @@ def _check_both_paths(rep: str, agent_name: str, seed: int) -> None:
         loop.is_mid_episode,
     )
     assert stepper.num_failures == loop.num_failures
+    assert stepper.total_cost == loop.total_cost
     assert (agent.episode_, agent.num_learning_steps_) == (
         python_agent.episode_,
         python_agent.num_learning_steps_,

@@ -26,7 +26,7 @@ def _loop_arguments(*, learn: bool = True, max_episodes: int = 10**6):
 
 def test_every_chain_episode_takes_three_steps_and_earns_three():
     args, arrays, state = _loop_arguments()
-    status, done, failures, _, ep_float, ep_int = lp.learning_loop(9, *args)
+    status, done, failures, _, _, ep_float, ep_int = lp.learning_loop(9, *args)
     assert (status, done, failures) == (lp.DONE, 9, 0)
     assert ep_int[:, 0].tolist() == [3, 3, 3] and ep_float[:, 0].tolist() == [3.0, 3.0, 3.0]
     np.testing.assert_allclose(ep_float[:, 1], 1 + 0.9 + 0.81)  # Σ γ^t r_t
@@ -39,7 +39,7 @@ def test_every_chain_episode_takes_three_steps_and_earns_three():
 def test_greedy_steps_learn_nothing_and_stop_after_the_episodes_asked_for():
     # A policy check: three-step episodes, no update, no learning episode begun.
     args, arrays, state = _loop_arguments(learn=False, max_episodes=2)
-    status, done, failures, _, ep_float, ep_int = lp.learning_loop(100, *args)
+    status, done, failures, _, _, ep_float, ep_int = lp.learning_loop(100, *args)
     assert (status, done, failures) == (lp.DONE, 6, 0)
     assert ep_int[:, 0].tolist() == [3, 3] and ep_float[:, 0].tolist() == [3.0, 3.0]
     assert not arrays.weights.any() and state.episode[0] == state.learning_steps[0] == 0
@@ -48,6 +48,6 @@ def test_greedy_steps_learn_nothing_and_stop_after_the_episodes_asked_for():
 def test_an_episode_continues_across_calls():
     args, _, state = _loop_arguments()
     first = lp.learning_loop(2, *args)
-    assert first[1] == 2 and first[4].shape[0] == 0 and state.phase[0] == lp.IN_EPISODE
+    assert first[1] == 2 and first[5].shape[0] == 0 and state.phase[0] == lp.IN_EPISODE
     second = lp.learning_loop(1, *args)
     assert second[5][:, 0].tolist() == [3]  # the episode begun in the first call ends here

@@ -7,6 +7,7 @@ import pytest
 from numba import njit
 
 from conjure.agents import SARSA, ActorCritic, QLearning
+from conjure.agents.constraints import Lagrangian, PIDLagrangian
 from conjure.compiled import (
     CompiledStepper,
     compile_seconds,
@@ -196,6 +197,38 @@ COMBINATIONS = {
         GridWorld.gridworld_1,
         lambda: QLearning(representation=HashedTabular(capacity=100), step_size=0.5),
     ),
+    # Cost constraints (`conjure.agents.constraints`): θ_C, λ and acting on Q − λQ_C.
+    "gridworld-tabular-sarsa-lagrangian": (
+        GridWorld.gridworld_1,
+        lambda: SARSA(
+            representation=Tabular(),
+            step_size=0.5,
+            constraint=Lagrangian(cost_limit=0.1, multiplier_step_size=0.2),
+        ),
+    ),
+    "gridworld-tabular-qlearning-pid-lagrangian": (
+        GridWorld.gridworld_2,
+        lambda: QLearning(
+            representation=Tabular(),
+            step_size=0.5,
+            constraint=PIDLagrangian(cost_limit=0.1, kp=0.5, ki=0.2, kd=0.1),
+        ),
+    ),
+    "pendulum-tiles-sarsa-lambda-lagrangian": (
+        InvertedPendulum,
+        lambda: SARSA(
+            representation=_tiles(),
+            step_size=DECAY,
+            trace_decay=0.9,
+            constraint=Lagrangian(cost_limit=0.5),
+        ),
+    ),
+    "gridworld-tabular-advantage-actor-critic-traces-pid-lagrangian": (
+        GridWorld.gridworld_1,
+        lambda: _advantage_actor_critic(actor_alpha=0.1, trace_decay=0.9).set_params(
+            constraint=PIDLagrangian(cost_limit=0.1, kp=0.5, ki=0.2)
+        ),
+    ),
     # A Gymnasium environment: the loop calls the domain's own reset and step back.
     "mountaincar-gymnasium-tiles-sarsa": (
         lambda: from_gymnasium("MountainCar-v0", discount=1.0),
@@ -269,6 +302,10 @@ def test_same_seed_gives_the_same_curve_on_both_paths(name, seed):
     assert returns == py_returns
     assert lengths == py_lengths
     np.testing.assert_array_equal(agent.weights_, python_agent.weights_)
+    np.testing.assert_array_equal(agent.cost_weights_, python_agent.cost_weights_)
+    assert agent.multiplier_ == python_agent.multiplier_
+    if agent.constraint is not None:  # λ moved: the runs exceeded the limit
+        assert agent.multiplier_ > 0.0 and agent.cost_weights_.any()
     if isinstance(agent, ActorCritic):
         np.testing.assert_array_equal(agent.actor_weights_, python_agent.actor_weights_)
         if agent.trace_decay > 0:  # the same live rows of z^θ and z^ω
@@ -373,6 +410,7 @@ def test_failures_are_counted_like_the_python_path():
     stats = for_combination(domain, agent, seed=3).advance(500)
     # Every pendulum episode that ends before the cap ends with a fall (one failure).
     assert stats.num_failures == int(stats.episode_failures.sum()) == len(stats.episode_lengths)
+    assert stats.cost == stats.episode_costs.sum() == stats.num_failures  # c_t = 1 per fall
     assert stats.episode_returns.tolist() == [-1.0] * len(stats.episode_lengths)
 
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import math
 import subprocess
 import sys
 import textwrap
@@ -187,7 +188,11 @@ def test_safety_metrics_failures_failure_rate_and_optimality():
     transitions = result.agent.transitions_
     counts = [sum(t.next_state[0] == 0 for t in transitions[:n]) for n in curve["learning_steps"]]
     assert curve["learning_failures"].tolist() == counts and counts[-1] > 0
+    assert curve["learning_cost"].tolist() == [float(c) for c in counts]  # c_t = 1 per failure
+    rate = curve["learning_cost"] / curve["learning_steps"]
+    assert math.isnan(curve["cost_rate"].iloc[0]) and curve["cost_rate"].iloc[1:].eq(rate[1:]).all()
     assert curve["failure_rate"].eq(0.0).all()  # the greedy fake walks right, away from 0
+    assert curve["episode_cost"].eq(0.0).all()
     # Greedy return -(6 - start) for starts 0..2, scaled between worst -15 and best -4.
     np.testing.assert_allclose(curve["optimality"], (curve["return"] + 15.0) / 11.0)
     assert curve["optimality"].between(9 / 11, 1.0).all()
@@ -198,6 +203,7 @@ def test_safety_metrics_failures_failure_rate_and_optimality():
 
     lefty = fake_run(eval_episodes=3, agent_params={"greedy_action": 0}, domain_params=walls)
     assert lefty.curve["failure_rate"].eq(1.0).all()
+    assert lefty.curve["episode_cost"].ge(1.0).all()
     np.testing.assert_allclose(lefty.curve["optimality"], (-15.0 + 15.0) / 11.0)
 
 

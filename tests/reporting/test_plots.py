@@ -210,3 +210,25 @@ def test_panels_draw_each_method_on_its_own_axes_over_the_others_in_grey(tmp_pat
     np.testing.assert_allclose(first[-1].get_ydata(), [1.0, 51.0, 101.0])  # a's mean
     path = plot_learning_curves(frame, tmp_path / "panels.png", panels=True)
     assert path.read_bytes().startswith(b"\x89PNG")
+
+
+def test_performance_profiles_are_drawn_by_rliable_on_our_axes(tmp_path):
+    from conjure.reporting.statistics import performance_profile
+
+    table = performance_profile(
+        {"a": [1.0, 2.0, 3.0, 4.0], "b": [0.0, 0.0, 5.0, 5.0]}, [0.0, 2.5, 4.5], reps=50
+    )
+    figure = plots.performance_profile_figure(table, score="return", title="profiles")
+    axes = figure.axes[0]
+    lines = {line.get_label(): line for line in axes.get_lines()}
+    assert lines["a"].get_ydata().tolist() == [1.0, 0.5, 0.0]
+    assert lines["b"].get_ydata().tolist() == [0.5, 0.5, 0.5]
+    assert lines["a"].get_linestyle() != lines["b"].get_linestyle()
+    assert axes.get_xlabel() == "return (τ)" and axes.get_title() == "profiles"
+    assert "stratified-bootstrap" in axes.get_legend().get_texts()[-1].get_text()
+    path = plots.plot_performance_profiles(table, tmp_path / "profiles.png")
+    assert path.stat().st_size > 1000
+    with pytest.raises(InvalidParameterError, match=r"no column\(s\) fraction"):
+        plots.plot_performance_profiles(table.drop(columns="fraction"), tmp_path / "x.png")
+    with pytest.raises(InvalidParameterError, match="an empty table"):
+        plots.performance_profile_figure(table.iloc[:0])

@@ -12,6 +12,7 @@ import numpy as np
 
 from conjure.agents import _kernels, persistence
 from conjure.agents import compiled_agent as forms
+from conjure.agents.constraints import CostConstraint
 from conjure.agents.linear_td import STEP_SIZE, LinearTDAgent, make_schedule, state_key
 from conjure.agents.row_traces import MIN_TRACE, RowTraces
 from conjure.core.errors import IncompatibleComponentsError
@@ -67,6 +68,10 @@ class ActorCritic(LinearTDAgent):
         z^θ ← γλz^θ + ∇_θ critic(s), z^ω ← γλz^ω + (the actor's step direction above),
         θ += αδz^θ, ω += α'δz^ω. With λ = 1 on an episodic task δ's sum along the episode is
         the return minus the critic's value (a Monte-Carlo advantage).
+    constraint : CostConstraint or None, default None
+        A cost limit per episode and its multiplier rule (`Lagrangian`, `PIDLagrangian`;
+        `conjure.agents.constraints`): a cost critic θ_C (V_C with critic "v") and λ; the actor
+        steps on δ − λδ_C.
 
     Attributes
     ----------
@@ -154,6 +159,7 @@ class ActorCritic(LinearTDAgent):
         critic: str = "q",
         actor_update: str = "features",
         trace_decay: float = 0.0,
+        constraint: CostConstraint | None = None,
     ):
         self.representation = representation
         self.actor_representation = actor_representation
@@ -164,6 +170,7 @@ class ActorCritic(LinearTDAgent):
         self.critic = critic
         self.actor_update = actor_update
         self.trace_decay = trace_decay
+        self.constraint = constraint
 
     def _set_up_learner(self, spec: DomainSpec) -> None:
         """The critic (V or Q), the actor's features, schedule and step, and the traces."""
@@ -303,7 +310,7 @@ class ActorCritic(LinearTDAgent):
             q_next = self._no_values
         else:  # line 6: the critic's Q(s', a') or V(s')
             state = transition.next_state
-            next_phi = self._actor_features(state) if self._is_shared else self._encode(state)
+            next_phi = self._critic_features(state)
             q_next = _kernels.q_values(self._theta, next_phi[0], next_phi[1])
         return self._learn_from(
             transition, phi, psi, q_next, transition.next_action, self._all_actions, drawn
@@ -329,6 +336,10 @@ class ActorCritic(LinearTDAgent):
     def _actor_features(self, state: np.ndarray) -> SparseFeatures:
         """ψ(s), from the act cache when possible."""
         return self._features(state, self._encode_actor)
+
+    def _critic_features(self, state: np.ndarray) -> SparseFeatures:
+        """φ(s): ψ(s) when shared (the act cache holds ψ), else the critic's own encoding."""
+        return self._actor_features(state) if self._is_shared else self._encode(state)
 
     def _grown_arrays(self) -> tuple[bool, bool]:
         return self._is_shared, False  # ω grows when the actor shares the critic's features

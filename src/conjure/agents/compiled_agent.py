@@ -1,14 +1,17 @@
 """A linear TD learner's compiled form, its state (`conjure.core.compiled_form`).
 
-`AgentKernel` holds a learner's kind, traces, γ, step-size schedules and behaviour policy;
-`LearnerArrays` its θ, ω and sparse traces; `RowTracePair` Actor-Critic's traces;
+`AgentKernel` holds a learner's kind, traces, γ, step-size schedules, behaviour policy and
+cost constraint (`ConstraintKernel`, `conjure.agents.constraints`); `LearnerArrays` its θ, ω,
+sparse traces, cost critic θ_C and multiplier λ; `RowTracePair` Actor-Critic's traces;
 `LearnerState` the three as one value. The learners build them in ``setup`` and keep them as
 their state (`conjure.agents.linear_td`). The kernels here are the learners' update, written
 once: `td_update` (δ and the updates of Algorithms 10-12 through `td_step`,
 `td_step_traces` or the row traces' kernels, then the actor's), called by the compiled
-loop's `td_learn` and by the Python ``learn``'s `learn_transition`; the target `bootstrap`;
-``begin_episode``'s trace clearing (`clear_learner_traces`); the rows of new features
-(`grow_learner_rows`, Section 4.1.1, on both paths); `q_values_into` is Q(s, ·) = θᵀφ(s).
+loop's `td_learn` and by the Python ``learn``'s `learn_transition`; the targets `bootstrap`
+and `cost_bootstrap`; ``begin_episode``'s trace clearing and multiplier update
+(`clear_learner_traces`, `update_multiplier`); the rows of new features (`grow_learner_rows`,
+Section 4.1.1, on both paths); `q_values_into` is Q(s, ·) = θᵀφ(s) and `acting_values` the
+values a constrained learner acts on.
 """
 
 from __future__ import annotations
@@ -22,6 +25,7 @@ from numba.core import types
 from numba.experimental import structref
 
 from conjure.agents._kernels import (
+    _value,
     add,
     add_log_policy_gradient,
     apply_row_traces,
@@ -48,26 +52,35 @@ from conjure.representations.weights import parent_sum_row
 __all__ = [
     "ACCUMULATING",
     "ACTOR_CRITIC",
+    "LAGRANGIAN",
+    "NO_CONSTRAINT",
+    "NO_CONSTRAINT_KERNEL",
     "NO_ROW_TRACE_PAIR",
     "NO_TRACES",
+    "PID_LAGRANGIAN",
     "PYTHON_PART",
     "Q_LEARNING",
     "REPLACING",
     "ROW_TRACES",
     "SARSA",
     "AgentKernel",
+    "ConstraintKernel",
     "LearnerArrays",
     "LearnerState",
     "RowTracePair",
+    "acting_values",
     "begin_learner_episode",
     "bootstrap",
     "clear_learner_traces",
+    "cost_bootstrap",
     "end_of_episode_traces",
     "grow_learner_rows",
     "imagined_learn",
     "learn_transition",
     "learn_transition_with_actor_features",
     "learner_state",
+    "multiplier",
+    "penalized_values",
     "q_values_into",
     "row_trace_pair",
     "shift_preference_into",
@@ -75,6 +88,7 @@ __all__ = [
     "td_learn",
     "td_update",
     "traces_fit",
+    "update_multiplier",
 ]
 
 
@@ -83,6 +97,32 @@ SARSA, Q_LEARNING, ACTOR_CRITIC = 0, 1, 2
 #: Eligibility traces of `AgentKernel`: none, SARSA(λ)'s sparse (feature, action) traces,
 #: replacing or accumulating, and Actor-Critic's traces of θ and ω by feature row (`RowTraces`).
 NO_TRACES, REPLACING, ACCUMULATING, ROW_TRACES = 0, 1, 2, 3
+#: Cost constraints of `ConstraintKernel` (`conjure.agents.constraints`).
+NO_CONSTRAINT, LAGRANGIAN, PID_LAGRANGIAN = 0, 1, 2
+#: The slots of `LearnerArrays.constraint_state`: λ, the PID integral I, the previous
+#: episode's cost J_prev and the cost of the episode in progress.
+MULTIPLIER, INTEGRAL, PREVIOUS_COST, EPISODE_COST = 0, 1, 2, 3
+
+
+class ConstraintKernel(NamedTuple):
+    """A cost constraint as the kernels read it (`conjure.agents.constraints`).
+
+    ``kind`` `NO_CONSTRAINT`, `LAGRANGIAN` or `PID_LAGRANGIAN`; ``cost_limit`` d; the
+    Lagrangian's multiplier step size ``step_size``; PID's gains ``kp``, ``ki``, ``kd``.
+    """
+
+    kind: int
+    cost_limit: float
+    step_size: float
+    kp: float
+    ki: float
+    kd: float
+
+
+#: The `ConstraintKernel` of an unconstrained learner.
+NO_CONSTRAINT_KERNEL = ConstraintKernel(
+    kind=NO_CONSTRAINT, cost_limit=0.0, step_size=0.0, kp=0.0, ki=0.0, kd=0.0
+)
 
 
 class AgentKernel(NamedTuple):
@@ -106,6 +146,8 @@ class AgentKernel(NamedTuple):
         Actor-Critic's critic is V(s) (θ has one column), not Q(s, a).
     is_log_policy : bool
         Actor-Critic's actor steps along ∇_ω log π(s, a) (a Gibbs policy), not ψ(s, a).
+    constraint : ConstraintKernel
+        The cost constraint (`NO_CONSTRAINT_KERNEL`: none).
     """
 
     kind: int
@@ -118,6 +160,7 @@ class AgentKernel(NamedTuple):
     policy: PolicyKernel
     is_state_value: bool = False
     is_log_policy: bool = False
+    constraint: ConstraintKernel = NO_CONSTRAINT_KERNEL
 
 
 class LearnerArrays(NamedTuple):
@@ -131,6 +174,10 @@ class LearnerArrays(NamedTuple):
         Actor-Critic's ω; θ itself for the other learners.
     trace_slots, trace_features, trace_actions, trace_values, trace_count : ndarray
         SARSA(λ)'s sparse traces of `td_step_traces` (empty stand-ins without them).
+    cost_weights : ndarray of shape (n, θ's columns)
+        θ_C, the cost critic of a constrained learner (no rows without a constraint).
+    constraint_state : ndarray of shape (4,)
+        λ, I, J_prev and the episode's cost so far (slots `MULTIPLIER` ... `EPISODE_COST`).
 
     Actor-Critic's traces are a separate `RowTracePair`: numba counts a reference per array
     wherever a tuple of ten or more arrays is passed, which slowed every learner's step.
@@ -143,6 +190,8 @@ class LearnerArrays(NamedTuple):
     trace_actions: np.ndarray
     trace_values: np.ndarray
     trace_count: np.ndarray
+    cost_weights: np.ndarray
+    constraint_state: np.ndarray
 
 
 @structref.register
@@ -211,22 +260,130 @@ def bootstrap(
     next_action: int,
     next_legal: np.ndarray,
     critic_q: np.ndarray,
+    cost_q: np.ndarray,
+    lagrange: float,
 ) -> float:
     """Q⁺(s, a) of Algorithms 10-12, line 5, for a non-terminal s'.
 
     ``q``: the chooser's values at s' (θ's, or the actor's for Actor-Critic); ``critic_q``:
-    θ's values at s' (read only by Actor-Critic, which the caller has filled).
-    SARSA: r + γ Q(s', a'); Q-Learning: r + γ max over the legal a' of Q(s', a');
+    θ's values at s' (read only by Actor-Critic, which the caller has filled); ``cost_q``:
+    θ_C's values at s' (read only by a constrained Q-Learning, with λ = ``lagrange``).
+    SARSA: r + γ Q(s', a'); Q-Learning: r + γ max over the legal a' of Q(s', a'), or with a
+    cost constraint r + γ Q(s', a*) for the legal a* maximising Q − λQ_C (`_best_action`);
     Actor-Critic: r + γ Q_θ(s', a'), or r + γ V_θ(s') with the state-value critic.
     """
     if agent.kind == SARSA:
         return reward + agent.discount * q[next_action]
     if agent.kind == ACTOR_CRITIC:
         return reward + agent.discount * critic_q[0 if agent.is_state_value else next_action]
+    if agent.constraint.kind != NO_CONSTRAINT:
+        return reward + agent.discount * q[_best_action(q, cost_q, lagrange, next_legal)]
     best = q[next_legal[0]]
     for i in range(1, next_legal.shape[0]):
         best = max(best, q[next_legal[i]])
     return reward + agent.discount * best
+
+
+@njit(cache=True, inline="always")
+def _best_action(q: np.ndarray, cost_q: np.ndarray, lagrange: float, legal: np.ndarray) -> int:
+    """The first legal a maximising Q(s, a) − λ Q_C(s, a)."""
+    best, best_value = legal[0], q[legal[0]] - lagrange * cost_q[legal[0]]
+    for i in range(1, legal.shape[0]):
+        value = q[legal[i]] - lagrange * cost_q[legal[i]]
+        if value > best_value:
+            best, best_value = legal[i], value
+    return best
+
+
+@njit(cache=True, inline="always")
+def cost_bootstrap(
+    agent: AgentKernel,
+    cost: float,
+    q: np.ndarray,
+    next_action: int,
+    next_legal: np.ndarray,
+    cost_q: np.ndarray,
+    lagrange: float,
+) -> float:
+    """The cost critic's target c + γ Q_C(s', ·) for a non-terminal s', by `bootstrap`'s rule.
+
+    SARSA and Actor-Critic: Q_C(s', a') (V_C(s') with the state-value critic); Q-Learning:
+    Q_C(s', a*) at `bootstrap`'s a*.
+    """
+    if agent.kind == Q_LEARNING:
+        next_action = _best_action(q, cost_q, lagrange, next_legal)
+    elif agent.is_state_value:
+        next_action = 0
+    return cost + agent.discount * cost_q[next_action]
+
+
+@njit(cache=True, inline="always")
+def multiplier(agent: AgentKernel, arrays: LearnerArrays) -> float:
+    """λ, the Lagrange multiplier (0 without a constraint)."""
+    if agent.constraint.kind == NO_CONSTRAINT:
+        return 0.0
+    return arrays.constraint_state[MULTIPLIER]
+
+
+@njit(cache=True, inline="always")
+def acting_values(
+    agent: AgentKernel,
+    arrays: LearnerArrays,
+    phi: np.ndarray,
+    values: np.ndarray | None,
+    q: np.ndarray,
+    choice: np.ndarray,
+) -> np.ndarray:
+    """The values the learner acts on at s, ``q`` holding the chooser's values there.
+
+    ``q`` itself, or for SARSA and Q-Learning with a cost constraint Q − λQ_C written into
+    ``choice`` (`penalized_values`; ``q`` is kept for the target).
+    """
+    if agent.constraint.kind == NO_CONSTRAINT or agent.kind == ACTOR_CRITIC:
+        return q
+    for a in range(q.shape[0]):
+        choice[a] = q[a]
+    penalized_values(arrays, phi, values, choice, arrays.constraint_state[MULTIPLIER])
+    return choice
+
+
+@njit(cache=True)
+def penalized_values(
+    arrays: LearnerArrays,
+    phi: np.ndarray,
+    values: np.ndarray | None,
+    q: np.ndarray,
+    lagrange: float,
+) -> None:
+    """Q ← q − λ θ_Cᵀφ(s): the values a constrained SARSA or Q-Learning acts on, in place."""
+    weights = arrays.cost_weights
+    for i in range(phi.shape[0]):
+        row = weights[phi[i]]
+        amount = lagrange * _value(values, i)
+        for a in range(q.shape[0]):
+            q[a] -= amount * row[a]
+
+
+@njit(cache=True)
+def update_multiplier(constraint: ConstraintKernel, state: np.ndarray) -> None:
+    """λ after an episode of cost J_C = Σ_t c_t (``state[EPISODE_COST]``, then zeroed).
+
+    Lagrangian (dual ascent): λ ← max(0, λ + η (J_C − d)). PID-Lagrangian (Stooke, Achiam and
+    Abbeel 2020, Algorithm 2): Δ = J_C − d; I ← max(0, I + Δ); ∂ = max(0, J_C − J_prev);
+    λ = max(0, K_p Δ + K_i I + K_d ∂).
+    """
+    cost = state[EPISODE_COST]
+    excess = cost - constraint.cost_limit
+    if constraint.kind == LAGRANGIAN:
+        state[MULTIPLIER] = max(0.0, state[MULTIPLIER] + constraint.step_size * excess)
+    elif constraint.kind == PID_LAGRANGIAN:
+        state[INTEGRAL] = max(0.0, state[INTEGRAL] + excess)
+        rise = max(0.0, cost - state[PREVIOUS_COST])
+        state[MULTIPLIER] = max(
+            0.0, constraint.kp * excess + constraint.ki * state[INTEGRAL] + constraint.kd * rise
+        )
+    state[PREVIOUS_COST] = cost
+    state[EPISODE_COST] = 0.0
 
 
 @njit(cache=True)
@@ -248,12 +405,15 @@ def td_learn(
     target: float,
     episode: int,
     drawn: np.ndarray,
+    cost: float,
+    cost_target: float,
 ) -> float:
     """α_t, δ and θ's update (Algorithms 10-12, lines 6-7), then ω's (Algorithm 12, line 9).
 
     The compiled loop's update: k_t = |φ(s)|₁ (the number of features for binary φ), α_t
     (and the actor's α'_t) from the schedules at episode max(episode, 1), then `td_update`
-    with the actor on the critic's features. Returns δ.
+    with the actor on the critic's features (and a constraint's cost critic toward
+    ``cost_target``, the step's cost c_t = ``cost`` added to the episode's). Returns δ.
     """
     k_t = _num_active(phi, values)
     counted = max(episode, 1)
@@ -263,7 +423,7 @@ def td_learn(
         actor_alpha = step_size(agent.actor_schedule, counted, k_t)
     return td_update(
         agent, arrays, row_traces, phi, values, phi, values, action, target, alpha, actor_alpha,
-        drawn, True,
+        drawn, True, cost, cost_target,
     )  # fmt: skip
 
 
@@ -282,6 +442,8 @@ def td_update(
     actor_alpha: float,
     drawn: np.ndarray,
     is_tracing: bool,
+    cost: float,
+    cost_target: float,
 ) -> float:
     """δ and θ's update (Algorithms 10-12, lines 6-7), then ω's on ψ(s) (Algorithm 12, line 9).
 
@@ -291,12 +453,21 @@ def td_update(
     then adds α' δ ψ(s) to ω's row of ``action``, or with the log-policy actor
     α' δ ∇_ω log π(s, a) / τ from ``drawn``, π(s, ·) as it was when a was chosen
     (`add_log_policy_gradient`). ``is_tracing`` False (an imagined transition) updates without
-    the traces. Returns δ; ω is left alone when δ is not finite.
+    the traces. With a cost constraint the cost critic θ_C first steps toward ``cost_target``
+    by `td_step` at the same α_t (δ_C; choice: without traces), the step's ``cost`` joins the
+    episode's, and the actor steps on δ − λδ_C (the Lagrangian's advantage). Returns δ; ω is
+    left alone when δ is not finite.
     """
+    actor_offset = 0.0
+    if agent.constraint.kind != NO_CONSTRAINT:
+        column = 0 if agent.is_state_value else action
+        cost_delta = td_step(arrays.cost_weights, phi, values, column, cost_target, alpha)
+        arrays.constraint_state[EPISODE_COST] += cost
+        actor_offset = -arrays.constraint_state[MULTIPLIER] * cost_delta
     if is_tracing and agent.traces == ROW_TRACES:
         return _learn_with_row_traces(
             agent, arrays.weights, arrays.actor_weights, row_traces, phi, values, psi,
-            psi_values, action, target, alpha, actor_alpha, drawn,
+            psi_values, action, target, alpha, actor_alpha, drawn, actor_offset,
         )  # fmt: skip
     if not is_tracing or agent.traces == NO_TRACES or agent.traces == ROW_TRACES:
         column = 0 if agent.is_state_value else action
@@ -308,11 +479,12 @@ def td_update(
             arrays.trace_features, arrays.trace_actions, arrays.trace_values, arrays.trace_count,
         )  # fmt: skip
     if agent.kind == ACTOR_CRITIC and math.isfinite(delta):
+        actor_delta = delta + actor_offset
         if agent.is_log_policy:
-            amount = actor_alpha * delta / agent.policy.parameter
+            amount = actor_alpha * actor_delta / agent.policy.parameter
             add_log_policy_gradient(arrays.actor_weights, psi, psi_values, action, drawn, amount)
         else:
-            add(arrays.actor_weights, psi, psi_values, action, actor_alpha * delta)
+            add(arrays.actor_weights, psi, psi_values, action, actor_alpha * actor_delta)
     return delta
 
 
@@ -331,12 +503,14 @@ def _learn_with_row_traces(
     alpha: float,
     actor_alpha: float,
     drawn: np.ndarray,
+    actor_offset: float,
 ) -> float:
     """Actor-Critic's update with λ > 0 (Sutton & Barto 2018, §13.5; Algorithm 12's lines 6-9).
 
     δ = target − θ(s)[column]; z^θ ← γλz^θ + φ(s) ⊗ e_column; z^ω ← γλz^ω + ψ(s) ⊗ e_a, or
     ⊗ (e_a − π(s, ·))/τ for the log-policy actor (π(s, ·) as drawn); θ += αδz^θ and
-    ω += α'δz^ω, whatever δ (the caller stops on a non-finite one). The rows fit (`traces_fit`
+    ω += α'(δ + ``actor_offset``)z^ω (the offset −λδ_C of a cost constraint), whatever δ (the
+    caller stops on a non-finite one). The rows fit (`traces_fit`
     before the step, the same rule as `step_row_traces`).
     """
     critic, actor = row_traces.critic, row_traces.actor
@@ -357,7 +531,7 @@ def _learn_with_row_traces(
                     agent.min_trace, psi, psi_values, direction)  # fmt: skip
     apply_row_traces(weights, critic.rows, critic.values, critic.count, alpha * delta)
     apply_row_traces(actor_weights, actor.rows, actor.values, actor.count,
-                     actor_alpha * delta)  # fmt: skip
+                     actor_alpha * (delta + actor_offset))  # fmt: skip
     return delta
 
 
@@ -390,13 +564,17 @@ def grow_learner_rows(
     The learners' one growth rule, called by their Python ``_grow`` and by the compiled loop
     after a discovery: θ_f = θ_g + θ_h for the i-th new feature f with parents
     ``parents[i]`` (`parent_sum_row`, −1 adding nothing); the actor's ω_f likewise when
-    it shares the critic's features (``is_actor_growing``); SARSA(λ)'s trace slots of f
-    empty (``has_trace_slots``: a new feature has no trace yet). The arrays must already
-    have the rows (`conjure.representations.weights.with_room`).
+    it shares the critic's features (``is_actor_growing``); a cost critic's θ_C likewise (when
+    it has rows); SARSA(λ)'s trace slots of f empty (``has_trace_slots``: a new feature has
+    no trace yet). The arrays must already have the rows
+    (`conjure.representations.weights.with_room`).
     """
+    has_cost_critic = arrays.cost_weights.shape[0] > 0
     for i in range(parents.shape[0]):
         f, g, h = first + i, parents[i, 0], parents[i, 1]
         parent_sum_row(arrays.weights, g, h, f)
+        if has_cost_critic:
+            parent_sum_row(arrays.cost_weights, g, h, f)
         if is_actor_growing:
             parent_sum_row(arrays.actor_weights, g, h, f)
         if has_trace_slots:
@@ -417,9 +595,15 @@ def end_of_episode_traces(agent: AgentKernel, arrays: LearnerArrays) -> None:
 
 @njit(cache=True, inline="always")
 def clear_learner_traces(
-    agent: AgentKernel, arrays: LearnerArrays, row_traces: RowTracePair
+    agent: AgentKernel, arrays: LearnerArrays, row_traces: RowTracePair, episode: int
 ) -> None:
-    """Forget the learner's traces, if it has any (``begin_episode``)."""
+    """``begin_episode`` of a learner that has begun ``episode`` episodes before this one.
+
+    A cost constraint updates λ from the episode that ended (`update_multiplier`; none before
+    the first); the traces, if any, are forgotten.
+    """
+    if agent.constraint.kind != NO_CONSTRAINT and episode > 0:
+        update_multiplier(agent.constraint, arrays.constraint_state)
     if agent.traces == ROW_TRACES:
         critic, actor = row_traces.critic, row_traces.actor
         clear_row_traces(critic.slot_of, critic.rows, critic.count)
@@ -526,6 +710,8 @@ _SAMPLE_ARRAYS = LearnerArrays(
     trace_actions=np.zeros(0, dtype=np.int64),
     trace_values=np.zeros(0),
     trace_count=np.zeros(1, dtype=np.int64),
+    cost_weights=np.zeros((0, 0)),
+    constraint_state=np.zeros(4),
 )
 _LEARNER_STATE_TYPE = _LearnerStateType(
     [("agent", typeof(_SAMPLE_KERNEL)), ("arrays", typeof(_SAMPLE_ARRAYS)),
@@ -575,6 +761,8 @@ def learn_transition(
     next_legal: np.ndarray,
     episode: int,
     is_tracing: int,
+    cost: float,
+    cost_next: np.ndarray,
 ) -> tuple[bool, float]:
     """The Python learners' ``learn``: Q⁺(s, a) by `bootstrap`, α_t, then `td_update`.
 
@@ -583,7 +771,9 @@ def learn_transition(
     θᵀφ(s') for Actor-Critic). α_t (and the actor's α'_t) come from the schedules' forms at
     episode max(episode, 1) with k_t = |φ(s)|₁, or from the state's ``alphas`` for a schedule
     of kind `PYTHON_PART`; the log-policy actor reads π(s, ·) from its ``drawn``.
-    ``is_terminal`` and ``is_tracing`` are 0 or 1 (an int costs the call less than a bool);
+    With a cost constraint, ``cost`` is c_t and ``cost_next`` θ_C's values at s' (the cost
+    critic's target by `cost_bootstrap`); ``is_terminal`` and ``is_tracing`` are 0 or 1 (an
+    int costs the call less than a bool);
     ``is_tracing`` 0 (an imagined transition) updates without the traces, and after a terminal
     step SARSA(λ) clears them (`end_of_episode_traces`).
     Returns (False, nan) before touching anything when the traces might not fit
@@ -591,7 +781,7 @@ def learn_transition(
     """
     return _learn_transition(
         state, phi, values, phi, values, action, reward, is_terminal, q_next, next_action,
-        next_legal, episode, is_tracing,
+        next_legal, episode, is_tracing, cost, cost_next,
     )  # fmt: skip
 
 
@@ -610,11 +800,13 @@ def learn_transition_with_actor_features(
     next_legal: np.ndarray,
     episode: int,
     is_tracing: int,
+    cost: float,
+    cost_next: np.ndarray,
 ) -> tuple[bool, float]:
     """`learn_transition` for an actor on its own features ψ(s) (k'_t = |ψ(s)|₁ for α'_t)."""
     return _learn_transition(
         state, phi, values, psi, psi_values, action, reward, is_terminal, q_next, next_action,
-        next_legal, episode, is_tracing,
+        next_legal, episode, is_tracing, cost, cost_next,
     )  # fmt: skip
 
 
@@ -633,15 +825,24 @@ def _learn_transition(
     next_legal: np.ndarray,
     episode: int,
     is_tracing: int,
+    cost: float,
+    cost_next: np.ndarray,
 ) -> tuple[bool, float]:
     agent, arrays, row_traces = state.agent, state.arrays, state.row_traces
     if is_tracing != 0 and not traces_fit(
         agent, arrays, row_traces, max(phi.shape[0], psi.shape[0])
     ):
         return False, np.nan
-    target = reward
+    target, cost_target = reward, cost
     if is_terminal == 0:
-        target = bootstrap(agent, reward, q_next, next_action, next_legal, q_next)
+        lagrange = multiplier(agent, arrays)
+        target = bootstrap(
+            agent, reward, q_next, next_action, next_legal, q_next, cost_next, lagrange
+        )
+        if agent.constraint.kind != NO_CONSTRAINT:
+            cost_target = cost_bootstrap(
+                agent, cost, q_next, next_action, next_legal, cost_next, lagrange
+            )
     counted = max(episode, 1)
     alpha, actor_alpha = state.alphas[0], state.alphas[1]
     if agent.schedule.kind != PYTHON_PART:
@@ -650,7 +851,7 @@ def _learn_transition(
         actor_alpha = step_size(agent.actor_schedule, counted, _num_active(psi, psi_values))
     delta = td_update(
         agent, arrays, row_traces, phi, values, psi, psi_values, action, target, alpha,
-        actor_alpha, state.drawn, is_tracing != 0,
+        actor_alpha, state.drawn, is_tracing != 0, cost, cost_target,
     )  # fmt: skip
     if is_terminal != 0 and is_tracing != 0:
         end_of_episode_traces(agent, arrays)
@@ -658,6 +859,6 @@ def _learn_transition(
 
 
 @njit(cache=True)
-def begin_learner_episode(state: LearnerState) -> None:
+def begin_learner_episode(state: LearnerState, episode: int) -> None:
     """The Python learners' ``begin_episode``: `clear_learner_traces`, as the loop does."""
-    clear_learner_traces(state.agent, state.arrays, state.row_traces)
+    clear_learner_traces(state.agent, state.arrays, state.row_traces, episode)

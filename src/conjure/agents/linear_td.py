@@ -32,6 +32,10 @@ Notes
   marked `PYTHON_PART` in ``kernel_``: ``learn`` then passes α_t from the schedule's
   ``value`` (the same rate functions, `conjure.core.schedules`), and the learner has no
   compiled form for the loop (`compiled_form` is None).
+- A cost constraint (``constraint``, `conjure.agents.constraints`) adds θ_C (``arrays_``'s
+  ``cost_weights``, the rows of ``cost_weights_``) and λ (``multiplier_``) to the form, read
+  and updated by the same kernels on both paths; SARSA and Q-Learning then act on
+  Q − λQ_C (`penalized_values`).
 - Choice: when θ (or the traces) must grow past their capacity (`reserve_rows`,
   ``grow_trace_capacity``) the arrays are reallocated (doubling) and a new ``arrays_`` and
   ``state_`` replace the old ones.
@@ -47,6 +51,7 @@ import numpy as np
 
 from conjure.agents import _kernels, persistence
 from conjure.agents import compiled_agent as forms
+from conjure.agents.constraints import CostConstraint
 from conjure.core.compiled_form import compiled_form
 from conjure.core.errors import DivergenceError, IncompatibleComponentsError
 from conjure.core.interfaces import (
@@ -79,13 +84,15 @@ _PYTHON_SCHEDULE = ScheduleKernel(kind=forms.PYTHON_PART, alpha_0=math.nan, n_0=
 
 
 def _no_traces() -> dict[str, np.ndarray]:
-    """SARSA(λ)'s trace arrays of `LearnerArrays`, empty (a learner without them)."""
+    """SARSA(λ)'s trace arrays and θ_C of `LearnerArrays`, empty (a learner without them)."""
     return {
         "trace_slots": np.zeros((0, 0), dtype=np.int64),
         "trace_features": np.zeros(0, dtype=np.int64),
         "trace_actions": np.zeros(0, dtype=np.int64),
         "trace_values": np.zeros(0),
         "trace_count": np.zeros(1, dtype=np.int64),
+        "cost_weights": np.zeros((0, 0)),
+        "constraint_state": np.zeros(4),
     }
 
 
@@ -110,6 +117,7 @@ class LinearTDAgent(Agent):
         "policy": InstanceOf((Policy, type(None)), "a Policy or None"),
         "step_size": STEP_SIZE,
         "initial_weight": Interval(float, None, None),
+        "constraint": InstanceOf((CostConstraint, type(None)), "a CostConstraint or None"),
     }
     default_policy: ClassVar[type[Policy]] = EpsilonGreedy
     #: The methods a compiled form stands in for (`conjure.core.compiled_form`).
@@ -140,6 +148,10 @@ class LinearTDAgent(Agent):
         self.policy_ = (self.default_policy() if self.policy is None else self.policy).clone()
         self.policy_.validate_params()
         self.schedule_ = make_schedule(self.step_size)
+        self.constraint_ = None if self.constraint is None else self.constraint.clone()
+        if self.constraint_ is not None:
+            self.constraint_.validate_params()
+        self._is_constrained = self.constraint_ is not None
         self.actor_schedule_ = self.schedule_
         self.rng_ = make_rng(seeds["policy"])
         check_weight_size(self.representation_, spec)
@@ -163,7 +175,7 @@ class LinearTDAgent(Agent):
         self._drawn = np.zeros(spec.num_actions)  # π(s, ·) for the log-policy actor
         self._tracing = int(self._has_traces)
         self.row_traces_ = forms.NO_ROW_TRACE_PAIR
-        self._set_arrays(self._initial_arrays(spec))
+        self._set_arrays(self._with_cost_critic(self._initial_arrays(spec)))
         self.forget_cache()
         self.is_set_up_ = True
         return self
@@ -182,6 +194,12 @@ class LinearTDAgent(Agent):
         )
         return forms.LearnerArrays(weights=weights, actor_weights=weights, **_no_traces())
 
+    def _with_cost_critic(self, arrays: forms.LearnerArrays) -> forms.LearnerArrays:
+        """θ_C at 0, shaped as θ, for a constrained learner (λ starts at 0)."""
+        if not self._is_constrained:
+            return arrays
+        return arrays._replace(cost_weights=np.zeros_like(arrays.weights))
+
     def _set_arrays(
         self, arrays: forms.LearnerArrays, row_traces: forms.RowTracePair | None = None
     ) -> None:
@@ -194,13 +212,14 @@ class LinearTDAgent(Agent):
         )
         self._theta = arrays.weights
         self._omega = arrays.actor_weights
+        self._cost_theta = arrays.cost_weights
 
     def begin_episode(self) -> None:
         """Count a new episode (the schedules' ``Episode #``) and clear the traces, if any."""
         check_is_set_up(self, "begin_episode")
         self.episode_ += 1
-        if self._has_traces:
-            forms.begin_learner_episode(self.state_)
+        if self._has_traces or self._is_constrained:
+            forms.begin_learner_episode(self.state_, self.episode_ - 1)
 
     def _kernel(
         self,
@@ -228,6 +247,9 @@ class LinearTDAgent(Agent):
             policy=policy,
             is_state_value=is_state_value,
             is_log_policy=is_log_policy,
+            constraint=forms.NO_CONSTRAINT_KERNEL
+            if self.constraint_ is None
+            else self.constraint_.compiled_form(),
         )
 
     def compiled_form(self) -> forms.AgentKernel | None:
@@ -257,13 +279,32 @@ class LinearTDAgent(Agent):
         elif is_actor_growing:
             actor = with_room(actor, rows)
         slots = with_room(arrays.trace_slots, rows) if has_trace_slots else arrays.trace_slots
-        self._set_arrays(arrays._replace(weights=weights, actor_weights=actor, trace_slots=slots))
+        costs = (
+            with_room(arrays.cost_weights, rows) if self._is_constrained else arrays.cost_weights
+        )
+        self._set_arrays(
+            arrays._replace(
+                weights=weights, actor_weights=actor, trace_slots=slots, cost_weights=costs
+            )
+        )
 
     @property
     def weights_(self) -> np.ndarray:
         """θ: the rows of ``arrays_.weights`` in use (the representation's features), a view."""
         check_is_set_up(self, "weights_")
         return self._theta[: self.representation_.num_features_]
+
+    @property
+    def cost_weights_(self) -> np.ndarray:
+        """θ_C of a constrained learner (rows in use, a view; no rows without a constraint)."""
+        check_is_set_up(self, "cost_weights_")
+        return self._cost_theta[: self.representation_.num_features_]
+
+    @property
+    def multiplier_(self) -> float:
+        """λ, the Lagrange multiplier of a constrained learner (0 without a constraint)."""
+        check_is_set_up(self, "multiplier_")
+        return float(self.arrays_.constraint_state[forms.MULTIPLIER])
 
     @property
     def num_features(self) -> int:
@@ -287,11 +328,23 @@ class LinearTDAgent(Agent):
             check_is_set_up(self, "act")
         legal = self._all_actions if legal_actions is None else legal_actions
         if greedy:
+            if self._is_constrained:
+                phi = self.representation_.peek(state)
+                q = self._penalized(phi, _q_values(self._theta, phi[0], phi[1]))
+                return int(greedy_action(q, legal))
             return int(greedy_action(self.q_values(state), legal))
         phi = encode(state)
         q = _q_values(self._theta, phi[0], phi[1])
         self._remember(state, phi, q)
+        if self._is_constrained:
+            q = self._penalized(phi, q)
         return int(self.policy_.select(q, self.rng_, legal))
+
+    def _penalized(self, phi: SparseFeatures, q: np.ndarray) -> np.ndarray:
+        """Q(s, ·) − λ Q_C(s, ·), the values a constrained learner acts on (a new array)."""
+        values = q.copy()
+        forms.penalized_values(self.arrays_, phi[0], phi[1], values, self.multiplier_)
+        return values
 
     def q_values(self, state: np.ndarray) -> np.ndarray:
         """Return Q(s, ·) under the current weights; stores nothing (`Representation.peek`)."""
@@ -336,6 +389,10 @@ class LinearTDAgent(Agent):
         """
         is_tracing = 0 if transition.is_imagined else self._tracing
         is_terminal = 1 if transition.terminated else 0
+        cost_next = self._no_values
+        if self._is_constrained and not transition.terminated:  # θ_Cᵀφ(s')
+            next_phi = self._critic_features(transition.next_state)
+            cost_next = _q_values(self._cost_theta, next_phi[0], next_phi[1])
         if self._has_python_schedule:  # else from the schedules' forms
             self._alphas[0] = self._step_size(self.schedule_, phi)
             self._alphas[1] = self._step_size(self.actor_schedule_, psi)
@@ -346,18 +403,23 @@ class LinearTDAgent(Agent):
                 fits, delta = _learn_transition(
                     self.state_, phi[0], phi[1], transition.action, transition.reward,
                     is_terminal, q_next, next_action, next_legal, self.episode_, is_tracing,
+                    transition.cost, cost_next,
                 )  # fmt: skip
             else:
                 fits, delta = forms.learn_transition_with_actor_features(
                     self.state_, phi[0], phi[1], psi[0], psi[1], transition.action,
                     transition.reward, is_terminal, q_next, next_action, next_legal,
-                    self.episode_, is_tracing,
+                    self.episode_, is_tracing, transition.cost, cost_next,
                 )  # fmt: skip
             if fits:
                 break
             self.grow_trace_capacity()
         self._after_update(transition, phi, delta)
         return delta
+
+    def _critic_features(self, state: np.ndarray) -> SparseFeatures:
+        """φ(s) of the critic's features (from the act cache when possible)."""
+        return self._features(state)
 
     def grow_trace_capacity(self) -> None:
         """Make room for more live traces (learners with traces; the compiled loop asks)."""
@@ -474,6 +536,12 @@ class LinearTDAgent(Agent):
 
     def state_arrays(self) -> dict[str, np.ndarray]:
         """The agent's own arrays for `save` (the representation saves its own)."""
+        if self._is_constrained:
+            return {
+                "weights": self.weights_,
+                "cost_weights": self.cost_weights_,
+                "constraint_state": self.arrays_.constraint_state,
+            }
         return {"weights": self.weights_}
 
     def load_state(self, saved: persistence.SavedAgent) -> None:
@@ -486,7 +554,13 @@ class LinearTDAgent(Agent):
         arrays = self.arrays_
         weights = saved.array("weights", (self.representation_.num_features_, self._theta.shape[1]))
         actor = weights if arrays.actor_weights is arrays.weights else arrays.actor_weights
-        self._set_arrays(arrays._replace(weights=weights, actor_weights=actor))
+        arrays = arrays._replace(weights=weights, actor_weights=actor)
+        if self._is_constrained:
+            arrays = arrays._replace(
+                cost_weights=saved.array("cost_weights", weights.shape),
+                constraint_state=saved.array("constraint_state", (4,)),
+            )
+        self._set_arrays(arrays)
         self.forget_cache()
 
 

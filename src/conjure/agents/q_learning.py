@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from conjure.agents import compiled_agent as forms
+from conjure.agents.constraints import CostConstraint
 from conjure.agents.linear_td import LinearTDAgent
 from conjure.core.interfaces import Policy, Representation
 from conjure.core.schedules import StepSizeSchedule
@@ -23,6 +24,9 @@ class QLearning(LinearTDAgent):
         α in (0, inf), or a schedule (Sections 4.1.4 and 5.3.5).
     initial_weight : float, default 0.0
         θ's initial value.
+    constraint : CostConstraint or None, default None
+        A cost limit per episode and its multiplier rule (`Lagrangian`, `PIDLagrangian`;
+        `conjure.agents.constraints`): a cost critic θ_C and λ.
 
     Attributes
     ----------
@@ -66,8 +70,10 @@ class QLearning(LinearTDAgent):
         policy: Policy | None = None,
         step_size: float | StepSizeSchedule = 0.1,
         initial_weight: float = 0.0,
+        constraint: CostConstraint | None = None,
     ):
         self.representation = representation
         self.policy = policy
         self.step_size = step_size
         self.initial_weight = initial_weight
+        self.constraint = constraint

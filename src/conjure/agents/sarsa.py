@@ -6,6 +6,7 @@ import numpy as np
 
 from conjure.agents import compiled_agent as forms
 from conjure.agents import persistence
+from conjure.agents.constraints import CostConstraint
 from conjure.agents.linear_td import LinearTDAgent
 from conjure.core.interfaces import (
     DomainSpec,
@@ -38,6 +39,9 @@ class SARSA(LinearTDAgent):
         Traces that decay below this are dropped, in (0, 1).
     initial_weight : float, default 0.0
         θ's initial value.
+    constraint : CostConstraint or None, default None
+        A cost limit per episode and its multiplier rule (`Lagrangian`, `PIDLagrangian`;
+        `conjure.agents.constraints`): a cost critic θ_C and λ.
 
     Attributes
     ----------
@@ -100,6 +104,7 @@ class SARSA(LinearTDAgent):
         trace_kind: str = "replacing",
         min_trace: float = 1e-3,
         initial_weight: float = 0.0,
+        constraint: CostConstraint | None = None,
     ):
         self.representation = representation
         self.policy = policy
@@ -108,6 +113,7 @@ class SARSA(LinearTDAgent):
         self.trace_kind = trace_kind
         self.min_trace = min_trace
         self.initial_weight = initial_weight
+        self.constraint = constraint
 
     def _set_up_learner(self, spec: DomainSpec) -> None:
         """The eligibility traces when λ > 0: γλ, their kind and the smallest kept."""

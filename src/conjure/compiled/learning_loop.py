@@ -55,21 +55,26 @@ from numba import njit
 from conjure.agents.compiled_agent import (
     ACCUMULATING,
     ACTOR_CRITIC,
+    NO_CONSTRAINT,
     NO_TRACES,
     REPLACING,
     AgentKernel,
     LearnerArrays,
     RowTracePair,
+    acting_values,
     bootstrap,
     clear_learner_traces,
+    cost_bootstrap,
     end_of_episode_traces,
     grow_learner_rows,
+    multiplier,
     q_values_into,
     td_learn,
     traces_fit,
 )
 from conjure.core.compiled_form import borrowed, release
 from conjure.domains.compiled_domain import DomainKernel, legal_into, reset_into, step_into
+from conjure.policies import greedy_action
 from conjure.policies.compiled_policy import gibbs_policy, select_action
 from conjure.representations.compiled_ifdd import (
     IFDDKernel,
@@ -106,9 +111,10 @@ class LoopState(NamedTuple):
     """The loop's resumable state: one-element arrays, updated in place by `learning_loop`.
 
     ``phase`` (`NEEDS_RESET`, `NEEDS_BEGIN`, `IN_EPISODE`), the chosen ``action``, the
-    episode's ``episode_steps``, ``episode_failures``, return ``total``, ``discounted`` return
-    and γ^t ``weight``; the learner's ``episode`` count and ``learning_steps``; ``drawn``,
-    π(s, ·) when the action was chosen (read by the log-policy actor only).
+    episode's ``episode_steps``, ``episode_failures``, return ``total``, ``discounted`` return,
+    γ^t ``weight`` and cost Σ c_t ``episode_cost``; the learner's ``episode`` count and
+    ``learning_steps``; ``drawn``, π(s, ·) when the action was chosen (read by the log-policy
+    actor only).
     """
 
     phase: np.ndarray
@@ -120,6 +126,7 @@ class LoopState(NamedTuple):
     total: np.ndarray
     discounted: np.ndarray
     weight: np.ndarray
+    episode_cost: np.ndarray
     drawn: np.ndarray
 
 
@@ -131,6 +138,7 @@ def new_loop_state(num_actions: int) -> LoopState:
         total=np.zeros(1),
         discounted=np.zeros(1),
         weight=np.ones(1),
+        episode_cost=np.zeros(1),
         drawn=np.zeros(num_actions),
     )
 
@@ -142,20 +150,23 @@ def _record_episode(
     index: int,
     total: float,
     discounted: float,
+    cost: float,
     length: int,
     failures: int,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Write an ended episode's statistics at row ``index`` (doubling the arrays when full)."""
     if index == ep_float.shape[0]:
-        grown_float = np.empty((2 * index, 2))
+        grown_float = np.empty((2 * index, 3))
         grown_int = np.empty((2 * index, 2), dtype=np.int64)
         for i in range(index):
-            for j in range(2):
+            for j in range(3):
                 grown_float[i, j] = ep_float[i, j]
+            for j in range(2):
                 grown_int[i, j] = ep_int[i, j]
         ep_float, ep_int = grown_float, grown_int
     ep_float[index, 0] = total
     ep_float[index, 1] = discounted
+    ep_float[index, 2] = cost
     ep_int[index, 0] = length
     ep_int[index, 1] = failures
     return ep_float, ep_int
@@ -211,7 +222,7 @@ def learning_loop(
     parts: BoxParts,
     learn: bool,
     max_episodes: int,
-) -> tuple[int, int, int, float, np.ndarray, np.ndarray]:
+) -> tuple[int, int, int, float, float, np.ndarray, np.ndarray]:
     """Take up to ``num_steps`` steps; stop early on a status other than `DONE`.
 
     ``cap``: the episode cap; ``obs``: s, updated in place; ``box`` and ``parts``: iCCA's
@@ -220,9 +231,9 @@ def learning_loop(
     `NO_BOX` and `NO_PARTS`. ``learn``: learning steps, or greedy ones (a policy check:
     `greedy_box_action`; no begin_episode, update, discovery or model update, as the Python
     `Stepper` with ``learn=False``); the call also stops when ``max_episodes`` episodes
-    ended. Returns (status, steps taken, failures, last δ, episodes (m, 2)
-    float64 [return, discounted return], episodes (m, 2) int64 [length, failures]) for the m
-    episodes that ended during the call.
+    ended. Returns (status, steps taken, failures, Σ c_t over the steps, last δ, episodes
+    (m, 3) float64 [return, discounted return, cost], episodes (m, 2) int64 [length,
+    failures]) for the m episodes that ended during the call.
 
     `GROW_REPRESENTATION` and `GROW_TRACES` stop before a step whose discoveries or traces
     might not fit (the caller grows them with the component's own method and calls again);
@@ -244,6 +255,8 @@ def learning_loop(
     is_log_policy = learn and agent.is_log_policy  # keeps π(s, ·) as drawn (`drawn`)
     is_box = learn and box.kind != NO_BOX  # a learning box (greedy acting: `greedy_box_action`)
     is_adaptive_box = is_box and parts.is_adaptive
+    is_constrained = agent.constraint.kind != NO_CONSTRAINT  # a cost critic and λ
+    is_penalized = is_constrained and not is_actor_critic  # acting on Q − λQ_C
     row_buffer = np.empty(1, dtype=np.int64)
     # The actor's preferences choose actions for Actor-Critic (shared features), θ otherwise.
     chooser = arrays.actor_weights
@@ -262,24 +275,26 @@ def learning_loop(
     next_obs = np.empty_like(obs)
     q = np.empty(num_actions)
     critic_q = np.empty(arrays.weights.shape[1])
+    cost_q, choice = np.zeros(arrays.weights.shape[1]), np.empty(num_actions)
     drawn, next_drawn = state.drawn, np.empty(num_actions)
     # The scratch as borrowed views too, its owners held until the call ends (`release`).
     owners = (row_buffer, quanta, phi_buffer, next_buffer, all_actions, legal_buffer,
-              next_legal_buffer, next_obs, q, critic_q, next_drawn)  # fmt: skip
+              next_legal_buffer, next_obs, q, critic_q, next_drawn, cost_q, choice)  # fmt: skip
     (row_buffer, quanta, phi_buffer, next_buffer, all_actions, legal_buffer, next_legal_buffer,
-     next_obs, q, critic_q, next_drawn) = borrowed(owners)  # fmt: skip
-    ep_float = np.empty((16, 2))
+     next_obs, q, critic_q, next_drawn, cost_q, choice) = borrowed(owners)  # fmt: skip
+    ep_float = np.empty((16, 3))
     ep_int = np.empty((16, 2), dtype=np.int64)
     is_buffered = base.kind == TILES and not is_ifdd  # φ(s) lives in phi_buffer
     is_indexed = learn and base.kind == HASHED_TABULAR  # φ(s) may be [FULL] (not on peeking)
     num_ended = done = failures = 0
-    delta = 0.0
+    delta = costs = 0.0
     status = DONE
     # The loop state, in locals while running (LLVM keeps them in registers).
     phase, action, episode_steps = state.phase[0], state.action[0], state.episode_steps[0]
     episode, learning_steps = state.episode[0], state.learning_steps[0]
     episode_failures, total = state.episode_failures[0], state.total[0]
     discounted, weight = state.discounted[0], state.weight[0]
+    episode_cost = state.episode_cost[0]
     phi = phi_buffer
     values = values_of(base, obs)  # φ(s)'s values (None: binary φ)
     if phase == IN_EPISODE:
@@ -300,7 +315,7 @@ def learning_loop(
                 break
             if learn:
                 episode += 1
-                clear_learner_traces(agent, arrays, row_traces)
+                clear_learner_traces(agent, arrays, row_traces, episode - 1)
                 phi = encode_into(base, obs, quanta, phi_buffer)
             else:  # a policy check stores nothing (`Representation.peek`)
                 phi = peek_into(base, obs, quanta, phi_buffer)
@@ -311,7 +326,10 @@ def learning_loop(
                 phi = sparsify(rep, phi)
             values = values_of(base, obs)
             legal = legal_into(domain, False, legal_buffer) if is_masked else all_actions
-            if not learn:
+            if not learn and is_penalized:  # a constrained learner's greedy action (no box)
+                q_values_into(chooser, phi, values, q)
+                action = greedy_action(acting_values(agent, arrays, phi, values, q, choice), legal)
+            elif not learn:
                 action = greedy_box_action(box, parts, chooser, phi, values, q, legal, obs)
             elif is_box:  # the box fills q (after moving ρ, for Algorithm 23)
                 action, vetoed, imagined = box_action(
@@ -330,11 +348,12 @@ def learning_loop(
                         phi = sparsify(rep, encode_into(base, obs, quanta, phi_buffer))
             else:
                 q_values_into(chooser, phi, values, q)
-                action = select_action(agent.policy, q, legal, agent_rng)
+                acting = acting_values(agent, arrays, phi, values, q, choice)
+                action = select_action(agent.policy, acting, legal, agent_rng)
             if is_log_policy:
                 gibbs_policy(agent.policy, q, legal, drawn)
             episode_steps = episode_failures = 0
-            total, discounted, weight = 0.0, 0.0, 1.0
+            total, discounted, weight, episode_cost = 0.0, 0.0, 1.0, 0.0
             phase = IN_EPISODE
         room = room_for(rep, phi) if is_discovering else 0
         if room < 0 or (is_growing_box and not has_room_for(rep, 2)):  # discoveries at s', s
@@ -351,7 +370,7 @@ def learning_loop(
         episode_steps += 1
         next_phi, next_values = phi, values
         next_action = 0
-        target = reward
+        target, cost_target = reward, cost
         if not terminated:  # φ(s'), a' = π(s') and Q⁺(s, a) (Algorithms 10-12, lines 4-5)
             next_phi = encode_into(base, next_obs, quanta, next_buffer) if learn else peek_into(
                 base, next_obs, quanta, next_buffer
@@ -364,7 +383,11 @@ def learning_loop(
                 next_phi = sparsify(rep, next_phi)
             next_values = values_of(base, next_obs)
             next_legal = legal_into(domain, True, next_legal_buffer) if is_masked else all_actions
-            if not learn:
+            if not learn and is_penalized:
+                q_values_into(chooser, next_phi, next_values, q)
+                acting = acting_values(agent, arrays, next_phi, next_values, q, choice)
+                next_action = greedy_action(acting, next_legal)
+            elif not learn:
                 next_action = greedy_box_action(
                     box, parts, chooser, next_phi, next_values, q, next_legal, next_obs
                 )
@@ -392,16 +415,28 @@ def learning_loop(
                         room = room_for(rep, phi)
             else:
                 q_values_into(chooser, next_phi, next_values, q)
-                next_action = select_action(agent.policy, q, next_legal, agent_rng)
+                acting = acting_values(agent, arrays, next_phi, next_values, q, choice)
+                next_action = select_action(agent.policy, acting, next_legal, agent_rng)
             if is_log_policy:
                 gibbs_policy(agent.policy, q, next_legal, next_drawn)
             if learn:
                 if is_actor_critic:
                     q_values_into(arrays.weights, next_phi, next_values, critic_q)
-                target = bootstrap(agent, reward, q, next_action, next_legal, critic_q)
+                lagrange = multiplier(agent, arrays)
+                if is_constrained:  # θ_Cᵀφ(s') and the cost critic's target
+                    q_values_into(arrays.cost_weights, next_phi, next_values, cost_q)
+                    cost_target = cost_bootstrap(
+                        agent, cost, q, next_action, next_legal, cost_q, lagrange
+                    )
+                target = bootstrap(
+                    agent, reward, q, next_action, next_legal, critic_q, cost_q, lagrange
+                )
         grew = False
         if learn:
-            delta = td_learn(agent, arrays, row_traces, phi, values, action, target, episode, drawn)
+            delta = td_learn(
+                agent, arrays, row_traces, phi, values, action, target, episode, drawn, cost,
+                cost_target,
+            )  # fmt: skip
             learning_steps += 1
             if not math.isfinite(delta):
                 status = DIVERGED
@@ -418,13 +453,16 @@ def learning_loop(
         if cost > 0.0:  # a failure step (`info["cost"] > 0`)
             failures += 1
             episode_failures += 1
+            costs += cost
+            episode_cost += cost
         total += reward
         discounted += weight * reward
         weight *= agent.discount
         if terminated or episode_steps >= cap:
             ep_float, ep_int = _record_episode(
-                ep_float, ep_int, num_ended, total, discounted, episode_steps, episode_failures
-            )
+                ep_float, ep_int, num_ended, total, discounted, episode_cost, episode_steps,
+                episode_failures,
+            )  # fmt: skip
             num_ended += 1
             phase = NEEDS_RESET
             if num_ended >= max_episodes:
@@ -445,5 +483,6 @@ def learning_loop(
     state.episode[0], state.learning_steps[0] = episode, learning_steps
     state.episode_failures[0], state.total[0] = episode_failures, total
     state.discounted[0], state.weight[0] = discounted, weight
+    state.episode_cost[0] = episode_cost
     release(owners)
-    return status, done, failures, delta, ep_float[:num_ended], ep_int[:num_ended]
+    return status, done, failures, costs, delta, ep_float[:num_ended], ep_int[:num_ended]

@@ -165,7 +165,7 @@ def run_loop(
     cap: int,
     learn: bool,
     max_episodes: int,
-) -> tuple[int, int, int, float, np.ndarray, np.ndarray]:
+) -> tuple[int, int, int, float, float, np.ndarray, np.ndarray]:
     """`learning_loop` over the domain's form and the stepper's `LoopArguments`."""
     a = arguments
     return lp.learning_loop(
@@ -177,18 +177,21 @@ def run_loop(
 class AdvanceStats(NamedTuple):
     """What one ``advance`` did: steps, failures and the learning episodes that ended.
 
-    The four arrays have one entry per learning episode that ended during the call, in order
-    (an episode begun in an earlier call counts its earlier steps too), like
-    `conjure.experiments.loop.EpisodeStats`: the return Σ r_t, the discounted return
-    Σ γ^t r_t, the length and the number of failure steps (``info["cost"] > 0``).
+    ``cost`` is Σ c_t (``info["cost"]``) over the call's steps. The five arrays have one entry
+    per learning episode that ended during the call, in order (an episode begun in an earlier
+    call counts its earlier steps too), like `conjure.experiments.loop.EpisodeStats`: the
+    return Σ r_t, the discounted return Σ γ^t r_t, the length, the number of failure steps
+    (``info["cost"] > 0``) and the cost Σ c_t.
     """
 
     num_steps: int
     num_failures: int
+    cost: float
     episode_returns: np.ndarray
     discounted_returns: np.ndarray
     episode_lengths: np.ndarray
     episode_failures: np.ndarray
+    episode_costs: np.ndarray
 
 
 class CompiledStepper:
@@ -217,6 +220,8 @@ class CompiledStepper:
     ----------
     total_steps, num_episodes, num_failures : int
         Learning steps, episodes started and failure steps so far.
+    total_cost : float
+        Σ ``info["cost"]`` over the learning steps so far.
     path : str
         ``"compiled"``: the path a run records (`conjure.experiments.loop.Stepper` says
         ``"python: <why>"``).
@@ -240,6 +245,7 @@ class CompiledStepper:
         self.total_steps = 0
         self.num_episodes = 0
         self.num_failures = 0
+        self.total_cost = 0.0
         self._seed = seed
         self._started = False
         self._obs = np.zeros(domain.domain_spec.num_dims)
@@ -310,13 +316,14 @@ class CompiledStepper:
         state.learning_steps[0] = agent.num_learning_steps_
         chunks: list[tuple[np.ndarray, np.ndarray]] = []
         done = failures = ended = 0
+        cost = 0.0
         diverged: float | None = None
         raised: BaseException | None = None
         try:
             while done < num_steps and ended < max_episodes:
                 before = int(state.episode[0])
                 started = time.perf_counter()
-                status, steps, fails, delta, ep_float, ep_int = self._call(
+                status, steps, fails, costs, delta, ep_float, ep_int = self._call(
                     min(num_steps - done, self._chunk, self._max_chunk),
                     domain_form,
                     max_episodes - ended,
@@ -329,6 +336,7 @@ class CompiledStepper:
                 )
                 done += steps
                 failures += fails
+                cost += costs
                 chunks.append((ep_float, ep_int))
                 if status == lp.GROW_TRACES:
                     agent.grow_trace_capacity()
@@ -349,12 +357,13 @@ class CompiledStepper:
             agent.num_learning_steps_ = int(state.learning_steps[0])
             self.total_steps += done
             self.num_failures += failures
+            self.total_cost += cost
         if diverged is not None:
             raise _divergence(agent, diverged)
         if raised is not None:  # the domain's own exception, as on the Python path
             raise raised
         if not chunks:
-            ep_float, ep_int = np.zeros((0, 2)), np.zeros((0, 2), np.int64)
+            ep_float, ep_int = np.zeros((0, 3)), np.zeros((0, 2), np.int64)
         elif len(chunks) == 1:
             ep_float, ep_int = chunks[0]
         else:
@@ -363,10 +372,12 @@ class CompiledStepper:
         return AdvanceStats(
             num_steps=done,
             num_failures=failures,
+            cost=cost,
             episode_returns=ep_float[:, 0],
             discounted_returns=ep_float[:, 1],
             episode_lengths=ep_int[:, 0],
             episode_failures=ep_int[:, 1],
+            episode_costs=ep_float[:, 2],
         )
 
     def _full_index_error(self) -> Exception:

@@ -121,6 +121,8 @@ class Transition(NamedTuple):
     online learners update on it as on a one-step episode of its own, so the episode in
     progress is untouched (SARSA(λ)'s eligibility traces are neither used, decayed nor
     cleared) and it counts no learning step; batch learners store it as any other sample.
+    ``cost`` is the step's c_t (``info["cost"]``, 0 when the domain reports none), read by a
+    learner with a cost constraint (`conjure.safety.constraints`).
     """
 
     state: np.ndarray
@@ -131,6 +133,7 @@ class Transition(NamedTuple):
     terminated: bool
     next_legal_actions: np.ndarray | None = None
     is_imagined: bool = False
+    cost: float = 0.0
 
 
 class SparseFeatures(NamedTuple):

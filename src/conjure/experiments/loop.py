@@ -15,10 +15,11 @@ every caller uses it:
 
 Per step: ``s', r, terminated, truncated, info = domain.step(a)``; ``a' = agent.act(s')``
 (skipped on termination, where ``a' = 0``); when learning,
-``agent.learn(Transition(s, a, r, s', a', terminated, legal'))``; the step is a failure when
-``info.get("cost", 0) > 0`` (`Domain.is_constrained`); the episode ends at termination,
-truncation or the cap ``domain_spec.max_episode_steps``. A learning episode starts with
-``agent.begin_episode()`` after the reset and acts with exploration; a greedy one does neither.
+``agent.learn(Transition(s, a, r, s', a', terminated, legal', cost=c))`` with
+c = ``info.get("cost", 0)``; the step is a failure when c > 0 (`Domain.is_constrained`); the
+episode ends at termination, truncation or the cap ``domain_spec.max_episode_steps``. A
+learning episode starts with ``agent.begin_episode()`` after the reset and acts with
+exploration; a greedy one does neither.
 
 The compiled path
 -----------------
@@ -82,10 +83,13 @@ CURVE_COLUMNS = (
     "learning_steps",
     "learning_episodes",
     "learning_failures",
+    "learning_cost",
+    "cost_rate",
     "return",
     "discounted_return",
     "episode_length",
     "failure_rate",
+    "episode_cost",
     "optimality",
     "value_ratio",
     "num_features",
@@ -95,16 +99,17 @@ CURVE_COLUMNS = (
 
 
 class EpisodeStats(NamedTuple):
-    """One episode's return Σ r_t, discounted return Σ γ^t r_t (from t = 0), length and failures.
+    """One episode's return Σ r_t, discounted return Σ γ^t r_t (from t = 0), length and costs.
 
     ``num_failures`` counts the steps whose ``info["cost"]`` was positive (entering a failure
-    state, `Domain.is_constrained`).
+    state, `Domain.is_constrained`); ``cost`` is Σ_t c_t, the sum of ``info["cost"]``.
     """
 
     episode_return: float
     discounted_return: float
     num_steps: int
     num_failures: int = 0
+    cost: float = 0.0
 
 
 def _check_cap(max_steps: int | None, domain: Domain) -> int:
@@ -151,6 +156,8 @@ class Stepper:
         Episodes finished so far.
     num_failures : int
         Steps so far whose ``info["cost"]`` was positive (entering a failure state).
+    total_cost : float
+        Σ ``info["cost"]`` over the steps so far (the cost while learning).
     is_mid_episode : bool
         Whether the next ``advance`` continues an unfinished episode.
     last_episode : EpisodeStats or None
@@ -191,6 +198,7 @@ class Stepper:
         self.total_steps = 0
         self.num_episodes = 0
         self.num_failures = 0
+        self.total_cost = 0.0
         self.last_episode: EpisodeStats | None = None
         self.timings: dict[str, float] = {}
         self._seed = seed
@@ -198,7 +206,8 @@ class Stepper:
         self.timed = timed
         self._state: np.ndarray | None = None
         self._action = 0
-        self._episode = (0, 0.0, 0.0, 1.0, 0)  # steps, return, discounted, γ^t, failures
+        # steps, return, discounted return, γ^t, failures, cost of the episode in progress
+        self._episode = (0, 0.0, 0.0, 1.0, 0, 0.0)
 
     @property
     def is_mid_episode(self) -> bool:
@@ -239,8 +248,9 @@ class Stepper:
         discount = float(domain.domain_spec.discount)
         greedy, cap = not learning, self._cap
         state, action = self._state, self._action
-        episode_steps, total, discounted, weight, episode_failures = self._episode
+        episode_steps, total, discounted, weight, episode_failures, episode_cost = self._episode
         done = failures = 0
+        costs = 0.0
         try:
             while done < num_steps:
                 if state is None:
@@ -251,7 +261,8 @@ class Stepper:
                         begin_episode()
                     legal = legal_actions(state) if is_constrained else None
                     action = act(state, greedy, legal)
-                    episode_steps, total, discounted, weight, episode_failures = 0, 0.0, 0.0, 1.0, 0
+                    episode_steps, total, discounted, weight = 0, 0.0, 0.0, 1.0
+                    episode_failures, episode_cost = 0, 0.0
                 next_state, reward, terminated, truncated, info = step(action)
                 next_state = next_state.copy()
                 episode_steps += 1
@@ -263,16 +274,20 @@ class Stepper:
                 else:
                     next_legal = legal_actions(next_state) if is_constrained else None
                     next_action = act(next_state, greedy, next_legal)
+                cost = info.get("cost", 0.0)
                 if learning:
                     learn(
                         Transition(
-                            state, action, reward, next_state, next_action, terminated, next_legal
+                            state, action, reward, next_state, next_action, terminated, next_legal,
+                            False, cost,
                         )
-                    )
+                    )  # fmt: skip
                 done += 1
-                if info.get("cost", 0.0) > 0.0:
+                if cost > 0.0:
                     failures += 1
                     episode_failures += 1
+                    costs += cost
+                    episode_cost += cost
                 if terminated or truncated or episode_steps >= cap:
                     state = None
                     self.last_episode = EpisodeStats(
@@ -280,6 +295,7 @@ class Stepper:
                         discounted_return=float(discounted),
                         num_steps=episode_steps,
                         num_failures=episode_failures,
+                        cost=float(episode_cost),
                     )
                     if stop_at_episode_end:
                         break
@@ -291,8 +307,11 @@ class Stepper:
         finally:
             self.total_steps += done
             self.num_failures += failures
+            self.total_cost += costs
             self._state, self._action = state, action
-            self._episode = (episode_steps, total, discounted, weight, episode_failures)
+            self._episode = (
+                episode_steps, total, discounted, weight, episode_failures, episode_cost
+            )  # fmt: skip
 
     def _timed_calls(self) -> tuple[Callable[..., Any], ...]:
         """``domain.step``, ``agent.act`` and ``agent.learn`` adding their time to `timings`."""
@@ -470,12 +489,14 @@ def greedy_episodes(
             discounted_return=float(discounted),
             num_steps=int(length),
             num_failures=int(failures),
+            cost=float(cost),
         )
-        for total, discounted, length, failures in zip(
+        for total, discounted, length, failures, cost in zip(
             played.episode_returns,
             played.discounted_returns,
             played.episode_lengths,
             played.episode_failures,
+            played.episode_costs,
             strict=True,
         )
     ]

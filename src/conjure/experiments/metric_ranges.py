@@ -61,6 +61,9 @@ FIXED_RANGES = {
     "learning_steps": (0.0, math.inf),
     "learning_episodes": (0.0, math.inf),
     "learning_failures": (0.0, math.inf),
+    "learning_cost": (0.0, math.inf),
+    "cost_rate": (0.0, math.inf),
+    "episode_cost": (0.0, math.inf),
 }
 #: The per-run columns of a results table that hold what the run's domain declared.
 DOMAIN_BOUND_COLUMNS = (

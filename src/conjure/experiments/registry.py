@@ -28,6 +28,7 @@ from conjure.core.params import Configurable, did_you_mean
 
 __all__ = [
     "AGENTS",
+    "CONSTRAINTS",
     "COOPERATIVE_PLANNERS",
     "DOMAINS",
     "LAYERS",
@@ -179,6 +180,13 @@ SCHEDULES = Registry(
         "FeatureNormalizedDecay": "conjure.core.schedules:FeatureNormalizedDecay",
     }
 )
+#: Cost constraints of the linear TD learners (`conjure.agents.constraints`).
+CONSTRAINTS = Registry(
+    {
+        "Lagrangian": "conjure.agents.constraints:Lagrangian",
+        "PIDLagrangian": "conjure.agents.constraints:PIDLagrangian",
+    }
+)
 
 #: Every registry by layer name (the ``layer`` argument of `build`).
 LAYERS: dict[str, Registry] = {
@@ -191,6 +199,7 @@ LAYERS: dict[str, Registry] = {
     "risk": RISK_ANALYZERS,
     "model": MODELS,
     "schedule": SCHEDULES,
+    "constraint": CONSTRAINTS,
 }
 
 

@@ -20,9 +20,12 @@ Notes
 - Choice (safety metrics, Section 5.4): a step is a failure when the domain reports
   ``info["cost"] > 0`` (entering a state with `Domain.is_constrained`). ``learning_failures``
   counts the failures of all learning steps so far; ``failure_rate`` is the fraction of the
-  greedy evaluation episodes with a failure; ``optimality`` is
-  (mean return − worst) / (best − worst) with (worst, best) = ``domain.value_bounds()`` (the
-  undiscounted return, as Figures 5-6b and 5-9 scale it), NaN when the domain has no bounds;
+  greedy evaluation episodes with a failure. Costs (constrained MDPs, Safety Gym's measures):
+  ``learning_cost`` is Σ c_t over all learning steps so far, ``cost_rate`` that sum over the
+  learning steps (NaN at step 0) and ``episode_cost`` the greedy episodes' mean Σ c_t.
+  ``optimality`` is (mean return − worst) / (best − worst) with (worst, best) =
+  ``domain.value_bounds()`` (the undiscounted return, as Figures 5-6b and 5-9 scale it), NaN
+  when the domain has no bounds;
   ``value_ratio`` is mean return / best (V/V*, the plain fraction of the optimum), NaN without
   bounds or when best ≤ 0. Both are reported because the worst policy can be far below every
   policy of interest (UAV 7-2: a crash costs −Σ rewards), which squeezes ``optimality`` toward
@@ -199,6 +202,7 @@ def _evaluate(
         "discounted_return": float(np.mean([s.discounted_return for s in stats])),
         "episode_length": float(np.mean([s.num_steps for s in stats])),
         "failure_rate": float(np.mean([s.num_failures > 0 for s in stats])),
+        "episode_cost": float(np.mean([s.cost for s in stats])),
         "optimality": math.nan
         if bounds is None
         else (mean_return - bounds[0]) / (bounds[1] - bounds[0]),
@@ -213,7 +217,7 @@ def evaluate(*, domain: Domain, agent: Agent, seed: int, num_episodes: int = 1) 
     it is (never set up again, its weights untouched); ``domain`` is reset with ``seed`` before
     each of ``num_episodes`` greedy episodes. Returns the policy-check columns of
     `CURVE_COLUMNS`: ``return``, ``discounted_return``, ``episode_length``, ``failure_rate``,
-    ``optimality`` and ``value_ratio``.
+    ``episode_cost``, ``optimality`` and ``value_ratio``.
     """
     check_is_set_up(agent, "evaluate")
     num_episodes = check_count("evaluate.num_episodes", num_episodes, 1, MAX_EVAL_EPISODES)
@@ -335,6 +339,8 @@ def run(
                 "learning_steps": loop.total_steps,
                 "learning_episodes": loop.num_completed_episodes,
                 "learning_failures": loop.num_failures,
+                "learning_cost": loop.total_cost,
+                "cost_rate": loop.total_cost / loop.total_steps if loop.total_steps else math.nan,
                 **checked,
                 "num_features": int(agent.num_features),
                 "wall_time_s": wall_time,

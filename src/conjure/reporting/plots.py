@@ -25,6 +25,9 @@ Notes
   seeds is shown only when the labels differ in it.
 - Choice: files are named after their metric (``learning_curve_<metric>.png``), so a plot of
   one metric never replaces a plot of another.
+- Choice: performance profiles are drawn by rliable's own
+  `rliable.plot_utils.plot_performance_profiles` on conjure's axes, colours, line styles,
+  side legend and layout.
 """
 
 from __future__ import annotations
@@ -54,6 +57,7 @@ from conjure.experiments.results import (
     t_confidence,
     write_atomic,
 )
+from conjure.reporting.statistics import PROFILE_COLUMNS
 
 __all__ = [
     "METRIC_LABELS",
@@ -62,7 +66,9 @@ __all__ = [
     "learning_curve_figure",
     "method_labels",
     "panel_figure",
+    "performance_profile_figure",
     "plot_learning_curves",
+    "plot_performance_profiles",
     "plot_results_dir",
 ]
 
@@ -78,6 +84,9 @@ METRIC_LABELS = {
     "wall_time_s": "Learning wall time (s)",
     "learning_episodes": "Learning episodes",
     "learning_failures": "Failures during learning (cumulative)",
+    "learning_cost": "Cost during learning (cumulative)",
+    "cost_rate": "Cost rate while learning (cost per step)",
+    "episode_cost": "Greedy episodic cost",
 }
 #: Line styles and markers, cycled beside the ten colours (lines 0 and 1 differ in all three).
 LINE_STYLES = ("-", "--", ":", "-.")
@@ -354,3 +363,67 @@ def plot_results_dir(
     return plot_learning_curves(
         frame, path, metric=metric, title=results_name(results_dir), panels=panels
     )
+
+
+def plot_performance_profiles(
+    profiles: pd.DataFrame, path: str | Path, *, score: str = "score", title: str = ""
+) -> Path:
+    """Plot performance profiles: per method, the fraction of runs scoring above τ.
+
+    Parameters
+    ----------
+    profiles : pandas.DataFrame
+        `conjure.reporting.statistics.performance_profile`'s table (`PROFILE_COLUMNS`).
+    path : str or Path
+        The PNG to write.
+    score : str, default "score"
+        What the runs scored (the x axis reads ``<score> (τ)``).
+    title : str, default ""
+        The plot's title.
+
+    Returns
+    -------
+    Path
+        ``path``.
+    """
+    figure = performance_profile_figure(profiles, score=score, title=title)
+    image = io.BytesIO()
+    figure.savefig(image, format="png", bbox_inches="tight")
+    return write_atomic(path, image.getvalue())
+
+
+def performance_profile_figure(
+    profiles: pd.DataFrame, *, score: str = "score", title: str = ""
+) -> Figure:
+    """Draw `plot_performance_profiles`' figure and return it unsaved (same arguments)."""
+    missing = [c for c in PROFILE_COLUMNS if c not in profiles.columns]
+    if missing or profiles.empty:
+        raise InvalidParameterError(
+            "Cannot plot performance profiles: expected the table of performance_profile "
+            f"(columns {', '.join(PROFILE_COLUMNS)}); got "
+            + (f"no column(s) {', '.join(missing)}." if missing else "an empty table.")
+        )
+    # Imported when used: rliable's plotting module loads pyplot and seaborn.
+    from rliable import plot_utils
+
+    figure = Figure(figsize=(10, 6), dpi=120)
+    FigureCanvasAgg(figure)
+    axes = figure.add_subplot()
+    by_method = dict(tuple(profiles.groupby("method", sort=False)))
+    thresholds = next(iter(by_method.values()))["threshold"].to_numpy()
+    plot_utils.plot_performance_profiles(
+        {m: t["fraction"].to_numpy() for m, t in by_method.items()},
+        thresholds,
+        performance_profile_cis={m: (t["low"], t["high"]) for m, t in by_method.items()},
+        ax=axes,
+        colors={m: f"C{i % 10}" for i, m in enumerate(by_method)},
+        linestyles={m: LINE_STYLES[i % len(LINE_STYLES)] for i, m in enumerate(by_method)},
+        xlabel=f"{score} (τ)",
+        ylabel="Fraction of runs scoring above τ",
+        labelsize="medium",
+        ticklabelsize="medium",
+    )
+    axes.set_title(title)
+    band = "shaded: 95% stratified-bootstrap\ninterval (rliable)"
+    _lay_out(figure, axes, _side_legend(axes, band))
+    return figure

@@ -3,31 +3,28 @@
 The report holds, per domain: learning curves per method (mean over seeds with a 95%
 Student-t band), the number of features over learning (as Figs. 4-4 and 4-9 of Geramifard
 (2012)), a final-performance table (mean with a 95% t-interval, and the interquartile mean
-(IQM) with a 95% stratified-bootstrap interval), and wall time and learning steps per second
-per method. With a grid selection it adds the chosen settings and the report of their
-fresh-seed rerun (``selected/report.md``).
+(IQM) with a 95% stratified-bootstrap interval, by rliable), and wall time and learning steps
+per second per method. With a grid selection it adds the chosen settings and the report of
+their fresh-seed rerun (``selected/report.md``).
 
 Notes
 -----
-- Choice: the IQM is the mean of the middle 50% of runs (`scipy.stats.trim_mean` with 0.25),
-  robust to a few outlying seeds; its interval is the percentile interval of a bootstrap
-  that resamples runs with replacement within each stratum (task) separately, as Agarwal et
-  al. (2021) recommend. In a per-domain table there is one stratum; `iqm_interval` takes
-  several. Implemented with numpy and scipy (no dependency on rliable).
+- Choice: the IQM and its interval are `conjure.reporting.statistics.iqm_interval` (rliable:
+  the mean of the middle 50% of runs, robust to a few outlying seeds, with the percentile
+  interval of a bootstrap over runs, `DEFAULT_REPS` resamples, seed 0), over the runs whose
+  value is finite, as the mean's t-interval is; a method with one such run has no interval.
 - Choice: a method is an agent label plus its grid setting, so every grid point is one line.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
 import click
 import numpy as np
 import pandas as pd
-from scipy import stats
 
 from conjure.core.errors import InvalidParameterError, write_failure
 from conjure.experiments.metric_ranges import metric_range
@@ -50,88 +47,15 @@ from conjure.experiments.results import (
     write_atomic,
 )
 from conjure.reporting.plots import method_labels, plot_learning_curves
+from conjure.reporting.statistics import iqm_interval
 
 __all__ = [
     "collect",
-    "iqm",
-    "iqm_interval",
     "report_command",
-    "stratified_bootstrap",
     "write_report",
 ]
 
 REPORT_FILE = "report.md"
-
-
-def iqm(values: Sequence[float] | np.ndarray) -> float:
-    """Return the interquartile mean: the mean of the middle 50% of ``values``.
-
-    Examples
-    --------
-    >>> iqm([0.0, 1.0, 2.0, 3.0, 100.0, 4.0, 5.0, 6.0])
-    3.5
-    """
-    array = np.asarray(values, dtype=np.float64)
-    array = array[np.isfinite(array)]
-    return float(stats.trim_mean(array, 0.25)) if array.size else math.nan
-
-
-def stratified_bootstrap(
-    strata: Sequence[Sequence[float]],
-    statistic: Callable[[np.ndarray], float] = iqm,
-    *,
-    num_resamples: int = 2000,
-    level: float = 0.95,
-    seed: int = 0,
-) -> tuple[float, float, float]:
-    """Return ``statistic`` of the pooled runs and its percentile bootstrap interval.
-
-    Each resample draws, within every stratum (task) separately, as many runs as it has, with
-    replacement, then pools them.
-
-    Parameters
-    ----------
-    strata : sequence of sequences of float
-        One score per run, grouped by stratum.
-    statistic : callable, default `iqm`
-        Maps a 1-D array to a number.
-    num_resamples : int, default 2000
-        Bootstrap resamples.
-    level : float, default 0.95
-        The interval's coverage.
-    seed : int, default 0
-        Of the resampling generator.
-
-    Returns
-    -------
-    tuple of float
-        ``(point, low, high)``; the interval is NaN for fewer than two runs.
-
-    Examples
-    --------
-    >>> point, low, high = stratified_bootstrap([[1.0, 2.0, 3.0, 4.0]], num_resamples=200)
-    >>> point, low <= point <= high
-    (2.5, True)
-    """
-    arrays = [np.asarray(s, dtype=np.float64) for s in strata]
-    arrays = [a[np.isfinite(a)] for a in arrays if a.size]
-    pooled = np.concatenate(arrays) if arrays else np.empty(0)
-    point = float(statistic(pooled)) if pooled.size else math.nan
-    if pooled.size < 2:
-        return point, math.nan, math.nan
-    rng = np.random.default_rng(seed)
-    draws = np.empty(num_resamples)
-    for r in range(num_resamples):
-        sample = [a[rng.integers(a.size, size=a.size)] for a in arrays if a.size]
-        draws[r] = statistic(np.concatenate(sample))
-    tail = (1.0 - level) / 2
-    low, high = np.quantile(draws, [tail, 1.0 - tail])
-    return point, float(low), float(high)
-
-
-def iqm_interval(strata: Sequence[Sequence[float]], **kwargs: Any) -> tuple[float, float, float]:
-    """Return the IQM of the pooled runs with its stratified-bootstrap interval."""
-    return stratified_bootstrap(strata, iqm, **kwargs)
 
 
 def collect(results_dir: str | Path) -> pd.DataFrame:
@@ -231,8 +155,12 @@ def _finite_mean(values: pd.Series) -> float:
     return t_confidence(values.to_numpy(dtype=float))[0]
 
 
-def _iqm_text(point: float, low: float, high: float) -> str:
-    """``IQM [low, high]``, each to 4 significant digits."""
+def _iqm_text(values: np.ndarray) -> str:
+    """``IQM [low, high]`` of the finite ``values``, each to 4 significant digits."""
+    finite = values[np.isfinite(values)]
+    if finite.size == 0:
+        return "n/a"
+    point, low, high = iqm_interval(finite)
     return f"{format_number(point)} [{format_number(low)}, {format_number(high)}]"
 
 
@@ -242,12 +170,11 @@ def _final_table(finals: pd.DataFrame, metric: str) -> pd.DataFrame:
     rows = []
     for method, group in finals.groupby("method", sort=False):
         values = group[metric].to_numpy(dtype=float)
-        point, low, high = iqm_interval([values])
         row = {
             "method": method,
             "runs": len(values),
             f"mean {metric} ± 95% t": _mean_interval(group, metric),
-            f"IQM {metric} [95% bootstrap]": _iqm_text(point, low, high),
+            f"IQM {metric} [95% bootstrap]": _iqm_text(values),
             "final features": f"{group['num_features'].mean():,.0f}",
         }
         for column in safety:

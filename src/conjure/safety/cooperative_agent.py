@@ -142,6 +142,12 @@ class CooperativeAgent(Agent):
     def setup(self, spec: DomainSpec, seed: int | np.random.SeedSequence) -> CooperativeAgent:
         """Set up model → planner → risk analyser → learner, then the per-state tables."""
         self.validate_params()
+        if getattr(self.learner, "constraint", None) is not None:
+            raise IncompatibleComponentsError(
+                f"{type(self).__name__} cannot box a learner with a cost constraint "
+                f"({self.learner.constraint!r}): the planner and risk analyser decide what is "
+                f"safe; give the learner constraint=None."
+            )
         seeds = split_seed(seed, SEED_NAMES)
         self.spec_ = spec
         self.model_, self.planner_, self.risk_ = set_up_control_box(
