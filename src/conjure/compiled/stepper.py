@@ -324,6 +324,7 @@ class CompiledStepper:
                 before = int(state.episode[0])
                 started = time.perf_counter()
                 status, steps, fails, costs, delta, ep_float, ep_int = self._call(
+                    agent,
                     min(num_steps - done, self._chunk, self._max_chunk),
                     domain_form,
                     max_episodes - ended,
@@ -392,43 +393,58 @@ class CompiledStepper:
                     return error
         return InvalidParameterError(f"A full index could not store state {self._obs.tolist()}.")
 
-    def _call(self, num_steps: int, domain_form: DomainKernel, max_episodes: int) -> tuple:
+    def _call(
+        self, agent: Agent, num_steps: int, domain_form: DomainKernel, max_episodes: int
+    ) -> tuple:
         """One call of the loop over the components' compiled forms, their state, in place.
 
-        With iFDD θ first gets a row for every feature the tables hold (`reserve_rows`).
+        ``agent``: the learner whose kernels run. With iFDD θ first gets a row for every
+        feature the tables hold (`reserve_rows`).
         """
-        agent = learner_of(self.agent)
         if self._is_ifdd:
             agent.reserve_rows(agent.representation_.feature_capacity_)
-        args = (domain_form, self._loop_arguments(), self.selection.max_episode_steps, self.learn)
-        name = _kernel_name(self.selection)
-        if name not in _COMPILE_SECONDS:  # a zero-step call: compile (or load the cache) alone
-            started = time.perf_counter()
-            run_loop(0, *args, max_episodes)
-            _COMPILE_SECONDS[name] = time.perf_counter() - started
-        if self._compiled is None:
-            self._compiled = compiled_function(run_loop, (num_steps, *args, max_episodes))
+        arguments = self._loop_arguments(agent)
+        cap, learn = self.selection.max_episode_steps, self.learn
+        compiled = self._compiled
+        if compiled is None:
+            args = (domain_form, arguments, cap, learn)
+            name = _kernel_name(self.selection)
+            if name not in _COMPILE_SECONDS:  # a zero-step call: compile (or load the cache)
+                started = time.perf_counter()
+                run_loop(0, *args, max_episodes)
+                _COMPILE_SECONDS[name] = time.perf_counter() - started
+            compiled = self._compiled = compiled_function(
+                run_loop, (num_steps, *args, max_episodes)
+            )
         try:
-            return self._compiled(num_steps, *args, max_episodes)
+            return compiled(num_steps, domain_form, arguments, cap, learn, max_episodes)
         finally:
             agent.forget_cache()  # θ changed under ``act``'s cached Q-values
 
-    def _loop_arguments(self) -> LoopArguments:
+    def _loop_arguments(self, agent: Agent | None = None) -> LoopArguments:
         """The `LoopArguments`, built again only when a component replaced its form.
 
         Read from the components' own state: the learner's ``state_`` (replaced when θ or its
         traces are reallocated) and ``rng_``, the domain's ``np_random`` (replaced by a seeded
         reset), iFDD's tables (replaced when they grow) and the box's kept form. A fixed
-        representation's form never changes after its ``setup``.
+        representation's form never changes after its ``setup``. ``agent``: the learner
+        (`learner_of` the stepper's agent).
         """
-        agent = learner_of(self.agent)
+        if agent is None:
+            agent = learner_of(self.agent)
         tables = agent.representation_.kernel_tables() if self._is_ifdd else None
         box = self.agent.compiled_form() if agent is not self.agent else None
-        sources = (agent.state_, agent.rng_, self.domain.np_random, tables, box)
-        if self._arguments is not None and all(
-            old is new for old, new in zip(self._sources, sources, strict=True)
+        domain_rng, old = self.domain.np_random, self._sources
+        if (
+            old
+            and old[0] is agent.state_
+            and old[1] is agent.rng_
+            and old[2] is domain_rng
+            and old[3] is tables
+            and old[4] is box
         ):
             return self._arguments
+        sources = (agent.state_, agent.rng_, domain_rng, tables, box)
         rep = representation_form(agent)
         assert rep is not None  # `select` checked it
         form = box_form(self.agent, rep)
