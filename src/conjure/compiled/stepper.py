@@ -324,7 +324,6 @@ class CompiledStepper:
                 before = int(state.episode[0])
                 started = time.perf_counter()
                 status, steps, fails, costs, delta, ep_float, ep_int = self._call(
-                    agent,
                     min(num_steps - done, self._chunk, self._max_chunk),
                     domain_form,
                     max_episodes - ended,
@@ -393,14 +392,12 @@ class CompiledStepper:
                     return error
         return InvalidParameterError(f"A full index could not store state {self._obs.tolist()}.")
 
-    def _call(
-        self, agent: Agent, num_steps: int, domain_form: DomainKernel, max_episodes: int
-    ) -> tuple:
+    def _call(self, num_steps: int, domain_form: DomainKernel, max_episodes: int) -> tuple:
         """One call of the loop over the components' compiled forms, their state, in place.
 
-        ``agent``: the learner whose kernels run. With iFDD θ first gets a row for every
-        feature the tables hold (`reserve_rows`).
+        With iFDD θ first gets a row for every feature the tables hold (`reserve_rows`).
         """
+        agent = learner_of(self.agent)
         if self._is_ifdd:
             agent.reserve_rows(agent.representation_.feature_capacity_)
         arguments = self._loop_arguments(agent)
