@@ -409,6 +409,25 @@ def test_the_grid_rollouts_renumbered_by_row_judge_as_the_analysers_own():
             assert failures / 5 == expected
 
 
+def test_the_analyser_judges_with_the_policy_a_compiled_switch_chose():
+    # The compiled box switches π^p in the planner's own array and tells the analyser
+    # nothing; its Python rollouts still follow the policy in use, as a twin's told by
+    # `update` after the same counts.
+    domain = _gridworld_2()
+    agent = _grid_am_icca(domain, "adaptive").setup(domain.domain_spec, 0)
+    states = agent.risk_.model_.domain_.model().states[::9]
+    agent.risk_.risk(states[0], 0)  # π^p tabulated: the conservative policy
+    for_combination(domain, agent, seed=0).advance(300)
+    assert agent.planner_.is_aggressive_  # switched inside the kernel
+    twin = _grid_am_icca(domain, "adaptive").setup(domain.domain_spec, 0)
+    twin.model_.load_counts(agent.model_.num_unintended_, agent.model_.num_moves_)
+    twin.risk_.update(is_policy_changed=twin.planner_.update(twin.model_))
+    for state in states:
+        for action in range(4):
+            expected = twin.risk_.risk(state, action, rng=np.random.default_rng(7))
+            assert agent.risk_.risk(state, action, rng=np.random.default_rng(7)) == expected
+
+
 def test_the_box_tabulates_once_per_plan_and_again_after_a_restore(tmp_path):
     domain = GridWorld.gridworld_1()
     agent = _box(domain, "fading").setup(domain.domain_spec, 0)
