@@ -108,6 +108,12 @@ _COMPILE_SECONDS: dict[str, float] = {}
 _NO_LIMIT = 2**62
 #: Position of the `LoopArguments` among `run_loop`'s arguments.
 _ARGUMENTS_POSITION = 2
+#: `AdvanceStats`' five per-episode arrays when no episode ended (read-only, shared).
+_NO_EPISODES = tuple(
+    np.zeros(0, dtype=dtype) for dtype in (np.float64, np.float64, np.int64, np.int64, np.float64)
+)
+for _empty in _NO_EPISODES:
+    _empty.flags.writeable = False
 #: `LoopArguments`' fields: `learning_loop`'s arguments that stay the same from call to call.
 _ARGUMENT_FIELDS = (
     "domain_rng", "rep", "agent", "arrays", "row_traces", "agent_rng", "obs", "state", "box",
@@ -321,7 +327,7 @@ class CompiledStepper:
         raised: BaseException | None = None
         try:
             while done < num_steps and ended < max_episodes:
-                before = int(state.episode[0])
+                before = int(state.episode[0]) if self.learn else 0
                 started = time.perf_counter()
                 status, steps, fails, costs, delta, ep_float, ep_int = self._call(
                     min(num_steps - done, self._chunk, self._max_chunk),
@@ -362,9 +368,9 @@ class CompiledStepper:
             raise _divergence(agent, diverged)
         if raised is not None:  # the domain's own exception, as on the Python path
             raise raised
-        if not chunks:
-            ep_float, ep_int = np.zeros((0, 3)), np.zeros((0, 2), np.int64)
-        elif len(chunks) == 1:
+        if ended == 0:  # the common short call: no episode ended
+            return AdvanceStats(done, failures, cost, *_NO_EPISODES)
+        if len(chunks) == 1:
             ep_float, ep_int = chunks[0]
         else:
             ep_float = np.concatenate([c[0] for c in chunks])
