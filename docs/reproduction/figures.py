@@ -102,8 +102,10 @@ def selection_rows(name: str) -> str:
     selection = pd.read_csv(path, keep_default_na=False)
     chosen = selection[selection["setting"] != ""]
     lines = [f"Selected by {chosen['criterion'].iloc[0]} on the search seeds:", ""]
+    # with a cost limit the count is of the settings within it, else of those that finished
+    counted = "within the limit" if "episodic cost" in chosen["criterion"].iloc[0] else "finished"
     for row in chosen.itertuples():
-        lines.append(f"- `{row.label}`: {row.setting} ({row.num_settings} settings finished)")
+        lines.append(f"- `{row.label}`: {row.setting} ({row.num_settings} settings {counted})")
     return "\n".join(lines)
 
 
@@ -187,7 +189,7 @@ def figure_order(page: Path) -> tuple[int, ...]:
 def pages(texts: dict[Path, str]) -> list[Path]:
     """The figure pages (those on disk and ``texts``'s), in the thesis's order."""
     found = {*HERE.glob("*.md"), *texts} - {INDEX}
-    return sorted(found, key=figure_order)
+    return sorted(found, key=lambda page: (figure_order(page), page.name))
 
 
 def new_pages(texts: dict[Path, str]) -> dict[Path, str]:

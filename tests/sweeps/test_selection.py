@@ -43,6 +43,25 @@ def test_scores_and_eligibility():
     assert math.isnan(select_best(results.query("run_id == 'r3'")).iloc[0]["score_ci95"])
 
 
+def test_a_cost_limit_makes_only_settings_within_it_eligible():
+    rows = []
+    for run, setting, ret, cost in (
+        ("a0", "x=1", 9.0, 0.5), ("a1", "x=1", 9.0, 0.3),  # best return, mean cost 0.4
+        ("b0", "x=2", 5.0, 0.1), ("b1", "x=2", 5.0, 0.1),  # within d = 0.2
+        ("c0", "x=3", 1.0, 0.0), ("c1", "x=3", 1.0, 0.0),
+    ):  # fmt: skip
+        seed = int(run[1])
+        rows += [(run, "m", setting, seed, 0, 0.0, 0.0), (run, "m", setting, seed, 10, ret, cost)]
+    columns = ["run_id", "label", "setting", "seed", "learning_steps", "return", "episode_cost"]
+    results = pd.DataFrame(rows, columns=columns)
+    assert select_best(results).iloc[0]["setting"] == "x=1"
+    row = select_best(results, cost_limit=0.2).iloc[0]
+    assert (row["setting"], row["num_settings"]) == ("x=2", "2/3")
+    # None within the limit: the lowest mean final cost.
+    row = select_best(results.query("setting != 'x=3'"), cost_limit=0.05).iloc[0]
+    assert (row["setting"], row["num_settings"]) == ("x=2", "0/2")
+
+
 def test_fresh_seeds():
     assert fresh_seeds([0, 1, 2], 2) == [3, 4]
     assert fresh_seeds([0, 1], [10, 11]) == [10, 11]

@@ -65,6 +65,7 @@ from conjure.sweeps.sweep import (
 
 __all__ = [
     "FIGURES",
+    "GROUPS",
     "METRICS",
     "QUICK_SEEDS",
     "SCALES",
@@ -73,6 +74,7 @@ __all__ = [
     "above",
     "above_best",
     "at_most",
+    "cheaper_at_return",
     "check_scale",
     "claim_rows",
     "comparison_markdown",
@@ -86,6 +88,7 @@ __all__ = [
     "load_figure_sweep",
     "no_better",
     "ratio_within",
+    "share_within",
     "summary_table",
     "within",
 ]
@@ -102,6 +105,8 @@ METRICS = {
     "optimality": "optimality",
     "failure_rate": "failure rate",
     "learning_failures": "failures while learning",
+    "episode_cost": "episodic cost",
+    "learning_cost": "cost while learning",
 }
 
 Measure = Callable[[pd.DataFrame], tuple[str, bool]]
@@ -366,6 +371,42 @@ def at_most(label: str, other: str, fraction: float, metric: str = "learning_fai
     return measure
 
 
+def share_within(label: str, metric: str, high: float, share: float) -> Measure:
+    """At least ``share`` of ``label``'s runs end with ``metric`` at most ``high`` (a limit)."""
+
+    def measure(finals: pd.DataFrame) -> tuple[str, bool]:
+        chosen = values(finals, label, metric)
+        inside = int(np.count_nonzero(chosen <= high))
+        text = f"{label}: {inside} of {chosen.size} runs ≤ {high:g}"
+        return text, inside >= share * chosen.size
+
+    return measure
+
+
+def cheaper_at_return(
+    cooperative: tuple[str, ...], constrained: tuple[str, ...], fraction: float
+) -> Measure:
+    """The best of ``cooperative`` costs at most ``fraction`` × the best of ``constrained``.
+
+    "Best" is the highest mean final return of each group; the claim holds when the
+    cooperative one's mean ``learning_cost`` is at most ``fraction`` × the constrained one's
+    and its final return is not significantly below (the 95% Welch interval of the difference
+    reaches 0 or above).
+    """
+
+    def measure(finals: pd.DataFrame) -> tuple[str, bool]:
+        best = {
+            group: max(labels, key=lambda label: values(finals, label, "return").mean())
+            for group, labels in (("cooperative", cooperative), ("constrained", constrained))
+        }
+        mine, theirs = best["cooperative"], best["constrained"]
+        cost_text, cheaper = at_most(mine, theirs, fraction, "learning_cost")(finals)
+        return_text, level_or_above = above(mine, theirs, significant=False)(finals)
+        return f"{cost_text}; {return_text}", cheaper and level_or_above
+
+    return measure
+
+
 def every_run_within(label: str, metric: str, low: float, high: float) -> Measure:
     """Every run's final ``metric`` of ``label`` lies in [low, high] ("always")."""
 
@@ -484,6 +525,55 @@ def _fig_4_5(domain: str, panel: str, metric: str, claims: tuple[Claim, ...]) ->
 
 
 #: Section 4.1.4 on the Rescue Mission (Fig. 4-5(d)).
+#: The constrained learners of every safe-RL comparison (`_safe_rl`).
+_CONSTRAINED = ("sarsa_lagrangian", "sarsa_pid_lagrangian")
+#: The comparison without a shield (its Monte-Carlo analyser is too slow on the Python path).
+_NO_SHIELD = "safe_rl_gridworld_2"
+
+
+def _safe_rl(
+    domain: str,
+    name: str,
+    cost_limit: float,
+    constrained: tuple[str, ...],
+    cooperative: tuple[str, ...],
+    shielded: bool = True,
+) -> Figure:
+    """A safe-RL comparison on one domain: constrained learners, a shield and iCCA's boxes."""
+    return Figure(
+        f"Safe exploration against constrained RL: {domain}, cost limit d = {cost_limit:g}",
+        f"examples/reproduction/{name}.yaml",
+        ("return", "episode_cost", "learning_cost"),
+        (
+            *(
+                Claim(
+                    f"{label} ends within d on at least 80% of the runs",
+                    "(issue 34's target)",
+                    share_within(label, "episode_cost", cost_limit, 0.8),
+                )
+                for label in constrained
+            ),
+            Claim(
+                "the best cooperative learner's cost while learning is at most half the best "
+                "constrained learner's, at an equal or better final return",
+                "(issue 34's target)",
+                cheaper_at_return(cooperative, constrained, 0.5),
+            ),
+            *(
+                (
+                    Claim(
+                        "the shield costs less than SARSA alone while learning",
+                        "(not in the thesis)",
+                        at_most("shield", "sarsa", 1.0, "learning_cost"),
+                    ),
+                )
+                if shielded
+                else ()
+            ),
+        ),
+    )
+
+
 _RESCUE = (
     "Section 4.1.4: \"after 20,000 steps, iFDD's richer representation allowed it to encode "
     'a policy that outperformed all other methods."'
@@ -1000,6 +1090,33 @@ FIGURES: dict[str, Figure] = {
             ),
         ),
     ),
+    **{
+        name: _safe_rl(title, name, cost_limit, learners, cooperative, name != _NO_SHIELD)
+        for name, title, cost_limit, learners, cooperative in (
+            (
+                "safe_rl_gridworld_1",
+                "GridWorld-1",
+                0.15,
+                (*_CONSTRAINED, "actor_critic_pid_lagrangian"),
+                ("csarsa", "icca"),
+            ),
+            (
+                "safe_rl_gridworld_1_1e5",
+                "GridWorld-1 with 10⁵ steps",
+                0.15,
+                (*_CONSTRAINED, "actor_critic_pid_lagrangian"),
+                ("csarsa", "icca"),
+            ),
+            ("safe_rl_gridworld_2", "GridWorld-2", 0.05, _CONSTRAINED, ("icca", "am_icca")),
+            (
+                "safe_rl_uav_7_2",
+                "UAV 7-2 with 5% traverse failures",
+                0.1,
+                (*_CONSTRAINED, "actor_critic_pid_lagrangian"),
+                ("csarsa", "icca", "am_icca"),
+            ),
+        )
+    },
     "ifdd_csarsa": Figure(
         "Section 6.2.6: CSARSA with online iFDD⁺ on UAV 10-2 with 5% failures",
         "examples/reproduction/ifdd_csarsa.yaml",
@@ -1015,8 +1132,14 @@ FIGURES: dict[str, Figure] = {
 }
 
 
+#: Ids that name several figures: ``safe_rl`` is the comparison on its three domains.
+GROUPS = {"safe_rl": tuple(name for name in FIGURES if name.startswith("safe_rl_"))}
+
+
 def figure_names(names: Sequence[str]) -> list[str]:
     """Return ``names`` checked against `FIGURES` (``fig_5_5``, ``5_5`` and ``5-5`` all name one).
+
+    A `GROUPS` id names its figures.
 
     Raises
     ------
@@ -1026,6 +1149,9 @@ def figure_names(names: Sequence[str]) -> list[str]:
     chosen = []
     for name in names:
         key = name.strip().lower().replace("-", "_").replace(".", "_")
+        if key in GROUPS:
+            chosen.extend(GROUPS[key])
+            continue
         key = key if key in FIGURES else f"fig_{key}"
         if key == "fig_3_15":
             raise InvalidParameterError(
@@ -1034,8 +1160,8 @@ def figure_names(names: Sequence[str]) -> list[str]:
             )
         if key not in FIGURES:
             raise InvalidParameterError(
-                f"Unknown figure {name!r}.{did_you_mean(name, list(FIGURES))} Known: "
-                f"{', '.join(FIGURES)} (`conjure reproduce --list`)."
+                f"Unknown figure {name!r}.{did_you_mean(name, [*FIGURES, *GROUPS])} Known: "
+                f"{', '.join([*FIGURES, *GROUPS])} (`conjure reproduce --list`)."
             )
         chosen.append(key)
     return list(dict.fromkeys(chosen))

@@ -15,6 +15,11 @@ Notes
 - Choice: only settings whose every seed finished are eligible; a setting that diverged on
   some seeds is never chosen on the strength of the seeds that survived. Ties go to the first
   setting in grid order.
+- ``cost_limit`` d (a constrained MDP's limit on the cost per episode): only settings whose
+  mean final ``episode_cost`` over the search seeds is at most d are eligible, as a
+  constrained learner's limit asks of its final policy; when no setting meets it, the one
+  with the lowest mean final ``episode_cost`` is chosen (the ``num_settings`` column then
+  reads ``0/n``).
 - Choice: fresh seeds start after the largest seed used in the grid. With ``fresh_seeds: 0``
   there is no rerun, and the chosen settings are shown on the search seeds
   (`selected_results`), whose numbers the choice biases upward.
@@ -85,6 +90,7 @@ def select_best(
     metric: str = "return",
     criterion: str = "auc",
     mode: str = "max",
+    cost_limit: float | None = None,
 ) -> pd.DataFrame:
     """Return each method's best setting, one row per (domain, agent label).
 
@@ -98,6 +104,8 @@ def select_best(
         See the module notes.
     mode : {"max", "min"}, default "max"
         Whether a larger score is better (``min`` for e.g. steps to the goal).
+    cost_limit : float or None, default None
+        d: only settings whose mean final ``episode_cost`` is at most d (module notes).
 
     Returns
     -------
@@ -111,6 +119,9 @@ def select_best(
     scores = score_runs(results, metric, criterion)
     runs = results.drop_duplicates("run_id").set_index("run_id")
     runs = runs.assign(score=scores.reindex(runs.index))
+    if cost_limit is not None:
+        costs = score_runs(results, "episode_cost", "final")
+        runs = runs.assign(final_cost=costs.reindex(runs.index))
     if "setting" not in runs.columns:
         runs["setting"] = ""
     method = [c for c in _METHOD if c in runs.columns]
@@ -119,14 +130,20 @@ def select_best(
         settings = []
         for setting, at_setting in group.groupby("setting", sort=False):
             mean, half = t_confidence(at_setting["score"])
-            settings.append((setting, mean, half, len(at_setting), at_setting.index[0]))
+            cost = float(at_setting["final_cost"].mean()) if cost_limit is not None else 0.0
+            settings.append((setting, mean, half, len(at_setting), at_setting.index[0], cost))
         most = max(s[3] for s in settings)
         eligible = [s for s in settings if s[3] == most and np.isfinite(s[1])]
         sign = 1.0 if mode == "max" else -1.0
+        count = len(eligible)
+        if cost_limit is not None:
+            feasible = [s for s in eligible if s[5] <= cost_limit]
+            count = len(feasible)
+            eligible = feasible or [min(eligible, key=lambda s: s[5])]
         best = max(eligible, key=lambda s: sign * s[1])
         keys = key if isinstance(key, tuple) else (key,)
         rows.append(
-            (*keys, best[0], best[1], best[2], best[3], f"{len(eligible)}/{len(settings)}", best[4])
+            (*keys, best[0], best[1], best[2], best[3], f"{count}/{len(settings)}", best[4])
         )
     columns = [
         *method,
@@ -138,7 +155,10 @@ def select_best(
         "run_id",
     ]
     table = pd.DataFrame(rows, columns=columns)
-    table.insert(len(method) + 2, "criterion", f"{criterion} of {metric} ({mode})")
+    rule = f"{criterion} of {metric} ({mode})"
+    if cost_limit is not None:
+        rule += f", final episodic cost ≤ {cost_limit:g}"
+    table.insert(len(method) + 2, "criterion", rule)
     return table
 
 

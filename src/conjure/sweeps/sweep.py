@@ -126,6 +126,7 @@ class SelectionConfig(BaseModel):
 
     criterion: Literal["auc", "final"] = "auc"
     mode: Literal["max", "min"] = "max"
+    cost_limit: Annotated[float, Field(gt=0, allow_inf_nan=False)] | None = None
     fresh_seeds: Annotated[
         int | list[int], BeforeValidator(functools.partial(parse_seeds, allow_zero=True))
     ] = 30
@@ -578,7 +579,11 @@ def run_sweep(
             return outcome
         choice = sweep.selection
         best = select_best(
-            outcome.results, metric=sweep.metric, criterion=choice.criterion, mode=choice.mode
+            outcome.results,
+            metric=sweep.metric,
+            criterion=choice.criterion,
+            mode=choice.mode,
+            cost_limit=choice.cost_limit,
         )
         try:
             write_atomic(out_dir / "selection.csv", best.to_csv(index=False))
