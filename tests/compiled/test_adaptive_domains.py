@@ -11,7 +11,7 @@ import pytest
 
 from conjure.agents import SARSA, ActorCritic, QLearning
 from conjure.compiled import CompiledStepper, for_combination, why_not_compiled
-from conjure.compiled import learning_loop as loop_module
+from conjure.compiled import stepper as stepper_module
 from conjure.core.schedules import EpisodicDecay, FeatureNormalizedDecay
 from conjure.domains import (
     BlocksWorld,
@@ -294,7 +294,9 @@ def test_one_compilation_serves_every_adaptive_combination():
             domain, agent = _build(rep, agent_name, 3)
             for_combination(domain, agent, seed=3).advance(30)
     binary = [
-        s for s in loop_module.learning_loop.overloads if str(s[3].types[0].types[-1]) == "none"
+        s
+        for s in stepper_module.run_loop.overloads
+        if str(stepper_module.representation_type(s).types[0].types[-1]) == "none"
     ]
     assert len(binary) == 1
 

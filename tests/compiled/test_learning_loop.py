@@ -7,7 +7,6 @@ from conjure.compiled import learning_loop as lp
 from conjure.compiled.combination import agent_form, box_form, representation_form
 from conjure.domains import ChainMDP
 from conjure.representations import Tabular
-from conjure.safety.compiled_cooperative import packed_parts
 
 
 def _loop_arguments(*, learn: bool = True, max_episodes: int = 10**6):
@@ -21,7 +20,7 @@ def _loop_arguments(*, learn: bool = True, max_episodes: int = 10**6):
     box = box_form(agent, rep)
     args = (domain.compiled_form(), domain.np_random, rep, agent_form(agent), arrays,
             agent.row_traces_, agent.rng_, 100, obs, state, box.box,
-            packed_parts(box.parts), learn, max_episodes)  # fmt: skip
+            box.parts, learn, max_episodes)  # fmt: skip
     return args, arrays, state
 
 

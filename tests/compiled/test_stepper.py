@@ -14,7 +14,6 @@ from conjure.compiled import (
     for_combination,
     warm_up,
 )
-from conjure.compiled import learning_loop as loop_module
 from conjure.compiled import stepper as stepper_module
 from conjure.core.errors import DivergenceError, InvalidParameterError
 from conjure.core.schedules import EpisodicDecay, FeatureNormalizedDecay
@@ -528,7 +527,10 @@ def test_one_compilation_serves_every_binary_combination_and_one_every_rbf_one()
         domain, agent = _build(name, 1)
         for_combination(domain, agent, seed=1).advance(50)
     # The representation's base ends with None (binary φ) or RBF's arrays (real-valued φ).
-    last = sorted(str(sig[3].types[0].types[-1]) for sig in loop_module.learning_loop.overloads)
+    last = sorted(
+        str(stepper_module.representation_type(sig).types[0].types[-1])
+        for sig in stepper_module.run_loop.overloads
+    )
     assert len(last) == 2 and last[1] == "none" and last[0].startswith("UniTuple")
 
 
@@ -609,6 +611,28 @@ def test_a_stepper_calls_the_compilation_numba_picked_for_its_argument_types():
     assert picked is not plus_one and picked(41) == 42
     # no compilation for these types yet: the dispatcher itself (it compiles on the call)
     assert stepper_module.compiled_function(plus_one, (1.5,)) is plus_one
+
+
+def test_a_stepper_packs_its_arguments_once_and_again_when_a_form_is_replaced():
+    # The call's unchanging arguments are packed from the components' forms (their state),
+    # kept while those are, and packed anew after the learner replaced its form: the steps
+    # after it update the new arrays, as if nothing had been replaced.
+    weights = []
+    for is_replaced in (False, True):
+        domain = ChainMDP()
+        agent = SARSA(representation=Tabular(), step_size=0.5).setup(domain.domain_spec, 0)
+        stepper = for_combination(domain, agent, seed=0)
+        stepper.advance(30)
+        halfway = agent.weights_.copy()
+        packed = stepper._loop_arguments()
+        assert stepper._loop_arguments() is packed
+        if is_replaced:
+            agent.reserve_rows(2 * agent.arrays_.weights.shape[0])  # a new form, θ copied
+            assert stepper._loop_arguments() is not packed
+        stepper.advance(30)
+        assert not np.array_equal(agent.weights_, halfway)
+        weights.append(agent.weights_.copy())
+    np.testing.assert_array_equal(weights[0], weights[1])
 
 
 def test_a_cached_only_warm_up_compiles_nothing(monkeypatch):

@@ -409,6 +409,25 @@ def test_the_grid_rollouts_renumbered_by_row_judge_as_the_analysers_own():
             assert failures / 5 == expected
 
 
+def test_the_analyser_judges_with_the_policy_a_compiled_switch_chose():
+    # The compiled box switches π^p in the planner's own array and tells the analyser
+    # nothing; its Python rollouts still follow the policy in use, as a twin's told by
+    # `update` after the same counts.
+    domain = _gridworld_2()
+    agent = _grid_am_icca(domain, "adaptive").setup(domain.domain_spec, 0)
+    states = agent.risk_.model_.domain_.model().states[::9]
+    agent.risk_.risk(states[0], 0)  # π^p tabulated: the conservative policy
+    for_combination(domain, agent, seed=0).advance(300)
+    assert agent.planner_.is_aggressive_  # switched inside the kernel
+    twin = _grid_am_icca(domain, "adaptive").setup(domain.domain_spec, 0)
+    twin.model_.load_counts(agent.model_.num_unintended_, agent.model_.num_moves_)
+    twin.risk_.update(is_policy_changed=twin.planner_.update(twin.model_))
+    for state in states:
+        for action in range(4):
+            expected = twin.risk_.risk(state, action, rng=np.random.default_rng(7))
+            assert agent.risk_.risk(state, action, rng=np.random.default_rng(7)) == expected
+
+
 def test_the_box_tabulates_once_per_plan_and_again_after_a_restore(tmp_path):
     domain = GridWorld.gridworld_1()
     agent = _box(domain, "fading").setup(domain.domain_spec, 0)
@@ -423,7 +442,7 @@ def test_the_box_tabulates_once_per_plan_and_again_after_a_restore(tmp_path):
     np.testing.assert_array_equal(again.safe, tables.safe)
 
 
-def test_a_static_box_keeps_one_compiled_form_and_an_adaptive_one_rebuilds_it(tmp_path):
+def test_a_box_keeps_one_compiled_form_its_state_until_a_restore(tmp_path):
     domain = GridWorld.gridworld_1()
     agent = _box(domain, "fading").setup(domain.domain_spec, 0)
     form = agent.compiled_form()
@@ -434,7 +453,11 @@ def test_a_static_box_keeps_one_compiled_form_and_an_adaptive_one_rebuilds_it(tm
     assert restored.compiled_form() is not form  # built anew around the restored state
     world = _gridworld_2()
     adaptive = _grid_am_icca(world, "adaptive").setup(world.domain_spec, 0)
-    assert adaptive.compiled_form() is not adaptive.compiled_form()  # T̂'s copies (Alg. 26)
+    form = adaptive.compiled_form()
+    for_combination(world, adaptive, seed=0).advance(300)
+    assert adaptive.compiled_form() is form  # Algorithm 26 too: η̂^p and the switch shared
+    assert adaptive.num_policy_changes_ >= 1  # written by the kernel, nothing taken back
+    assert adaptive.planned_noise_ == adaptive.model_.noise_  # ΔT = 0: η̂^p follows η̂
 
 
 @pytest.mark.parametrize(

@@ -33,7 +33,7 @@ from conjure.agents.compiled_agent import AgentKernel
 from conjure.core.compiled_form import compiled_form
 from conjure.core.interfaces import Agent, Domain, check_is_set_up
 from conjure.representations.compiled_ifdd import IFDDKernel, fixed
-from conjure.safety.compiled_cooperative import CompiledBox, alone, for_evaluation
+from conjure.safety.compiled_cooperative import CompiledBox, alone
 
 __all__ = [
     "Selection",
@@ -102,17 +102,17 @@ def learner_of(agent: Agent) -> Agent:
     return getattr(agent, "compiled_learner", agent)
 
 
-def box_form(agent: Agent, rep: IFDDKernel, *, greedy: bool = False) -> CompiledBox:
+def box_form(agent: Agent, rep: IFDDKernel) -> CompiledBox:
     """The agent's box (`conjure.safety.compiled_cooperative`), `NO_BOX` for a learner alone.
 
-    ``greedy``: the box a policy check acts with (`for_evaluation`: its analyser draws from
-    the agent's ``eval_rng_``).
+    A box's form is its kept state; a policy check acts with its ``greedy_parts`` (its
+    analyser draws from the agent's ``eval_rng_``).
     """
     if learner_of(agent) is agent:
         return alone(rep.base)
     form = compiled_form(agent)
     assert form is not None  # `select` checked it
-    return for_evaluation(form, agent.eval_rng_) if greedy else form
+    return form
 
 
 def why_not_compiled(domain: Domain, agent: Agent) -> str | None:

@@ -22,6 +22,8 @@ Notes
 - The learner's compiled form is its state (`conjure.agents.linear_td`): the loop reads and
   updates the learner's own ``arrays_`` and ``row_traces_`` in place, so nothing is taken
   back; its act/learn cache is dropped after every call (`forget_cache`: θ changed under it).
+  So is a cooperative box's (`conjure.safety.compiled_cooperative.CompiledBox`): its tables,
+  T̂'s counts, η̂^p and the planner's switch are the box's and its parts' own arrays.
 - Choice (with `OnlineIFDD`): the representation's tables are its own arrays, updated in
   place; when a discovery would not fit, the kernel returns, the representation grows them
   with its own method and the kernel continues. θ (and Actor-Critic's ω, SARSA(λ)'s
@@ -41,7 +43,10 @@ Notes
   episodes make the split invisible in the results: same seed, same numbers.
 - Choice: a stepper picks the loop's compilation for its arguments' types at its first call
   and calls it directly afterwards (`compiled_function`): numba's typing of the nested named
-  tuples on every call cost more than the steps of a short call.
+  tuples on every call cost more than the steps of a short call. The arguments that stay the
+  same from call to call (the components' forms, which are their state, and the generators)
+  are one `LoopArguments`, built once per stepper and again only when a component replaced
+  its form; a call passes it and the domain's form (`run_loop`).
 - Compilation: one loop, `conjure.compiled.learning_loop.learning_loop`, serves every
   combination (the compiled forms have fixed field types), compiled once per machine and
   cached on disk, with one more compilation for real-valued φ (`RBF`: its form carries the
@@ -56,7 +61,9 @@ from collections.abc import Callable
 from typing import Any, NamedTuple
 
 import numpy as np
+from numba import njit, typeof
 from numba.core import types
+from numba.experimental import structref
 
 from conjure.compiled import learning_loop as lp
 from conjure.compiled.combination import (
@@ -70,17 +77,19 @@ from conjure.compiled.combination import (
 from conjure.core.errors import DivergenceError, InvalidParameterError
 from conjure.core.interfaces import Agent, Domain
 from conjure.domains.compiled_domain import DomainKernel, callback_error
-from conjure.safety.compiled_cooperative import packed_parts
 from conjure.safety.cooperative_agent import CooperativeAgent
 
 __all__ = [
     "AdvanceStats",
     "CompiledStepper",
+    "LoopArguments",
     "compile_seconds",
     "compiled_function",
     "for_combination",
     "is_warm",
     "next_chunk",
+    "representation_type",
+    "run_loop",
     "warm_up",
 ]
 
@@ -97,8 +106,78 @@ MAX_KERNEL_STEPS = 2**18
 _COMPILE_SECONDS: dict[str, float] = {}
 #: No limit on the steps or episodes of one `CompiledStepper._run`.
 _NO_LIMIT = 2**62
-#: Position of the representation among `learning_loop`'s arguments.
-_REP_ARGUMENT = 3
+#: Position of the `LoopArguments` among `run_loop`'s arguments.
+_ARGUMENTS_POSITION = 2
+#: `AdvanceStats`' five per-episode arrays when no episode ended (read-only, shared).
+_NO_EPISODES = tuple(
+    np.zeros(0, dtype=dtype) for dtype in (np.float64, np.float64, np.int64, np.int64, np.float64)
+)
+for _empty in _NO_EPISODES:
+    _empty.flags.writeable = False
+#: `LoopArguments`' fields: `learning_loop`'s arguments that stay the same from call to call.
+_ARGUMENT_FIELDS = (
+    "domain_rng", "rep", "agent", "arrays", "row_traces", "agent_rng", "obs", "state", "box",
+    "parts",
+)  # fmt: skip
+
+
+@structref.register
+class _LoopArgumentsType(types.StructRef):
+    """The numba type of `LoopArguments` (one per combination of field types)."""
+
+    def preprocess_fields(self, fields):
+        return tuple((name, types.unliteral(kind)) for name, kind in fields)
+
+
+class LoopArguments(structref.StructRefProxy):
+    """`learning_loop`'s arguments that stay the same from call to call, as one reference.
+
+    The components' forms, which are their state (the learner's `LearnerState` parts, the
+    representation's, the box's `CompiledBox`), the domain's and the learner's generators,
+    and the stepper's observation and `LoopState`: built once per `CompiledStepper` and again
+    only when a component replaced its form (`CompiledStepper._arguments`). A compiled call
+    then unboxes one value instead of six named tuples and three generators (numba unboxes a
+    `numpy.random.Generator` through its ctypes interface on every call, the largest part of
+    a short call's fixed cost). Made by `_pack_arguments`; fields `_ARGUMENT_FIELDS`.
+    """
+
+
+structref.define_boxing(_LoopArgumentsType, LoopArguments)
+
+
+@njit(cache=True)
+def _pack_arguments(
+    kind, domain_rng, rep, agent, arrays, row_traces, agent_rng, obs, state, box, parts
+):  # fmt: skip
+    arguments = structref.new(kind)
+    arguments.domain_rng = domain_rng
+    arguments.rep = rep
+    arguments.agent = agent
+    arguments.arrays = arrays
+    arguments.row_traces = row_traces
+    arguments.agent_rng = agent_rng
+    arguments.obs = obs
+    arguments.state = state
+    arguments.box = box
+    arguments.parts = parts
+    return arguments
+
+
+@njit(cache=True)
+def run_loop(
+    num_steps: int,
+    domain: DomainKernel,
+    arguments: LoopArguments,
+    cap: int,
+    learn: bool,
+    max_episodes: int,
+) -> tuple[int, int, int, float, float, np.ndarray, np.ndarray]:
+    """`learning_loop` over the domain's form and the stepper's `LoopArguments`."""
+    a = arguments
+    return lp.learning_loop(
+        num_steps, domain, a.domain_rng, a.rep, a.agent, a.arrays, a.row_traces, a.agent_rng,
+        cap, a.obs, a.state, a.box, a.parts, learn, max_episodes,
+    )  # fmt: skip
 
 
 class AdvanceStats(NamedTuple):
@@ -180,6 +259,10 @@ class CompiledStepper:
         self._chunk = 1  # steps of the next kernel call (`next_chunk`)
         self._max_chunk = max_chunk(agent)  # and never more than these
         self._compiled = None  # the loop's compiled function for these arguments' types
+        self._arguments: LoopArguments | None = None
+        rep = representation_form(learner_of(agent))
+        self._is_ifdd = rep is not None and rep.is_ifdd
+        self._sources: tuple = ()  # what the arguments were built from (`_arguments`)
 
     @property
     def is_mid_episode(self) -> bool:
@@ -244,7 +327,7 @@ class CompiledStepper:
         raised: BaseException | None = None
         try:
             while done < num_steps and ended < max_episodes:
-                before = int(state.episode[0])
+                before = int(state.episode[0]) if self.learn else 0
                 started = time.perf_counter()
                 status, steps, fails, costs, delta, ep_float, ep_int = self._call(
                     min(num_steps - done, self._chunk, self._max_chunk),
@@ -285,8 +368,13 @@ class CompiledStepper:
             raise _divergence(agent, diverged)
         if raised is not None:  # the domain's own exception, as on the Python path
             raise raised
-        ep_float = np.concatenate([c[0] for c in chunks]) if chunks else np.zeros((0, 3))
-        ep_int = np.concatenate([c[1] for c in chunks]) if chunks else np.zeros((0, 2), np.int64)
+        if ended == 0:  # the common short call: no episode ended
+            return AdvanceStats(done, failures, cost, *_NO_EPISODES)
+        if len(chunks) == 1:
+            ep_float, ep_int = chunks[0]
+        else:
+            ep_float = np.concatenate([c[0] for c in chunks])
+            ep_int = np.concatenate([c[1] for c in chunks])
         return AdvanceStats(
             num_steps=done,
             num_failures=failures,
@@ -311,32 +399,69 @@ class CompiledStepper:
         return InvalidParameterError(f"A full index could not store state {self._obs.tolist()}.")
 
     def _call(self, num_steps: int, domain_form: DomainKernel, max_episodes: int) -> tuple:
-        """One call of the loop over the learner's compiled form, its state, updated in place.
+        """One call of the loop over the components' compiled forms, their state, in place.
 
         With iFDD θ first gets a row for every feature the tables hold (`reserve_rows`).
         """
         agent = learner_of(self.agent)
-        rep = representation_form(agent)
-        assert rep is not None  # `select` checked it
-        if rep.is_ifdd:
+        if self._is_ifdd:
             agent.reserve_rows(agent.representation_.feature_capacity_)
-        box = box_form(self.agent, rep, greedy=not self.learn)
-        args = (domain_form, self.domain.np_random, rep, agent_form(agent), agent.arrays_,
-                agent.row_traces_, agent.rng_, self.selection.max_episode_steps, self._obs,
-                self._state, box.box, packed_parts(box.parts), self.learn)  # fmt: skip
-        name = _kernel_name(self.selection)
-        if name not in _COMPILE_SECONDS:  # a zero-step call: compile (or load the cache) alone
-            started = time.perf_counter()
-            lp.learning_loop(0, *args, max_episodes)
-            _COMPILE_SECONDS[name] = time.perf_counter() - started
-        if self._compiled is None:
-            self._compiled = compiled_function(lp.learning_loop, (num_steps, *args, max_episodes))
+        arguments = self._loop_arguments(agent)
+        cap, learn = self.selection.max_episode_steps, self.learn
+        compiled = self._compiled
+        if compiled is None:
+            args = (domain_form, arguments, cap, learn)
+            name = _kernel_name(self.selection)
+            if name not in _COMPILE_SECONDS:  # a zero-step call: compile (or load the cache)
+                started = time.perf_counter()
+                run_loop(0, *args, max_episodes)
+                _COMPILE_SECONDS[name] = time.perf_counter() - started
+            compiled = self._compiled = compiled_function(
+                run_loop, (num_steps, *args, max_episodes)
+            )
         try:
-            return self._compiled(num_steps, *args, max_episodes)
+            return compiled(num_steps, domain_form, arguments, cap, learn, max_episodes)
         finally:
             agent.forget_cache()  # θ changed under ``act``'s cached Q-values
-            if agent is not self.agent:  # a box: what its kernels changed (Algorithm 26)
-                self.agent.load_compiled_form(box)
+
+    def _loop_arguments(self, agent: Agent | None = None) -> LoopArguments:
+        """The `LoopArguments`, built again only when a component replaced its form.
+
+        Read from the components' own state: the learner's ``state_`` (replaced when θ or its
+        traces are reallocated) and ``rng_``, the domain's ``np_random`` (replaced by a seeded
+        reset), iFDD's tables (replaced when they grow) and the box's kept form. A fixed
+        representation's form never changes after its ``setup``. ``agent``: the learner
+        (`learner_of` the stepper's agent).
+        """
+        if agent is None:
+            agent = learner_of(self.agent)
+        tables = agent.representation_.kernel_tables() if self._is_ifdd else None
+        box = self.agent.compiled_form() if agent is not self.agent else None
+        domain_rng, old = self.domain.np_random, self._sources
+        if (
+            old
+            and old[0] is agent.state_
+            and old[1] is agent.rng_
+            and old[2] is domain_rng
+            and old[3] is tables
+            and old[4] is box
+        ):
+            return self._arguments
+        sources = (agent.state_, agent.rng_, domain_rng, tables, box)
+        rep = representation_form(agent)
+        assert rep is not None  # `select` checked it
+        form = box_form(self.agent, rep)
+        values = (
+            self.domain.np_random, rep, agent_form(agent), agent.arrays_, agent.row_traces_,
+            agent.rng_, self._obs, self._state, form.box,
+            form.parts if self.learn else form.greedy_parts,
+        )  # fmt: skip
+        kind = _LoopArgumentsType(
+            [(name, typeof(value)) for name, value in zip(_ARGUMENT_FIELDS, values, strict=True)]
+        )
+        self._arguments = _pack_arguments(kind, *values)
+        self._sources = sources
+        return self._arguments
 
 
 def compiled_function(dispatcher: Any, args: tuple) -> Callable[..., Any]:
@@ -416,13 +541,21 @@ def is_warm(stepper: CompiledStepper | None = None) -> bool:
     if name in _COMPILE_SECONDS:
         return True
     try:
-        index = lp.learning_loop._cache._cache_file._load_index()
+        index = run_loop._cache._cache_file._load_index()
         return any(
-            (signature[_REP_ARGUMENT].types[0].types[-1] != types.none) == real_valued
+            (representation_type(signature).types[0].types[-1] != types.none) == real_valued
             for signature, *_ in index
         )
-    except (AttributeError, OSError, EOFError, ValueError, IndexError, TypeError):
+    except (AttributeError, OSError, EOFError, ValueError, IndexError, KeyError, TypeError):
         return False
+
+
+def representation_type(signature: tuple) -> types.Type:
+    """The numba type of the representation (`IFDDKernel`) in a `run_loop` signature.
+
+    Its base's last field is None for binary φ and RBF's arrays for real-valued φ.
+    """
+    return signature[_ARGUMENTS_POSITION].field_dict["rep"]
 
 
 def warm_up(*, cached_only: bool = False) -> float:

@@ -19,7 +19,7 @@ from conjure.domains._blocks_kernels import (
     blocks_reset,
 )
 from conjure.domains.action_masking import ActionMasking
-from conjure.domains.compiled_domain import BLOCKS, DomainKernel, domain_kernel
+from conjure.domains.compiled_domain import BLOCKS, DomainKernel, KeptCompiledForm, domain_kernel
 
 __all__ = ["BlocksWorld", "blocks_world_state_action_count"]
 
@@ -42,7 +42,7 @@ def blocks_world_state_action_count(num_blocks: int = 6) -> int:
     return b * b * sum(comb(b, i) * i ** (b - i) * factorial(b - i) for i in range(1, b + 1))
 
 
-class BlocksWorld(ActionMasking, Domain):
+class BlocksWorld(KeptCompiledForm, ActionMasking, Domain):
     """Stack ``num_blocks`` blocks into the tower 0 (on the table), 1 on 0, 2 on 1, ...
 
     Geramifard (2012), Section 4.1.4 and Figure 4-2 (T:2486); spec section 4.1 (after RLPy's
@@ -206,11 +206,14 @@ class BlocksWorld(ActionMasking, Domain):
 
         `BlocksConstants` (n, drop probability, step reward, goal reward), as ``step`` uses
         them; state the On(·,·) indicators, then each block's support and the block above
-        each block.
+        each block (`KeptCompiledForm`).
         """
         n = self._n
-        return domain_kernel(
-            BLOCKS, n * n, constants=self._constants, state=self._dstate, num_units=n
+        return self._kept_form(
+            lambda: domain_kernel(
+                BLOCKS, n * n, constants=self._constants, state=self._dstate, num_units=n
+            ),
+            state=self._dstate,
         )
 
     def load_compiled_form(self, form: DomainKernel) -> None:

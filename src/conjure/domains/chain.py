@@ -10,7 +10,13 @@ from gymnasium import spaces
 from conjure.core.interfaces import Domain, DomainSpec
 from conjure.core.params import EPISODE_STEPS, Constraint, Interval, Options
 from conjure.domains._kernels import chain_move
-from conjure.domains.compiled_domain import CHAIN, ChainConstants, DomainKernel, domain_kernel
+from conjure.domains.compiled_domain import (
+    CHAIN,
+    ChainConstants,
+    DomainKernel,
+    KeptCompiledForm,
+    domain_kernel,
+)
 
 if TYPE_CHECKING:  # the model and SciPy load when `model` is first called
     from conjure.models.tabular_model import TabularModel
@@ -18,7 +24,7 @@ if TYPE_CHECKING:  # the model and SciPy load when `model` is first called
 __all__ = ["ChainMDP"]
 
 
-class ChainMDP(Domain):
+class ChainMDP(KeptCompiledForm, Domain):
     """Walk right along a chain of states to the terminal end; V* is known in closed form.
 
     A test domain for the Bellman equation, Geramifard (2012) Section 2.1, Equation 2.5. States
@@ -151,13 +157,19 @@ class ChainMDP(Domain):
         return moves * min(r, 0.0), moves * max(r, 0.0)
 
     def compiled_form(self) -> DomainKernel:
-        """The chain for the compiled loop: `ChainConstants` (n, step reward, slip), the state."""
+        """The chain for the compiled loop: `ChainConstants` (n, step reward, slip), the state.
+
+        Kept (`KeptCompiledForm`).
+        """
         constants = ChainConstants(
             num_states=int(self.num_states),
             step_reward=float(self._step_reward),
             slip=float(self._slip),
         )
-        return domain_kernel(CHAIN, int(self.num_actions), constants=constants, state=[self._state])
+        return self._kept_form(
+            lambda: domain_kernel(CHAIN, int(self.num_actions), constants=constants, state=[0]),
+            state=(self._state,),
+        )
 
     def load_compiled_form(self, form: DomainKernel) -> None:
         """Take the state back from the compiled loop."""

@@ -21,6 +21,7 @@ from __future__ import annotations
 import itertools
 import math
 import weakref
+from collections.abc import Callable, Sequence
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -49,6 +50,7 @@ __all__ = [
     "ChainConstants",
     "DomainKernel",
     "GridConstants",
+    "KeptCompiledForm",
     "MissionConstants",
     "PendulumConstants",
     "callback_domain",
@@ -266,6 +268,37 @@ def domain_kernel(
         num_units=num_units,
         has_action_constraints=BLOCKS <= kind <= UAV_MISSION,
     )
+
+
+class KeptCompiledForm:
+    """A domain mixin: the compiled form built once per ``_build``, its state copied in per call.
+
+    The constants and tables (`domain_kernel`) are built at the first ``compiled_form`` after
+    ``_build`` (the parameters' last change: every ``_build`` makes a new ``domain_spec``,
+    the key) and kept by the domain; each call copies the domain's current state into the
+    kept form's ``state`` or ``fstate``. The loop updates that copy and ``load_compiled_form``
+    takes it back, as before; a call no longer rebuilds the tables.
+    """
+
+    domain_spec: Any
+
+    def _kept_form(
+        self,
+        build: Callable[[], DomainKernel],
+        *,
+        state: Sequence[float] | np.ndarray | None = None,
+        fstate: Sequence[float] | np.ndarray | None = None,
+    ) -> DomainKernel:
+        """``build()``'s form, kept since this ``_build``, with ``state`` / ``fstate`` copied in."""
+        kept = getattr(self, "_compiled_form_kept", None)
+        if kept is None or kept[0] is not self.domain_spec:
+            kept = self._compiled_form_kept = (self.domain_spec, build())
+        form = kept[1]
+        if state is not None:
+            form.state[:] = state
+        if fstate is not None:
+            form.fstate[:] = fstate
+        return form
 
 
 # ---------------------------------------------------------------------- callback domains

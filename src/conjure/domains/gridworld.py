@@ -21,7 +21,13 @@ from conjure.core.params import (
     did_you_mean,
 )
 from conjure.domains._kernels import GW_COUNT, GW_MOVES, GW_NOISY, gridworld_move
-from conjure.domains.compiled_domain import GRIDWORLD, DomainKernel, GridConstants, domain_kernel
+from conjure.domains.compiled_domain import (
+    GRIDWORLD,
+    DomainKernel,
+    GridConstants,
+    KeptCompiledForm,
+    domain_kernel,
+)
 
 if TYPE_CHECKING:  # the model and SciPy load when `model` is first called
     from conjure.models.tabular_model import TabularModel
@@ -134,7 +140,7 @@ def open_grid(rows: int, cols: int, *, blocked_fraction: float = 0.1, seed: int 
     return grid
 
 
-class GridWorld(NoisyDomain):
+class GridWorld(KeptCompiledForm, NoisyDomain):
     """Navigate a grid from the start to a goal, avoiding pits, under random wind.
 
     Geramifard (2012), Section 5.1 (GridWorld-1, Figure 5-1), Section 5.5.1 (GridWorld-2,
@@ -397,15 +403,18 @@ class GridWorld(NoisyDomain):
         """The grid for the compiled loop (layout in `conjure.domains.compiled_domain`).
 
         `GridConstants` (η, start cell); table `gridworld_move`'s; cells[c] reward, terminal,
-        pit, noisy, row, column; state the cell.
+        pit, noisy, row, column; state the cell (`KeptCompiledForm`).
         """
-        return domain_kernel(
-            GRIDWORLD,
-            len(MOVES),
-            constants=GridConstants(noise=float(self._noise), start_cell=int(self._start_cell)),
-            table=self._move_array,
-            cells=self._cell_table,
-            state=[self._cell],
+        return self._kept_form(
+            lambda: domain_kernel(
+                GRIDWORLD,
+                len(MOVES),
+                constants=GridConstants(noise=float(self._noise), start_cell=int(self._start_cell)),
+                table=self._move_array,
+                cells=self._cell_table,
+                state=[0],
+            ),
+            state=(self._cell,),
         )
 
     def load_compiled_form(self, form: DomainKernel) -> None:

@@ -14,6 +14,7 @@ from conjure.domains._kernels import HALF_PI, MAX_ANGULAR_RATE, pendulum_start, 
 from conjure.domains.compiled_domain import (
     PENDULUM,
     DomainKernel,
+    KeptCompiledForm,
     PendulumConstants,
     domain_kernel,
 )
@@ -23,7 +24,7 @@ __all__ = ["InvertedPendulum"]
 _NUM_ACTIONS = 3  # forces −50, 0, +50 N (`pendulum_transition`)
 
 
-class InvertedPendulum(Domain):
+class InvertedPendulum(KeptCompiledForm, Domain):
     """Balance a pendulum on a cart by pushing the cart left, not at all, or right.
 
     Geramifard (2012), Section 3.3.1 and Section 4.1.4; Lagoudakis and Parr (2003). The state is
@@ -138,14 +139,17 @@ class InvertedPendulum(Domain):
     compiled_methods = ("step", "reset")
 
     def compiled_form(self) -> DomainKernel:
-        """The pendulum for the compiled loop: `PendulumConstants`, (θ, θ̇)."""
-        return domain_kernel(
-            PENDULUM,
-            3,
-            constants=PendulumConstants(
-                force_noise=self._force_noise, start_noise=float(self.start_noise)
+        """The pendulum for the compiled loop: `PendulumConstants`, (θ, θ̇) (`KeptCompiledForm`)."""
+        return self._kept_form(
+            lambda: domain_kernel(
+                PENDULUM,
+                3,
+                constants=PendulumConstants(
+                    force_noise=self._force_noise, start_noise=float(self.start_noise)
+                ),
+                fstate=np.zeros(2),
             ),
-            fstate=np.array([self._theta, self._theta_dot]),
+            fstate=(self._theta, self._theta_dot),
         )
 
     def load_compiled_form(self, form: DomainKernel) -> None:

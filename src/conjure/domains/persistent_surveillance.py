@@ -20,7 +20,12 @@ from conjure.domains._uav_kernels import (
     pst_step,
 )
 from conjure.domains.action_masking import ActionMasking
-from conjure.domains.compiled_domain import PERSISTENT_SURVEILLANCE, DomainKernel, domain_kernel
+from conjure.domains.compiled_domain import (
+    PERSISTENT_SURVEILLANCE,
+    DomainKernel,
+    KeptCompiledForm,
+    domain_kernel,
+)
 
 __all__ = ["PersistentSurveillance", "persistent_surveillance_state_action_count"]
 
@@ -39,7 +44,7 @@ def persistent_surveillance_state_action_count(num_uavs: int = 3, max_fuel: int 
     return (NUM_LOCATIONS * (max_fuel + 1) * 2 * 2) ** num_uavs * 3**num_uavs
 
 
-class PersistentSurveillance(ActionMasking, Domain):
+class PersistentSurveillance(KeptCompiledForm, ActionMasking, Domain):
     """Keep targets under surveillance with fuel-limited, failure-prone UAVs.
 
     Geramifard (2012), Section 4.1.4 and Figure 4-3(a) (T:2492-2494); spec section 3.1, after
@@ -248,14 +253,20 @@ class PersistentSurveillance(ActionMasking, Domain):
     compiled_methods = ("step", "reset", "legal_actions")
 
     def compiled_form(self) -> DomainKernel:
-        """The mission for the compiled loop: `pst_step`'s `PSTConstants`, the UAVs' state."""
-        return domain_kernel(
-            PERSISTENT_SURVEILLANCE,
-            self._num_actions,
-            constants=self._constants,
+        """The mission for the compiled loop: `pst_step`'s `PSTConstants`, the UAVs' state.
+
+        Kept (`KeptCompiledForm`).
+        """
+        return self._kept_form(
+            lambda: domain_kernel(
+                PERSISTENT_SURVEILLANCE,
+                self._num_actions,
+                constants=self._constants,
+                state=self._state,
+                num_units=self._n,
+                num_uniforms=2 * self._n,
+            ),
             state=self._state,
-            num_units=self._n,
-            num_uniforms=2 * self._n,
         )
 
     def load_compiled_form(self, form: DomainKernel) -> None:

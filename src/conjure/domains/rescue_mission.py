@@ -19,7 +19,13 @@ from conjure.domains._uav_kernels import (
     rescue_step,
 )
 from conjure.domains.action_masking import ActionMasking
-from conjure.domains.compiled_domain import RESCUE, DomainKernel, MissionConstants, domain_kernel
+from conjure.domains.compiled_domain import (
+    RESCUE,
+    DomainKernel,
+    KeptCompiledForm,
+    MissionConstants,
+    domain_kernel,
+)
 
 __all__ = ["RescueMission", "rescue_mission_state_action_count"]
 
@@ -65,7 +71,7 @@ def _graph_tables() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return neighbours, degrees, is_near
 
 
-class RescueMission(ActionMasking, Domain):
+class RescueMission(KeptCompiledForm, ActionMasking, Domain):
     """Fly a medic UAV to victims while a communication UAV stays within one edge to relay.
 
     Geramifard (2012), Section 4.1.4, Figure 4-3(b) and footnote 3 (T:2500-2502, T:3097);
@@ -242,8 +248,11 @@ class RescueMission(ActionMasking, Domain):
 
         `MissionConstants` (s₀, horizon, fuel penalty, failure penalty); table the neighbours
         and degree of each node; cells the one-edge-away table, the people and the success
-        probability.
+        probability (`KeptCompiledForm`).
         """
+        return self._kept_form(self._build_compiled_form, state=self._state)
+
+    def _build_compiled_form(self) -> DomainKernel:
         horizon, fuel_penalty, failure_penalty = self._scalars
         start = np.asarray(self._start_state(), dtype=np.int64)
         constants = MissionConstants(

@@ -39,6 +39,7 @@ from conjure.domains.action_masking import ActionMasking
 from conjure.domains.compiled_domain import (
     UAV_MISSION,
     DomainKernel,
+    KeptCompiledForm,
     MissionConstants,
     domain_kernel,
 )
@@ -81,7 +82,7 @@ _SOLUTIONS: OrderedDict[tuple[str, float], MissionSolution] = OrderedDict()
 _CACHE_SIZE = 8
 
 
-class UAVMission(ActionMasking, NoisyDomain):
+class UAVMission(KeptCompiledForm, ActionMasking, NoisyDomain):
     """A team of fuel-limited UAVs collects stochastic target rewards on a mission graph.
 
     Geramifard (2012), Section 5.3.5 ("UAV Mission Planning: MDP formulation", Figure 5-4,
@@ -282,8 +283,11 @@ class UAVMission(ActionMasking, NoisyDomain):
         """The mission for the compiled loop (`mission_step`).
 
         `MissionConstants` (s₀, traverse failure); table[0] the state layout, table[1:] the
-        adjacency; cells the node table.
+        adjacency; cells the node table (`KeptCompiledForm`).
         """
+        return self._kept_form(self._build_compiled_form, state=self._state)
+
+    def _build_compiled_form(self) -> DomainKernel:
         layout, adjacency = self._layout, self._adjacency
         nodes = adjacency.shape[0]
         start = np.asarray(self.graph_.initial_state(), dtype=np.int64)

@@ -182,12 +182,15 @@ class ApproximateModel(Configurable):
         return self.domain_.is_constrained(state)
 
     def update(self, state: np.ndarray, action: int, next_state: np.ndarray) -> None:
-        """model.update(s, a, s') (Algorithm 26, line 9): count moves and re-estimate η̂."""
+        """model.update(s, a, s') (Algorithm 26, line 9): count moves and re-estimate η̂.
+
+        The compiled box's kernel on the model's own form (`observe_moves`).
+        """
         check_is_set_up(self, "update")
         if not self.is_adaptive:
             return
         unintended, moves = self.domain_.count_unintended(state, action, next_state)
-        self.load_counts(self.num_unintended_ + unintended, self.num_moves_ + moves)
+        observe_moves(self.form_, unintended, moves)
 
     def load_counts(self, num_unintended: int, num_moves: int) -> None:
         """Set the counts behind η̂ and re-estimate it (also how saved agents restore T̂)."""

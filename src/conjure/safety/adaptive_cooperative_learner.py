@@ -2,12 +2,9 @@
 
 from __future__ import annotations
 
-import numpy as np
-
 from conjure.core.cooperative import CooperativePlanner, RiskAnalyzer
 from conjure.core.interfaces import (
     Agent,
-    DomainSpec,
     Representation,
     Transition,
     check_is_set_up,
@@ -57,6 +54,8 @@ class AdaptiveCooperativeLearner(CooperativeLearner):
         η̂^p, the noise estimate of the model π^p was last planned with (T̂^p).
     num_policy_changes_ : int
         How often π^p changed (and the counts were reset).
+    replan_state_ : ReplanState
+        Both as the arrays the compiled form shares (`box_learn` updates them in place).
 
     Notes
     -----
@@ -133,15 +132,17 @@ class AdaptiveCooperativeLearner(CooperativeLearner):
         )
         self.replan_threshold = replan_threshold
 
-    def setup(
-        self, spec: DomainSpec, seed: int | np.random.SeedSequence
-    ) -> AdaptiveCooperativeLearner:
-        """Set up as `CooperativeLearner`; no policy change yet."""
-        super().setup(spec, seed)
-        self.num_policy_changes_ = 0
-        return self
-
     adapts_model = True
+
+    @property
+    def num_policy_changes_(self) -> int:
+        """How often π^p changed (``replan_state_``); none after `setup`."""
+        return int(self.replan_state_.policy_changes[0])
+
+    @num_policy_changes_.setter
+    def num_policy_changes_(self, count: int) -> None:
+        self.replan_state_.policy_changes[0] = count
+
     compiled_variant = (
         "a planner that never replans (CBBA, or a SwitchingPlanner of CBBA or ShortestPath "
         "planners), the fuel rule or Monte-Carlo rollouts, a one-row-per-state index (Tabular "
@@ -150,14 +151,14 @@ class AdaptiveCooperativeLearner(CooperativeLearner):
     )
 
     def compiled_form(self) -> CompiledBox | None:
-        """Algorithm 26's box for the compiled loop, or None.
+        """Algorithm 26's box for the compiled loop, or None; built once, kept as its state.
 
         Algorithm 24's box (`cooperative_learner_kernel`) whose `box_learn` counts T̂'s moves
-        and switches π^p. Defined here, not inherited, because the kernel stands for this
-        class's own ``learn`` (`conjure.core.compiled_form`).
+        and switches π^p in the arrays ``learn`` updates too. Defined here, not inherited,
+        because the kernel stands for this class's own ``learn`` (`conjure.core.compiled_form`).
         """
         check_is_set_up(self, "compiled_form")
-        return cooperative_learner_kernel(self)
+        return self._kept_box(cooperative_learner_kernel)
 
     def _extra_state(self) -> dict[str, int]:
         return {"num_policy_changes": self.num_policy_changes_}

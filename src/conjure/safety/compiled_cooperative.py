@@ -8,9 +8,11 @@ the tabular T̂ re-indexed by those rows (`grid_failures`). On UAV missions the 
 own kernels are called per state: CBBA through its plan cache (`planned_action`, Section
 5.3.1; conservative or aggressive by η̂ with a switching planner), the fuel rule
 (`fuel_risk`, Section 5.3.5) or Algorithm 25's rollouts (`mission_failures`). `BoxParts`
-holds those parts and the adaptive model's η̂ (`observe_moves`); the agent's own tables are
-updated in place (Algorithm 23's visit counts n(s) and planner bias; Algorithm 24's counts
-of unconsulted planner actions, knownness and veto rule).
+holds those parts and the adaptive model's η̂ (`observe_moves`). The box builds its
+`CompiledBox` once and keeps it as its state: the agent's own tables (Algorithm 23's visit
+counts n(s); Algorithm 24's counts of unconsulted planner actions; Algorithm 26's η̂^p and
+count of policy changes), T̂'s counts and the planner's switch are updated in place by the
+kernels and by the Python methods alike, so nothing is taken back after a compiled call.
 `box_action` is the box's ``act`` while learning (`cooperative_action`:
 `CooperativeActorCritic`, `cooperative_learner_action`: `CooperativeLearner`); the learner's
 updates stay the learner's own kernels. The control rules (knownness and consulting the
@@ -30,6 +32,7 @@ and switch after the learner's update.
 
 from __future__ import annotations
 
+import functools
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -97,14 +100,14 @@ __all__ = [
     "alone",
     "box_action",
     "box_learn",
+    "compiled_box",
     "cooperative_action",
     "cooperative_learner_action",
     "cooperative_learner_kernel",
-    "for_evaluation",
     "greedy_box_action",
     "icca_kernel",
     "no_box",
-    "packed_parts",
+    "pack_parts",
     "tabulate",
 ]
 
@@ -135,11 +138,12 @@ class BoxParts(NamedTuple):
     rollouts : MissionRollouts
         Algorithm 25's rollouts on a mission T̂ (`mission_failures`).
     tables : PlannerPair
-        π^p per index row on a grid world (arrays of int64; one table, never switching,
-        for a single planner); the one in use is `BoxKernel.planner_actions`.
+        π^p per index row on a grid world (arrays of int64, −1: a row no planned state has;
+        one table, never switching, for a single planner); the one in use is
+        ``active_planner(tables)``, switched in place with the planner's own ``switch_``.
     grid : GridRollouts
         Algorithm 25's rollouts in a tabular T̂ (`grid_failures`), its tables re-indexed
-        by the box's rows (π^p: `BoxKernel.planner_actions`).
+        by the box's rows (π^p: the table in use).
     intended : ndarray of int64, shape (rows, |A|)
         On a grid world, the row T̂ expects a move to reach (−1: T̂ counts no move there),
         for Algorithm 26's move counts.
@@ -152,9 +156,9 @@ class BoxParts(NamedTuple):
     replan_threshold : float
         ΔT.
     planned_noise : ndarray of float64, shape (1,)
-        η̂^p, updated in place.
+        η̂^p, the box's own (`CooperativeAgent.replan_state_`), updated in place.
     policy_changes : ndarray of int64, shape (1,)
-        How often π^p changed, updated in place.
+        How often π^p changed, the box's own likewise.
     """
 
     planners: PlannerPair
@@ -185,7 +189,7 @@ class _PartsStruct(structref.StructRefProxy):
 
     Geramifard (2012), Algorithms 24-26 (Sections 5.3.5 and 5.5). Its fields are the
     `BoxParts`'s, arrays shared: kernels read them by the same names. Made by
-    `packed_parts`; nothing to construct by hand.
+    `pack_parts`; nothing to construct by hand.
     """
 
 
@@ -310,8 +314,6 @@ class BoxKernel(NamedTuple):
         `NO_BOX`, `ICCA` or `COOPERATIVE_LEARNER`.
     index : RepresentationKernel
         The box's index: the row of a state in the tables below.
-    planner_actions : ndarray of int64, shape (rows,)
-        π^p(s) per row, of the planner in use (−1: a row no planned state has).
     safe : ndarray of bool, shape (rows, |A|)
         safe(s, a) per row and action (true for a = π^p(s)); empty when rollouts judge.
     is_mission : bool
@@ -339,7 +341,6 @@ class BoxKernel(NamedTuple):
 
     kind: int
     index: RepresentationKernel
-    planner_actions: np.ndarray
     safe: np.ndarray
     is_mission: bool
     visits: np.ndarray
@@ -362,7 +363,6 @@ def no_box(index: RepresentationKernel) -> BoxKernel:
     return BoxKernel(
         kind=NO_BOX,
         index=index,
-        planner_actions=empty,
         safe=no_table,
         is_mission=False,
         visits=empty,
@@ -379,45 +379,61 @@ def no_box(index: RepresentationKernel) -> BoxKernel:
 
 
 class CompiledBox(NamedTuple):
-    """A cooperative agent's compiled form: its `BoxKernel` and its `BoxParts`.
+    """A cooperative agent's compiled form, its state: its `BoxKernel` and its parts.
 
-    Geramifard (2012), Algorithms 23, 24 and 26. Two arguments of the loop, the parts as one
-    reference (`packed_parts`): numba keeps a reference count per array of a tuple of ten or
-    more arrays wherever it is passed, and the parts hold about forty.
+    Geramifard (2012), Algorithms 23, 24 and 26. Built once by the box and kept
+    (`CooperativeAgent.compiled_form`): every array and generator in it is the box's, its
+    parts' or the model's own, so the kernels and the Python methods read and write the same
+    memory and nothing is taken back after a compiled call. The parts are one reference each
+    (`pack_parts`): numba keeps a reference count per array of a tuple of ten or more arrays
+    wherever it is passed, and the parts hold about forty.
 
     Parameters
     ----------
     box : BoxKernel
         The box (`NO_BOX` for a learner alone).
-    parts : BoxParts
-        Its parts called per state or step (`NO_PARTS` when it has none).
+    parts : _PartsStruct
+        Its parts called per state or step (the stand-in's when it has none).
+    greedy_parts : _PartsStruct
+        The same parts for greedy acting (a policy check): Algorithm 25's rollouts draw from
+        the agent's ``eval_rng_`` (as ``is_safe(..., rng)`` in a policy check), not from the
+        analyser's own generator; ``parts`` itself when nothing draws.
     """
 
     box: BoxKernel
-    parts: BoxParts
+    parts: _PartsStruct
+    greedy_parts: _PartsStruct
 
 
-#: The latest (parts, packed parts) of `packed_parts`.
-_LAST_PACKED: list[tuple[BoxParts, _PartsStruct]] = []
+def pack_parts(parts: BoxParts) -> _PartsStruct:
+    """``parts`` as the loop's `_PartsStruct` (the same arrays and generators)."""
+    return _pack(*parts)
 
 
-def packed_parts(parts: BoxParts) -> _PartsStruct:
-    """``parts`` as the loop's `_PartsStruct` (the same arrays).
+@functools.cache
+def _no_packed_parts() -> _PartsStruct:
+    """`NO_PARTS` packed, made once per process."""
+    return pack_parts(NO_PARTS)
 
-    Choice: the latest packing is kept and returned again for the same ``parts`` object (a
-    learner alone passes `NO_PARTS`, a box with a static T̂ the parts of its kept form), so
-    a kernel call packs nothing; the struct shares the parts' arrays, so it is the same value.
-    """
-    if _LAST_PACKED and _LAST_PACKED[0][0] is parts:
-        return _LAST_PACKED[0][1]
-    packed = _pack(*parts)
-    _LAST_PACKED[:] = [(parts, packed)]
-    return packed
+
+def compiled_box(
+    box: BoxKernel, parts: BoxParts, evaluation_rng: np.random.Generator
+) -> CompiledBox:
+    """The `CompiledBox` of ``box`` and ``parts``; its greedy parts draw from ``evaluation_rng``."""
+    packed = pack_parts(parts)
+    if not parts.has_rollouts:
+        return CompiledBox(box=box, parts=packed, greedy_parts=packed)
+    greedy = parts._replace(
+        rollouts=parts.rollouts._replace(rng=evaluation_rng),
+        grid=parts.grid._replace(rng=evaluation_rng),
+    )
+    return CompiledBox(box=box, parts=packed, greedy_parts=pack_parts(greedy))
 
 
 def alone(index: RepresentationKernel) -> CompiledBox:
     """The `NO_BOX` form of a learner alone (``index`` a stand-in of the loop's type)."""
-    return CompiledBox(box=no_box(index), parts=NO_PARTS)
+    parts = _no_packed_parts()
+    return CompiledBox(box=no_box(index), parts=parts, greedy_parts=parts)
 
 
 class BoxTables(NamedTuple):
@@ -449,25 +465,13 @@ class BoxTables(NamedTuple):
     intended: np.ndarray
     is_mission: bool
 
-    def box(self, kind: int, agent: Any) -> BoxKernel:
-        """A ``kind`` box around these tables (the agent's own fields still to be set).
+    def box(self, kind: int) -> BoxKernel:
+        """A ``kind`` box around these tables (the agent's own fields still to be set)."""
+        return no_box(self.index)._replace(kind=kind, safe=self.safe, is_mission=self.is_mission)
 
-        π^p is a copy of the table of the planner ``agent`` uses now (Algorithm 26's switch
-        overwrites it).
-        """
-        planner_actions = self.tables.conservative
-        if not self.is_mission and _is_aggressive(agent):
-            planner_actions = self.tables.aggressive
-        return no_box(self.index)._replace(
-            kind=kind, planner_actions=planner_actions.copy(), safe=self.safe,
-            is_mission=self.is_mission,
-        )  # fmt: skip
-
-    def parts(self, agent: Any) -> BoxParts:
-        """``agent``'s `BoxParts` (`box_parts`), or the stand-in when nothing is called per step."""
-        if self.is_mission or self.grid is not None or agent.adapts_model:
-            return box_parts(agent, self)
-        return NO_PARTS
+    def compiled_box(self, box: BoxKernel, agent: Any) -> CompiledBox:
+        """``box`` with ``agent``'s parts (`box_parts`): the box's compiled form."""
+        return compiled_box(box, box_parts(agent, self), agent.eval_rng_)
 
 
 def _is_aggressive(agent: Any) -> bool:
@@ -612,20 +616,19 @@ def _intended_rows(agent: Any, states: np.ndarray) -> np.ndarray:
 
 
 def box_parts(agent: Any, tables: BoxTables) -> BoxParts:
-    """The `BoxParts` of a set-up box, from its parts' current forms.
+    """The `BoxParts` of a set-up box, from its parts' forms: their own arrays, shared.
 
-    Made for every call of the loop: Algorithm 26's η̂^p and count of policy changes are
-    copies that `CooperativeAgent.load_compiled_form` takes back; T̂'s η̂ and counts
-    (`ApproximateModel.noise_model`) and which planner a switching π^p uses
-    (`SwitchingPlanner.switch_`, also in the grid tables' pair) are the parts' own arrays,
-    updated in place.
+    Algorithm 26's η̂^p and count of policy changes are the box's ``replan_state_``; T̂'s η̂
+    and counts its ``form_`` (`ApproximateModel.noise_model`); which planner a switching π^p
+    uses its ``switch_`` (`SwitchingPlanner`, also in the grid tables' pair). Every one is
+    updated in place by the kernels and by the Python methods alike.
     """
     is_adaptive = agent.adapts_model  # Algorithm 26
+    replan = agent.replan_state_
     parts = NO_PARTS._replace(
         model=agent.model_.noise_model(), is_adaptive=is_adaptive,
         replan_threshold=float(agent.replan_threshold) if is_adaptive else 0.0,
-        planned_noise=np.array([agent.planned_noise_]),
-        policy_changes=np.array([getattr(agent, "num_policy_changes_", 0)], dtype=np.int64),
+        planned_noise=replan.planned_noise, policy_changes=replan.policy_changes,
     )  # fmt: skip
     if not tables.is_mission:
         grid = NO_PARTS.grid if tables.grid is None else tables.grid._replace(
@@ -662,10 +665,10 @@ def icca_kernel(agent: Any) -> CompiledBox | None:
         return None
     half_life = agent.bias_half_life
     fading = (float(agent.bias), 0.0 if half_life is None else float(half_life))
-    box = tables.box(ICCA, agent)._replace(
+    box = tables.box(ICCA)._replace(
         visits=agent.visits_, bias=fading[0], half_life=fading[1], is_fading=half_life is not None
     )
-    return CompiledBox(box=box, parts=tables.parts(agent))
+    return tables.compiled_box(box, agent)
 
 
 def cooperative_learner_kernel(agent: Any) -> CompiledBox | None:
@@ -683,19 +686,19 @@ def cooperative_learner_kernel(agent: Any) -> CompiledBox | None:
     if representation.is_adaptive and getattr(representation, "sparsify", False) is not True:
         return None
     veto, trusted = agent.veto_reward, agent.trusted_knownness
-    box = tables.box(COOPERATIVE_LEARNER, agent)._replace(
+    box = tables.box(COOPERATIVE_LEARNER)._replace(
         counts=agent.counts_, num_known=float(agent.num_known_visits),
         veto_reward=0.0 if veto is None else float(veto), has_veto=veto is not None,
         trusted=NEVER_TRUSTED if trusted is None else float(trusted), rng=agent.rng_,
     )  # fmt: skip
-    return CompiledBox(box=box, parts=tables.parts(agent))
+    return tables.compiled_box(box, agent)
 
 
 @njit(cache=True, inline="always")
 def _planner_action(box: BoxKernel, parts: BoxParts, row: int, obs: np.ndarray) -> int:
     """π^p(s) of the state ``obs`` at ``row``: its table entry, or the CBBA planner in use."""
     if not box.is_mission:
-        return box.planner_actions[row]
+        return active_planner(parts.tables)[row]
     return planned_action(active_planner(parts.planners), obs)
 
 
@@ -713,7 +716,8 @@ def _is_safe(
     noise = parts.model.noise[0]
     if not box.is_mission:
         grid = parts.grid
-        risk = grid_failures(grid, row, action, noise, box.planner_actions) / grid.num_rollouts
+        policy = active_planner(parts.tables)
+        risk = grid_failures(grid, row, action, noise, policy) / grid.num_rollouts
         return risk < grid.risk_tolerance
     rollouts, planner = parts.rollouts, active_planner(parts.planners)
     risk = mission_failures(rollouts, planner, obs, action, noise) / rollouts.num_rollouts
@@ -845,19 +849,6 @@ def box_action(
     )
 
 
-def for_evaluation(form: CompiledBox, rng: np.random.Generator) -> CompiledBox:
-    """``form`` for greedy acting (a policy check).
-
-    Algorithm 25's rollouts draw from ``rng`` (the agent's ``eval_rng_``, as
-    ``is_safe(..., rng)`` in a policy check), not from the analyser's own generator.
-    """
-    parts = form.parts
-    if not parts.has_rollouts:
-        return form
-    rollouts, grid = parts.rollouts._replace(rng=rng), parts.grid._replace(rng=rng)
-    return form._replace(parts=parts._replace(rollouts=rollouts, grid=grid))
-
-
 @njit(cache=True)
 def greedy_box_action(
     box: BoxKernel,
@@ -875,7 +866,7 @@ def greedy_box_action(
     argmax over them. Algorithm 23's box (`CooperativeActorCritic.act`) adds λ to π^p(s) in
     an unvisited state; Algorithm 24's (`CooperativeLearner.act`) consults the learner only in
     a known pair, breaking ties toward π^p(s). Both replace an unsafe action by π^p(s) (the
-    analyser's draws come from the generator `for_evaluation` put in). The index is looked
+    analyser's draws come from the generator of `CompiledBox.greedy_parts`). The index is looked
     up without storing s (`lookup_row`, −1: never seen).
     """
     q_values_into(chooser, phi, values, q)
@@ -920,13 +911,10 @@ def _moves(
 
 @njit(cache=True, inline="always")
 def _switch(box: BoxKernel, parts: BoxParts, noise: float) -> bool:
-    """The planner's switch by η̂ (`switch_by_noise`); a grid table in use is copied in."""
+    """The planner's switch by η̂ (`switch_by_noise`): CBBA's pair, or the grid tables' pair."""
     if box.is_mission:
         return switch_by_noise(parts.planners, noise)
-    if not switch_by_noise(parts.tables, noise):
-        return False
-    box.planner_actions[:] = active_planner(parts.tables)
-    return True
+    return switch_by_noise(parts.tables, noise)
 
 
 @njit(cache=True)

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -31,6 +31,24 @@ _NOT_TABULATED = object()
 
 #: The most rows the default `Tabular` index may have; larger state spaces get `HashedTabular`.
 MAX_TABULAR_ROWS = 1_000_000
+
+
+class ReplanState(NamedTuple):
+    """Algorithm 26's η̂^p and count of policy changes, as the box's own arrays.
+
+    Shared with the box's compiled form (`BoxParts`), so `box_learn` and the Python ``learn``
+    update the same memory.
+
+    Parameters
+    ----------
+    planned_noise : ndarray of float64, shape (1,)
+        η̂^p, the noise estimate of the model π^p was last planned with.
+    policy_changes : ndarray of int64, shape (1,)
+        How often π^p changed (and the counts were reset).
+    """
+
+    planned_noise: np.ndarray
+    policy_changes: np.ndarray
 
 
 def default_index(spec: DomainSpec, seed: int | np.random.SeedSequence) -> Representation:
@@ -142,7 +160,10 @@ class CooperativeAgent(Agent):
             self.index_ = self.index.clone().setup(spec, seeds["index"])
         self.rng_ = make_rng(seeds["behaviour"])
         self.eval_rng_ = make_rng(seeds["evaluation"])
-        self.planned_noise_ = float(self.model_.noise_)
+        self.replan_state_ = ReplanState(
+            planned_noise=np.array([float(self.model_.noise_)]),
+            policy_changes=np.zeros(1, dtype=np.int64),
+        )
         self._all_actions = np.arange(spec.num_actions, dtype=np.int64)
         self._build_tables(self.index_.num_features_, spec.num_actions)
         self._compiled_tables: BoxTables | object | None = _NOT_TABULATED
@@ -153,21 +174,14 @@ class CooperativeAgent(Agent):
     #: Whether the box learns T̂ and may switch π^p as it learns (Algorithm 26).
     adapts_model = False
 
-    def load_compiled_form(self, form: CompiledBox) -> None:
-        """Take back what the compiled loop changed outside the agent's own arrays.
+    @property
+    def planned_noise_(self) -> float:
+        """η̂^p, the noise estimate of the model π^p was last planned with (``replan_state_``)."""
+        return float(self.replan_state_.planned_noise[0])
 
-        For a box that adapts T̂ (Algorithm 26): η̂^p and the count of policy changes; the
-        analyser is told T̂ (and maybe π^p) changed. T̂'s counts and η̂ and the switch of a
-        switching π^p need nothing: the form holds the parts' own arrays
-        (`ApproximateModel.noise_model`, `SwitchingPlanner.switch_`). Nothing otherwise.
-        """
-        if not self.adapts_model:
-            return
-        parts = form.parts
-        changes = int(parts.policy_changes[0])
-        self.planned_noise_ = float(parts.planned_noise[0])
-        self.risk_.update(is_policy_changed=changes != self.num_policy_changes_)
-        self.num_policy_changes_ = changes
+    @planned_noise_.setter
+    def planned_noise_(self, noise: float) -> None:
+        self.replan_state_.planned_noise[0] = noise
 
     def compiled_tables(self) -> BoxTables | None:
         """π^p and safe(s, a) per index row for the compiled box (`tabulate`), or None.
@@ -183,13 +197,13 @@ class CooperativeAgent(Agent):
     def _kept_box(self, build: Callable[[Any], CompiledBox | None]) -> CompiledBox | None:
         """The box's compiled form, ``build(self)``: built once and kept as its state.
 
-        The form holds the box's own arrays and generators (updated in place), so a box
-        whose T̂ is static keeps one form from `setup` (or `load_state`) on, and a kernel
-        call costs no rebuilding. Choice: a box that adapts T̂ (Algorithm 26) still builds it
-        per call, since its η̂^p and π^p in use are copies `load_compiled_form` takes back.
+        The form holds the box's own arrays and generators and its parts' (``visits_`` or
+        ``counts_``, ``replan_state_``, T̂'s counts, the planner's switch, the generators),
+        updated in place by the kernels and the Python methods alike, so one form serves from
+        its first use after `setup` (or `load_state`) on and nothing is taken back after a
+        compiled call. Choice: it is built at the first ask, not in `setup`, since a run on the
+        Python path never needs the tables.
         """
-        if self.adapts_model:
-            return build(self)
         if self._compiled_box is _NOT_TABULATED:
             self._compiled_box = build(self)
         return self._compiled_box

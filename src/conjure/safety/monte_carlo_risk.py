@@ -213,6 +213,14 @@ class MonteCarloRiskAnalyzer(RiskAnalyzer):
         if is_policy_changed:
             self._policy: np.ndarray | None = None
 
+    def _planner_switch(self) -> bool | None:
+        """Which of a `SwitchingPlanner`'s policies is in use (None for other planners).
+
+        The key of the tabulated π^p besides `update`: a compiled box switches the planner in
+        place (its ``switch_``) and tells the analyser nothing.
+        """
+        return getattr(self.planner_, "is_aggressive_", None)
+
     def risk(self, state: np.ndarray, action: int, rng: np.random.Generator | None = None) -> float:
         """Algorithm 25: the fraction of 𝓜 rollouts from ⟨s, a⟩ that end constrained."""
         check_is_set_up(self, "risk")
@@ -233,10 +241,12 @@ class MonteCarloRiskAnalyzer(RiskAnalyzer):
 
     def _compiled_failures(self, state: np.ndarray, action: int, rng: np.random.Generator) -> int:
         tabular = self._tabular
-        if self._policy is None:
+        switch = self._planner_switch()
+        if self._policy is None or switch != self._policy_switch:
             self._policy = np.array(
                 [self.planner_.action(s) for s in tabular.states], dtype=np.int64
             )
+            self._policy_switch = switch
         rollouts = self._grid._replace(rng=rng)
         return grid_failures(
             rollouts, tabular.state_index(state), action, float(self.model_.noise_), self._policy

@@ -59,11 +59,16 @@ class NominalRiskAnalyzer(RiskAnalyzer):
     def __init__(self, *, risk_tolerance: float = 1.0):
         self.risk_tolerance = risk_tolerance
 
+    def _bind(self) -> None:
+        """Build the compiled form (with ε) once, as the analyser's state."""
+        self._form = FixedRisk(risk_tolerance=float(self.risk_tolerance))
+
     compiled_methods = ("risk", "is_safe")
 
     def compiled_form(self) -> FixedRisk:
-        """Deterministic: the compiled iCCA box tabulates ``is_safe`` (`FixedRisk`)."""
-        return FixedRisk(float(self.risk_tolerance))
+        """Deterministic: the compiled iCCA box tabulates ``is_safe`` (`FixedRisk`, from setup)."""
+        check_is_set_up(self, "compiled_form")
+        return self._form
 
     def risk(self, state: np.ndarray, action: int, rng: np.random.Generator | None = None) -> float:
         """1.0 if the noise-free successor is constrained, else 0.0."""
