@@ -40,6 +40,7 @@ SHORT_RUNS = {
     ],
     "reproduction/make_configs.py": ["--out", "{tmp}"],
     "reproduction/rescue_optimum.py": ["--quick"],
+    "reproduction/safe_rl.py": ["render", "--check"],
     "reproduction/tables.py": ["{results}", "--steps", "200"],
     "reproduction/uav_calibration.py": ["--quick"],
 }

@@ -245,11 +245,13 @@ def render(check: bool) -> int:
     _, tail = rest.split(END, 1)
     new = f"{head}{START}\n{block()}\n{END}{tail}"
     if new == text:
+        print(f"{PAGE.name} equals what the stored CSVs give")
         return 0
     if check:
         print(f"{PAGE} differs from the stored CSVs; run `python {Path(__file__).name} render`.")
         return 1
     PAGE.write_text(new)
+    print(f"rewrote {PAGE.name} from the stored CSVs")
     return 0
 
 

@@ -273,6 +273,8 @@ def domain_kernel(
 class KeptCompiledForm:
     """A domain mixin: the compiled form built once per ``_build``, its state copied in per call.
 
+    The form is what the compiled loop of Algorithms 10-12 steps (`step_into`).
+
     The constants and tables (`domain_kernel`) are built at the first ``compiled_form`` after
     ``_build`` (the parameters' last change: every ``_build`` makes a new ``domain_spec``,
     the key) and kept by the domain; each call copies the domain's current state into the
