@@ -322,3 +322,48 @@ def test_a_saute_learner_saves_and_restores_its_blocks_and_budgets(tmp_path):
     np.testing.assert_array_equal(restored.arrays_.constraint_state, agent.arrays_.constraint_state)
     state = np.array([3.0, 2.0])
     assert restored.preferences(state).tolist() == agent.preferences(state).tolist()
+
+
+def test_conjure_run_drives_every_constraint_from_a_config_and_records_the_costs(tmp_path):
+    from click.testing import CliRunner
+
+    from conjure.cli.main import main
+    from conjure.experiments.results import read_run
+
+    config = tmp_path / "constrained.yaml"
+    config.write_text(
+        """\
+name: constrained
+domain: {kind: GridWorld, params: {map_name: gridworld1}}
+agents:
+  lagrangian:
+    kind: SARSA
+    params:
+      representation: {kind: Tabular}
+      constraint: {kind: Lagrangian, params: {cost_limit: 0.1}}
+  pid:
+    kind: QLearning
+    params:
+      representation: {kind: Tabular}
+      constraint: {kind: PIDLagrangian, params: {cost_limit: 0.1}}
+  saute:
+    kind: ActorCritic
+    params:
+      representation: {kind: Tabular}
+      constraint: {kind: Saute, params: {cost_limit: 0.1, num_budget_bins: 1}}
+budget_steps: 2000
+num_policy_checks: 2
+seeds: 1
+"""
+    )
+    out = tmp_path / "out"
+    ran = CliRunner().invoke(
+        main, ["run", str(config), "--out", str(out), "--quiet", "--max-workers", "1"]
+    )
+    assert ran.exit_code == 0, ran.output
+    for path in sorted((out / "runs").iterdir()):
+        curve = read_run(path)["curve"]
+        last = curve.iloc[-1]
+        assert last["learning_cost"] == last["learning_failures"] > 0  # c_t = 1 per pit
+        assert last["cost_rate"] == last["learning_cost"] / last["learning_steps"]
+        assert 0.0 <= last["episode_cost"] <= 1.0
