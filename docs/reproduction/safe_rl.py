@@ -36,7 +36,7 @@ import pandas as pd
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
-from conjure.experiments.numbers import format_number
+from conjure.experiments.numbers import format_estimate, format_number
 from conjure.reporting.plots import plot_performance_profiles
 from conjure.reporting.statistics import (
     iqm_interval,
@@ -190,10 +190,6 @@ def compute() -> None:
     print(f"wrote {SUMMARY.name}, {IMPROVEMENT.name}, {PROFILES.name} and two plots")
 
 
-def _interval(point: float, low: float, high: float) -> str:
-    return f"{format_number(point)} [{format_number(low)}, {format_number(high)}]"
-
-
 def block() -> str:
     """The page's generated text: the summary and the improvement tables, the plots."""
     summary, improvement = pd.read_csv(SUMMARY), pd.read_csv(IMPROVEMENT)
@@ -210,7 +206,7 @@ def block() -> str:
         for row in rows.itertuples():
             lines.append(
                 f"| {row.method} | {row.runs} | "
-                f"{_interval(row.return_iqm, row.return_low, row.return_high)} | "
+                f"{format_estimate(row.return_iqm, row.return_low, row.return_high)} | "
                 f"{format_number(row.episode_cost)} | {row.within_limit:.0%} | "
                 f"{format_number(row.learning_cost)} | {format_number(row.return_per_cost)} |"
             )
@@ -224,11 +220,11 @@ def block() -> str:
             "|---|---|---|",
         ]
         for row in chosen.itertuples():
-            lines.append(
-                f"| {row.y} | "
-                f"{_interval(row.higher_return, row.higher_return_low, row.higher_return_high)} | "
-                f"{_interval(row.lower_cost, row.lower_cost_low, row.lower_cost_high)} |"
+            higher = format_estimate(
+                row.higher_return, row.higher_return_low, row.higher_return_high
             )
+            lower = format_estimate(row.lower_cost, row.lower_cost_low, row.lower_cost_high)
+            lines.append(f"| {row.y} | {higher} | {lower} |")
         lines.append("")
     lines += [
         "![Final return against cost while learning](safe_rl_return_vs_cost.png)",

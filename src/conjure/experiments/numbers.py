@@ -34,7 +34,13 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["format_interval", "format_number", "format_value", "readable_setting"]
+__all__ = [
+    "format_estimate",
+    "format_interval",
+    "format_number",
+    "format_value",
+    "readable_setting",
+]
 
 #: The most decimals a number prints with.
 MAX_DECIMALS = 8
@@ -70,6 +76,17 @@ def format_number(value: float | None, digits: int = 4) -> str:
     if abs(value) < 1e-4:
         return f"{value:.{digits - 1}e}"
     return f"{value:,.{_decimals(abs(value), digits)}f}"
+
+
+def format_estimate(point: float, low: float, high: float) -> str:
+    """Return ``point [low, high]``, each by `format_number` (an estimate and its interval).
+
+    Examples
+    --------
+    >>> format_estimate(0.5675, 0.5277, 0.6172)
+    '0.5675 [0.5277, 0.6172]'
+    """
+    return f"{format_number(point)} [{format_number(low)}, {format_number(high)}]"
 
 
 def format_interval(

@@ -28,7 +28,12 @@ import pandas as pd
 
 from conjure.core.errors import InvalidParameterError, write_failure
 from conjure.experiments.metric_ranges import metric_range
-from conjure.experiments.numbers import format_interval, format_number, readable_setting
+from conjure.experiments.numbers import (
+    format_estimate,
+    format_interval,
+    format_number,
+    readable_setting,
+)
 from conjure.experiments.options import out_dir_option
 from conjure.experiments.results import (
     ERRORS_DIR,
@@ -161,7 +166,7 @@ def _iqm_text(values: np.ndarray) -> str:
     if finite.size == 0:
         return "n/a"
     point, low, high = iqm_interval(finite)
-    return f"{format_number(point)} [{format_number(low)}, {format_number(high)}]"
+    return format_estimate(point, low, high)
 
 
 def _final_table(finals: pd.DataFrame, metric: str) -> pd.DataFrame:
