@@ -379,7 +379,7 @@ def learning_loop(
         episode_steps += 1
         next_phi, next_values = phi, values
         next_action = 0
-        next_spent = episode_cost + cost  # spent at s'
+        next_spent = episode_cost + cost if cost > 0.0 else episode_cost  # spent at s'
         target, cost_target = saute_reward(constraint, reward, next_spent), cost
         if not terminated:  # φ(s'), a' = π(s') and Q⁺(s, a) (Algorithms 10-12, lines 4-5)
             next_phi = encode_into(base, next_obs, quanta, next_buffer) if learn else peek_into(
