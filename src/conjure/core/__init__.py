@@ -1,8 +1,11 @@
 """Core layer: interfaces, errors, parameters, seeding and step-size schedules.
 
 Everything else in conjure imports from here; this layer imports nothing of conjure.
+Its first import keys numba's cache of every conjure kernel on all kernel sources
+(`conjure.core.kernel_cache`).
 """
 
+from conjure.core import kernel_cache  # noqa: F401 (first: before any kernel is defined)
 from conjure.core.errors import (
     ConjureError,
     DivergenceError,
