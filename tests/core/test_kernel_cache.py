@@ -1,40 +1,53 @@
-"""Numba's cache of conjure's kernels is keyed on every kernel source, not one file."""
+"""Numba's cache of conjure's kernels is keyed on the sources each kernel may reach."""
 
 from pathlib import Path
 
+import tomllib
 from numba import njit
 from numba.core import caching
 
 from conjure.compiled import stepper
 from conjure.core import kernel_cache
-from conjure.core.kernel_cache import KernelSourceLocator, kernel_sources_digest
+from conjure.core.kernel_cache import LAYERS, KernelSourceLocator, kernel_sources_digest
+
+CLI, COMPILED, CORE = 0, 3, 8
 
 
 def _package(root: Path) -> None:
-    (root / "kernels.py").write_text("from numba import njit\n")
-    (root / "cli.py").write_text("import click\n")
+    for name in ("cli", "compiled", "core"):
+        (root / name).mkdir()
+        (root / name / "module.py").write_text(f"# {name}\n")
+    (root / "environments.py").write_text("# outside the layers\n")
 
 
-def test_an_edit_to_any_kernel_source_changes_the_digest(tmp_path):
+def _edit(root: Path, name: str) -> None:
+    path = root / name / "module.py"
+    path.write_text(path.read_text() + "# edited\n")
+
+
+def test_an_edit_below_a_layer_changes_its_digest(tmp_path):
     _package(tmp_path)
-    before = kernel_sources_digest(tmp_path)
-    (tmp_path / "kernels.py").write_text("from numba import njit  # edited\n")
-    assert kernel_sources_digest(tmp_path) != before
+    before = {layer: kernel_sources_digest(layer, tmp_path) for layer in (COMPILED, -1)}
+    _edit(tmp_path, "core")
+    assert all(kernel_sources_digest(k, tmp_path) != v for k, v in before.items())
 
 
-def test_an_edit_to_a_module_without_kernels_keeps_the_digest(tmp_path):
+def test_an_edit_above_a_layer_keeps_its_digest(tmp_path):
     _package(tmp_path)
-    before = kernel_sources_digest(tmp_path)
-    (tmp_path / "cli.py").write_text("import click  # edited\n")
-    assert kernel_sources_digest(tmp_path) == before
+    before = kernel_sources_digest(COMPILED, tmp_path)
+    everything = kernel_sources_digest(-1, tmp_path)
+    _edit(tmp_path, "cli")
+    (tmp_path / "environments.py").write_text("# edited\n")
+    assert kernel_sources_digest(COMPILED, tmp_path) == before
+    assert kernel_sources_digest(-1, tmp_path) != everything  # outside the layers: all
 
 
-def test_the_loop_is_stamped_with_every_kernel_source():
+def test_the_loop_is_stamped_with_the_layers_it_may_reach():
     # run_loop inlines kernels of other modules: its own file alone would not see them change.
     locator = stepper.run_loop._cache._impl._locator
     assert isinstance(locator, KernelSourceLocator)
-    own, package = locator.get_source_stamp()
-    assert package == kernel_sources_digest() and own  # numba's own stamp is kept beside it
+    own, reached = locator.get_source_stamp()
+    assert reached == kernel_sources_digest(COMPILED) and own  # numba's own stamp kept too
     numba_own = next(
         located
         for cls in caching.CacheImpl._locator_classes[1:]
@@ -50,4 +63,12 @@ def test_functions_outside_conjure_keep_numba_s_locator():
 
     assert twice(2) == 4
     assert not isinstance(twice._cache._impl._locator, KernelSourceLocator)
-    assert kernel_cache.PACKAGE == Path(stepper.__file__).resolve().parent.parent
+
+
+def test_the_layers_are_import_linter_s():
+    pyproject = kernel_cache.PACKAGE.parent.parent / "pyproject.toml"
+    contract = tomllib.loads(pyproject.read_text())["tool"]["importlinter"]["contracts"][0]
+    names = [tuple(n.strip().removeprefix("conjure.") for n in layer.split("|"))
+             for layer in contract["layers"]]  # fmt: skip
+    assert tuple(names) == LAYERS
+    assert (LAYERS[CLI], LAYERS[COMPILED], LAYERS[CORE]) == (("cli",), ("compiled",), ("core",))

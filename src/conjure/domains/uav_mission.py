@@ -340,11 +340,23 @@ class UAVMission(KeptCompiledForm, ActionMasking, NoisyDomain):
 
     @_state.setter
     def _state(self, state: np.ndarray) -> None:
-        # The one legality pass of a state (`conjure.compiled.combination` also assigns here).
+        # `conjure.compiled.combination` and `load_compiled_form` also assign here.
         self._current_state = state
-        self._mask = checked_legal_mask(
-            state, self._high, self._layout, self._adjacency, self.graph_.num_actions
-        )
+        self._current_mask = None
+
+    @property
+    def _mask(self) -> np.ndarray:
+        """The legal mask of the current state: one legality pass, at its first read.
+
+        Choice: computed on demand, so the compiled loop handing its state back
+        (`load_compiled_form`) pays no Θ(N^n) pass that nothing reads.
+        """
+        if self._current_mask is None:
+            self._current_mask = checked_legal_mask(
+                self._current_state, self._high, self._layout, self._adjacency,
+                self.graph_.num_actions,
+            )  # fmt: skip
+        return self._current_mask
 
     def _observed_state(self) -> np.ndarray:
         return self._current_state
