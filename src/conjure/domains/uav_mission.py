@@ -342,7 +342,7 @@ class UAVMission(KeptCompiledForm, ActionMasking, NoisyDomain):
     def _state(self, state: np.ndarray) -> None:
         # `conjure.compiled.combination` and `load_compiled_form` also assign here.
         self._current_state = state
-        self._current_mask = None
+        self._state_mask = None
 
     @property
     def _mask(self) -> np.ndarray:
@@ -351,12 +351,12 @@ class UAVMission(KeptCompiledForm, ActionMasking, NoisyDomain):
         Choice: computed on demand, so the compiled loop handing its state back
         (`load_compiled_form`) pays no Θ(N^n) pass that nothing reads.
         """
-        if self._current_mask is None:
-            self._current_mask = checked_legal_mask(
+        if self._state_mask is None:
+            self._state_mask = checked_legal_mask(
                 self._current_state, self._high, self._layout, self._adjacency,
                 self.graph_.num_actions,
             )  # fmt: skip
-        return self._current_mask
+        return self._state_mask
 
     def _observed_state(self) -> np.ndarray:
         return self._current_state
