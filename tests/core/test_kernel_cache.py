@@ -8,7 +8,8 @@ from numba.core import caching
 
 from conjure.compiled import stepper
 from conjure.core import kernel_cache
-from conjure.core.kernel_cache import LAYERS, KernelSourceLocator, kernel_sources_digest
+from conjure.core.kernel_cache import LAYERS, kernel_sources_digest
+from conjure.core.kernel_locator import KernelSourceLocator
 
 CLI, COMPILED, CORE = 0, 3, 8
 
@@ -72,3 +73,25 @@ def test_the_layers_are_import_linter_s():
              for layer in contract["layers"]]  # fmt: skip
     assert tuple(names) == LAYERS
     assert (LAYERS[CLI], LAYERS[COMPILED], LAYERS[CORE]) == (("cli",), ("compiled",), ("core",))
+
+
+def test_every_kernel_of_the_package_is_stamped_by_its_layers():
+    # conjure.core registers the locator before any kernel is defined: a module importing
+    # numba before conjure.core would leave its kernels keyed on their own file alone.
+    import gc
+    import importlib
+    import pkgutil
+
+    from numba.core.registry import CPUDispatcher
+
+    import conjure
+
+    for module in pkgutil.walk_packages(conjure.__path__, "conjure."):
+        importlib.import_module(module.name)
+    cached = [
+        d for d in gc.get_objects()
+        if type(d) is CPUDispatcher and type(d._cache).__name__ == "FunctionCache"
+        and d.py_func.__module__.startswith("conjure.")
+    ]  # fmt: skip
+    assert len(cached) > 100
+    assert [d for d in cached if not isinstance(d._cache._impl._locator, KernelSourceLocator)] == []

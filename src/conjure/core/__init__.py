@@ -1,11 +1,10 @@
 """Core layer: interfaces, errors, parameters, seeding and step-size schedules.
 
 Everything else in conjure imports from here; this layer imports nothing of conjure.
-Its first import keys numba's cache of every conjure kernel on all kernel sources
+It first keys numba's cache of every conjure kernel on the sources the kernel may reach
 (`conjure.core.kernel_cache`).
 """
 
-from conjure.core import kernel_cache  # noqa: F401 (first: before any kernel is defined)
 from conjure.core.errors import (
     ConjureError,
     DivergenceError,
@@ -23,6 +22,7 @@ from conjure.core.interfaces import (
     SparseFeatures,
     Transition,
 )
+from conjure.core.kernel_cache import watch_numba
 from conjure.core.params import Configurable
 from conjure.core.schedules import (
     ConstantStepSize,
@@ -51,3 +51,5 @@ __all__ = [
     "StepSizeSchedule",
     "Transition",
 ]
+
+watch_numba()  # none of the modules above loads numba; every kernel is defined later

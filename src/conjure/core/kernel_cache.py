@@ -12,20 +12,20 @@ pyproject.toml, `LAYERS` here), every module of its own layer and the layers bel
 module outside the layers (`conjure.testing`, `conjure.examples`, the package's own files),
 every module. An edit recompiles the kernels above it on their next call and no others (an
 edit to `conjure.cli` recompiles nothing). Where a kernel is cached (the folder beside its
-module or numba's user-wide one) stays numba's choice. Importing this module registers the
-locator; `conjure.core` imports it before anything else, so it is in place before any
-conjure kernel is defined.
+module or numba's user-wide one) stays numba's choice. `conjure.core` calls `watch_numba`
+first, so the locator (`conjure.core.kernel_locator`) is in place before any conjure kernel
+is defined.
 """
 
 from __future__ import annotations
 
-import functools
 import hashlib
+import importlib.abc
+import importlib.util
+import sys
 from pathlib import Path
 
-from numba.core import caching
-
-__all__ = ["LAYERS", "KernelSourceLocator", "kernel_sources_digest", "layer_of"]
+__all__ = ["LAYERS", "kernel_sources_digest", "layer_of", "watch_numba"]
 
 PACKAGE = Path(__file__).resolve().parent.parent
 #: The package's layers, top to bottom, as in pyproject.toml's import-linter contract.
@@ -61,38 +61,33 @@ def kernel_sources_digest(layer: int = -1, root: Path = PACKAGE) -> str:
     return digest.hexdigest()
 
 
-_layer_digest = functools.cache(kernel_sources_digest)
+class _AfterNumbaCaching(importlib.abc.MetaPathFinder):
+    """Imports `conjure.core.kernel_locator` as soon as numba's caching module has loaded."""
 
-
-class KernelSourceLocator(caching._CacheLocator):
-    """Numba's own locator for a conjure function, with the kernel sources in its stamp."""
-
-    def __init__(self, located: caching._CacheLocator, layer: int) -> None:
-        self._located = located
-        self._layer = layer
-
-    @classmethod
-    def from_function(cls, py_func, py_file):
-        """A locator for functions of the conjure package; None (numba's own) for others."""
-        path = Path(py_file).resolve()
-        if not path.is_relative_to(PACKAGE):
+    def find_spec(self, name, path, target=None):
+        if name != _NUMBA_CACHING:
             return None
-        for numba_class in caching.CacheImpl._locator_classes:
-            if numba_class is not cls:
-                located = numba_class.from_function(py_func, py_file)
-                if located is not None:
-                    return cls(located, layer_of(path))
-        return None
+        sys.meta_path.remove(self)
+        spec = importlib.util.find_spec(name)
+        run = spec.loader.exec_module
 
-    def get_cache_path(self) -> str:
-        return self._located.get_cache_path()
+        def exec_module(module):
+            run(module)
+            importlib.import_module(_LOCATOR)
 
-    def get_disambiguator(self) -> str:
-        return self._located.get_disambiguator()
-
-    def get_source_stamp(self) -> tuple:
-        return self._located.get_source_stamp(), _layer_digest(self._layer)
+        spec.loader.exec_module = exec_module
+        return spec
 
 
-if KernelSourceLocator not in caching.CacheImpl._locator_classes:
-    caching.CacheImpl._locator_classes.insert(0, KernelSourceLocator)
+_NUMBA_CACHING, _LOCATOR = "numba.core.caching", "conjure.core.kernel_locator"
+
+
+def watch_numba() -> None:
+    """Register `conjure.core.kernel_locator` now if numba is loaded, else when it loads.
+
+    Choice: an import hook, so that importing conjure (``conjure --help``) loads no numba.
+    """
+    if _NUMBA_CACHING in sys.modules:
+        importlib.import_module(_LOCATOR)
+    elif not any(isinstance(finder, _AfterNumbaCaching) for finder in sys.meta_path):
+        sys.meta_path.insert(0, _AfterNumbaCaching())
