@@ -51,9 +51,11 @@ def test_every_module_has_a_test_file():
 #: Underscored names that are public APIs of other libraries: namedtuple's methods,
 #: ``os._exit`` (a worker's exit), numba's cache index (`conjure.compiled.stepper.is_warm`
 #: reads it knowingly, falling back to "cold" if it changes) and the value of numba's struct
-#: proxies (``cgutils.create_struct_proxy(...)._getvalue()``, numba's extension API).
+#: proxies (``cgutils.create_struct_proxy(...)._getvalue()``, numba's extension API), and
+#: numba's cache locators (their base and list, which ``NUMBA_CACHE_LOCATOR_CLASSES`` names;
+#: `conjure.core.kernel_locator`).
 _FOREIGN_PUBLIC = {"_replace", "_asdict", "_fields", "_make", "_exit", "_cache", "_cache_file"}
-_FOREIGN_PUBLIC |= {"_load_index", "_getvalue"}
+_FOREIGN_PUBLIC |= {"_load_index", "_getvalue", "_CacheLocator", "_locator_classes"}
 
 
 def _defined_names(tree: ast.Module) -> set[str]:
