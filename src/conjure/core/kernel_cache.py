@@ -25,7 +25,14 @@ import importlib.util
 import sys
 from pathlib import Path
 
-__all__ = ["LAYERS", "kernel_sources_digest", "layer_of", "watch_numba"]
+__all__ = [
+    "LAYERS",
+    "kernel_sources_digest",
+    "layer_digest",
+    "layer_of",
+    "source_hashes",
+    "watch_numba",
+]
 
 PACKAGE = Path(__file__).resolve().parent.parent
 #: The package's layers, top to bottom, as in pyproject.toml's import-linter contract.
@@ -48,17 +55,31 @@ def layer_of(path: Path, root: Path = PACKAGE) -> int:
     return next((i for i, layer in enumerate(LAYERS) if name in layer), -1)
 
 
-def kernel_sources_digest(layer: int = -1, root: Path = PACKAGE) -> str:
-    """SHA-256 over the paths and contents of the modules a kernel in ``layer`` may reach.
+def source_hashes(root: Path = PACKAGE) -> tuple[tuple[str, int, bytes], ...]:
+    """(path, layer, SHA-256 of the contents) of every module under ``root``, by path."""
+    return tuple(
+        (path.relative_to(root).as_posix(), layer_of(path, root),
+         hashlib.sha256(path.read_bytes()).digest())
+        for path in sorted(root.rglob("*.py"))
+    )  # fmt: skip
 
-    Those of ``layer`` and the layers below it, under ``root``; every module for -1.
+
+def layer_digest(hashes: tuple[tuple[str, int, bytes], ...], layer: int) -> str:
+    """SHA-256 over the modules of ``hashes`` a kernel in ``layer`` may reach.
+
+    Those of ``layer`` and the layers below it; every module for -1.
     """
     digest = hashlib.sha256()
-    for path in sorted(root.rglob("*.py")):
-        if layer < 0 or layer_of(path, root) >= layer:
-            digest.update(path.relative_to(root).as_posix().encode())
-            digest.update(path.read_bytes())
+    for path, module_layer, content in hashes:
+        if layer < 0 or module_layer >= layer:
+            digest.update(path.encode())
+            digest.update(content)
     return digest.hexdigest()
+
+
+def kernel_sources_digest(layer: int = -1, root: Path = PACKAGE) -> str:
+    """`layer_digest` of the modules under ``root`` as they are now (read each call)."""
+    return layer_digest(source_hashes(root), layer)
 
 
 class _AfterNumbaCaching(importlib.abc.MetaPathFinder):

@@ -7,11 +7,17 @@ from pathlib import Path
 
 from numba.core import caching
 
-from conjure.core.kernel_cache import PACKAGE, kernel_sources_digest, layer_of
+from conjure.core.kernel_cache import PACKAGE, layer_digest, layer_of, source_hashes
 
 __all__ = ["KernelSourceLocator"]
 
-_layer_digest = functools.cache(kernel_sources_digest)
+#: The package's modules read and hashed once per process; each layer's digest once from them.
+_package_hashes = functools.cache(source_hashes)
+
+
+@functools.cache
+def _layer_digest(layer: int) -> str:
+    return layer_digest(_package_hashes(), layer)
 
 
 class KernelSourceLocator(caching._CacheLocator):
