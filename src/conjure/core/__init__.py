@@ -1,8 +1,8 @@
 """Core layer: interfaces, errors, parameters, seeding and step-size schedules.
 
 Everything else in conjure imports from here; this layer imports nothing of conjure.
-It first keys numba's cache of every conjure kernel on the sources the kernel may reach
-(`conjure.core.kernel_cache`).
+Importing it keys numba's cache of every conjure kernel on the sources the kernel may reach
+(`conjure.core.kernel_cache`), before any kernel is defined.
 """
 
 from conjure.core.errors import (
