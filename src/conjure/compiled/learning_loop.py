@@ -28,13 +28,25 @@ Random numbers come from the same `numpy.random.Generator` objects in the same o
 Python path (numba shares their state): the domain's draws per step and one uniform per action
 choice.
 
-The loop's own state (phase, action, counters, return so far) is `LoopState`, resumable
-between calls; an episode may span calls.
+The loop reads like `Stepper._steps`; its slots are small kernels, inlined
+(``inline="always"``) so the step's compiled code is that of one function: `_begin` (the
+learner's begin_episode and a = π(s)), `_room` (before a learning step: whether discoveries and
+traces fit), `_choose` (φ(s), the legal actions and `_act`: a = π(s) by the learner or its box,
+discovery after a learned veto), `_learn` (Q⁺(s, a) and the update), then the grow slot
+`_discover` and Algorithm 26's `box_learn`. Each mode lives in the slot it changes (a policy
+check acts greedily in `_act` and never reaches `_learn`). The loop's own state (phase, action,
+counters, return so far) is `LoopState`, resumable between calls; an episode may span calls.
 
 Choice: the loop reads its arguments and its scratch arrays through borrowed views
 (`conjure.core.compiled_form.borrowed`, `release`): numba counts a reference to every array of
 a form each time a kernel binds it, with an atomic add, and prunes few of those counts in a
-function this large.
+function this large. A structref cannot be borrowed (its pointer is its data), so every
+inlined slot that binds a form holding one (iFDD's tables in `IFDDKernel`, `RowTracePair`,
+`BoxParts`, or the `Parts` bundle of all forms) pays two atomic counts per binding. Choice:
+the slots run on every step bind only the forms they read, and the loop calls a slot that
+binds a structref only where it applies, by flags set once per call: `_room` when iFDD or
+traces may need to grow, `_choose_alone` (no structref) instead of `_choose` for a learner
+alone on fixed features, `_discover` with iFDD and `box_learn` with an adaptive model.
 
 Compilation: one function serves every combination (the compiled forms have fixed field
 types), with a second compilation for real-valued φ (`RBF`), so binary φ never reads a value.
@@ -92,6 +104,7 @@ from conjure.representations.compiled_ifdd import (
 from conjure.representations.compiled_representation import (
     HASHED_TABULAR,
     TILES,
+    RepresentationKernel,
     encode_into,
     peek_into,
     values_of,
@@ -189,26 +202,352 @@ def _copy(target: np.ndarray, source: np.ndarray) -> None:
         target[i] = source[i]
 
 
+@njit(cache=True, inline="always")
+def _resume(state: LoopState) -> tuple[int, int, int, int, int, int, float, float, float, float]:
+    """`LoopState`'s values, in its field order (``drawn`` aside)."""
+    return (state.phase[0], state.action[0], state.episode_steps[0], state.episode[0],
+            state.learning_steps[0], state.episode_failures[0], state.total[0],
+            state.discounted[0], state.weight[0], state.episode_cost[0])  # fmt: skip
+
+
+@njit(cache=True, inline="always")
+def _pause(
+    state: LoopState, phase: int, action: int, episode_steps: int, episode: int,
+    learning_steps: int, episode_failures: int, total: float, discounted: float, weight: float,
+    episode_cost: float,
+) -> None:  # fmt: skip
+    """Write the loop's values back into ``state`` (`_resume`'s inverse)."""
+    state.phase[0], state.action[0], state.episode_steps[0] = phase, action, episode_steps
+    state.episode[0], state.learning_steps[0] = episode, learning_steps
+    state.episode_failures[0], state.total[0] = episode_failures, total
+    state.discounted[0], state.weight[0], state.episode_cost[0] = discounted, weight, episode_cost
+
+
+class Scratch(NamedTuple):
+    """A call's buffers: φ(s) and φ(s') of tile coding, legal actions at s and s', s', Q(s', ·).
+
+    ``quanta`` and ``row_buffer`` for encoding, ``all_actions`` for an unmasked domain, the
+    critic's and the cost critic's values at s' and the acting values ``choice``; ``next_drawn``
+    is π(s', ·) for the log-policy actor.
+    """
+
+    quanta: np.ndarray
+    row_buffer: np.ndarray
+    phi_buffer: np.ndarray
+    next_buffer: np.ndarray
+    all_actions: np.ndarray
+    legal_buffer: np.ndarray
+    next_legal_buffer: np.ndarray
+    next_obs: np.ndarray
+    q: np.ndarray
+    critic_q: np.ndarray
+    cost_q: np.ndarray
+    choice: np.ndarray
+    next_drawn: np.ndarray
+
+
+class Parts(NamedTuple):
+    """The components' compiled forms a call reads (`learning_loop`'s arguments)."""
+
+    domain: DomainKernel
+    domain_rng: np.random.Generator
+    rep: IFDDKernel
+    agent: AgentKernel
+    arrays: LearnerArrays
+    row_traces: RowTracePair
+    agent_rng: np.random.Generator
+    box: BoxKernel
+    box_parts: BoxParts
+
+
+@njit(cache=True, inline="always")
+def _new_scratch(obs: np.ndarray, rep: IFDDKernel, arrays: LearnerArrays) -> Scratch:
+    max_active = max(rep.base.max_active, 1)
+    num_actions = arrays.actor_weights.shape[1]  # θ has one column for a V critic
+    return Scratch(
+        quanta=np.empty(obs.shape[0], dtype=np.int64),
+        row_buffer=np.empty(1, dtype=np.int64),
+        phi_buffer=np.empty(max_active, dtype=np.int64),
+        next_buffer=np.empty(max_active, dtype=np.int64),
+        all_actions=np.arange(num_actions),
+        legal_buffer=np.arange(num_actions),
+        next_legal_buffer=np.arange(num_actions),
+        next_obs=np.empty_like(obs),
+        q=np.empty(num_actions),
+        critic_q=np.empty(arrays.weights.shape[1]),
+        cost_q=np.zeros(arrays.weights.shape[1]),
+        choice=np.empty(num_actions),
+        next_drawn=np.empty(num_actions),
+    )
+
+
+@njit(cache=True, inline="always")
+def _observe(
+    domain: DomainKernel,
+    base: RepresentationKernel,
+    learn: bool,
+    at_next: bool,
+    obs: np.ndarray,
+    buffer: np.ndarray,
+    legal_buffer: np.ndarray,
+    scratch: Scratch,
+) -> tuple[np.ndarray, np.ndarray | None, np.ndarray, bool]:
+    """φ(s) of the fixed features, its values, the legal actions, and whether an index was full.
+
+    ``at_next``: s is s' of a step. A learning step stores a new cell (`encode_into`), a policy
+    check does not (`peek_into`); a full `HashedTabular` refuses a new one (φ[0] < 0).
+    """
+    phi = encode_into(base, obs, scratch.quanta, buffer) if learn else peek_into(
+        base, obs, scratch.quanta, buffer
+    )  # fmt: skip
+    is_full = learn and base.kind == HASHED_TABULAR and phi[0] < 0
+    if domain.has_action_constraints:
+        return phi, values_of(base, obs), legal_into(domain, at_next, legal_buffer), is_full
+    return phi, values_of(base, obs), scratch.all_actions, is_full
+
+
+@njit(cache=True, inline="always")
+def _act_alone(
+    agent: AgentKernel,
+    arrays: LearnerArrays,
+    agent_rng: np.random.Generator,
+    learn: bool,
+    phi: np.ndarray,
+    values: np.ndarray | None,
+    legal: np.ndarray,
+    spent: float,
+    scratch: Scratch,
+) -> int:
+    """The action π(s) of the learner alone; Q(s, ·) of the rows for the cost ``spent`` in q.
+
+    Its policy's action when learning, else the greedy one; a constrained SARSA or Q-Learning
+    acts on Q − λQ_C (`acting_values`).
+    """
+    chooser = budget_rows(agent.constraint, arrays.actor_weights, spent)
+    q_values_into(chooser, phi, values, scratch.q)
+    acting = acting_values(agent, arrays, phi, values, scratch.q, scratch.choice)
+    if learn:
+        return select_action(agent.policy, acting, legal, agent_rng)
+    return greedy_action(acting, legal)
+
+
+@njit(cache=True, inline="always")
+def _act(
+    p: Parts,
+    learn: bool,
+    phi: np.ndarray,
+    values: np.ndarray | None,
+    legal: np.ndarray,
+    spent: float,
+    obs: np.ndarray,
+    scratch: Scratch,
+    episode: int,
+) -> tuple[int, float, bool]:
+    """The act slot: a = π(s), by the box if there is one (Q(s, ·) in ``scratch.q``).
+
+    Returns (a, a vetoed proposal's δ, whether the box learned one). A policy check acts
+    through the box (`greedy_box_action`); a constrained learner's acts alone (`_act_alone`).
+    """
+    agent, arrays, box = p.agent, p.arrays, p.box
+    is_penalized = has_cost_critic(agent.constraint) and agent.kind != ACTOR_CRITIC
+    if box.kind == NO_BOX or (not learn and is_penalized):
+        return _act_alone(agent, arrays, p.agent_rng, learn, phi, values, legal, spent,
+                          scratch), 0.0, False  # fmt: skip
+    if not learn:
+        chooser = budget_rows(agent.constraint, arrays.actor_weights, spent)
+        return greedy_box_action(box, p.box_parts, chooser, phi, values, scratch.q, legal,
+                                 obs), 0.0, False  # fmt: skip
+    return box_action(  # it fills Q(s, ·) after moving ρ, for Algorithm 23
+        box, p.box_parts, agent, arrays, phi, values, scratch.q, legal, p.agent_rng, obs,
+        scratch.quanta, scratch.row_buffer, episode,
+    )  # fmt: skip
+
+
 @njit(cache=True)
 def _discover(
-    rep: IFDDKernel,
-    arrays: LearnerArrays,
-    phi: np.ndarray,
-    delta: float,
-    room: int,
-    is_actor_critic: bool,
-    has_trace_slots: bool,
-) -> bool:
-    """Algorithm 20/21 on φ(s) with δ, then the learner's rows for the new features.
+    rep: IFDDKernel, arrays: LearnerArrays, phi: np.ndarray, delta: float, room: int,
+    agent: AgentKernel,
+) -> bool:  # fmt: skip
+    """The grow slot: Algorithm 20/21 on φ(s) with δ, then the learner's rows for new features.
 
     The rows come from the learners' own growth kernel (`grow_learner_rows`: θ_f = θ_g + θ_h,
     Section 4.1.1). Returns whether features were added (φ of every state must then be
     encoded again).
     """
     first, added, parents = discover_from(rep, phi, delta, room)
-    grow_learner_rows(arrays, first, parents[first : first + added], is_actor_critic,
-                      has_trace_slots)  # fmt: skip
+    has_trace_slots = agent.traces == REPLACING or agent.traces == ACCUMULATING  # SARSA(λ)'s
+    grow_learner_rows(arrays, first, parents[first : first + added],
+                      agent.kind == ACTOR_CRITIC, has_trace_slots)  # fmt: skip
     return added > 0
+
+
+@njit(cache=True, inline="always")
+def _features(rep: IFDDKernel, learn: bool, obs: np.ndarray, buffer: np.ndarray,
+              scratch: Scratch) -> np.ndarray:  # fmt: skip
+    """φ(s) encoded again (sparsified by iFDD, Algorithm 19, with the features it holds now)."""
+    phi = encode_into(rep.base, obs, scratch.quanta, buffer) if learn else peek_into(
+        rep.base, obs, scratch.quanta, buffer
+    )  # fmt: skip
+    return sparsify(rep, phi) if rep.is_ifdd else phi
+
+
+@njit(cache=True, inline="always")
+def _shift(phi_buffer: np.ndarray, next_phi: np.ndarray, is_buffered: bool) -> np.ndarray:
+    """φ(s) ← φ(s'): tile coding's φ(s) stays in its buffer (a copy), others are rebound."""
+    if is_buffered:
+        _copy(phi_buffer, next_phi)
+        return phi_buffer
+    return next_phi
+
+
+@njit(cache=True, inline="always")
+def _choose(
+    p: Parts,
+    learn: bool,
+    at_next: bool,
+    obs: np.ndarray,
+    buffer: np.ndarray,
+    legal_buffer: np.ndarray,
+    drawn: np.ndarray,
+    spent: float,
+    scratch: Scratch,
+    episode: int,
+) -> tuple[np.ndarray, np.ndarray | None, np.ndarray, int, int, float, bool]:
+    """φ(s), its values and legal actions, then a = π(s) (`_act`) for s = ``obs``.
+
+    ``at_next``: s is s' of a step. With iFDD φ(s) is sparsified, and a vetoed proposal the
+    box learned is followed by discovery on φ(s) (φ(s) is then encoded again; at s' Q(s', ·)
+    too, the Python learner's order). The log-policy actor's π(s, ·) goes to ``drawn``. Returns
+    (φ(s), values, legal actions, a, status, the vetoed δ, whether features were added).
+    """
+    rep = p.rep
+    phi, values, legal, is_full = _observe(p.domain, rep.base, learn, at_next, obs, buffer,
+                                           legal_buffer, scratch)  # fmt: skip
+    if is_full:
+        return phi, values, legal, -1, FULL_INDEX, 0.0, False
+    if rep.is_ifdd:  # `rep` is read only with iFDD (see `sparsify`)
+        phi = sparsify(rep, phi)
+    action, vetoed, imagined = _act(p, learn, phi, values, legal, spent, obs, scratch, episode)
+    status = FULL_INDEX if action < 0 else DIVERGED if not math.isfinite(vetoed) else DONE
+    if status != DONE:
+        return phi, values, legal, action, status, vetoed, False
+    grew = imagined and rep.is_ifdd and _discover(rep, p.arrays, phi, vetoed,
+                                                  room_for(rep, phi), p.agent)  # fmt: skip
+    if grew:
+        phi = _features(rep, learn, obs, buffer, scratch)
+        if at_next:
+            q_values_into(p.arrays.weights, phi, values, scratch.q)
+    if learn and p.agent.is_log_policy:
+        gibbs_policy(p.agent.policy, scratch.q, legal, drawn)
+    return phi, values, legal, action, status, vetoed, grew
+
+
+@njit(cache=True, inline="always")
+def _choose_alone(
+    domain: DomainKernel,
+    base: RepresentationKernel,
+    agent: AgentKernel,
+    arrays: LearnerArrays,
+    agent_rng: np.random.Generator,
+    learn: bool,
+    obs: np.ndarray,
+    spent: float,
+    scratch: Scratch,
+) -> tuple[np.ndarray, np.ndarray | None, np.ndarray, int, int]:
+    """`_choose` at s' for the learner alone on fixed features: (φ(s'), values, legal, a', status).
+
+    It binds no structref (iFDD's tables, the box's parts): see `learning_loop`'s Choice.
+    """
+    phi, values, legal, is_full = _observe(domain, base, learn, True, obs, scratch.next_buffer,
+                                           scratch.next_legal_buffer, scratch)  # fmt: skip
+    if is_full:
+        return phi, values, legal, -1, FULL_INDEX
+    action = _act_alone(agent, arrays, agent_rng, learn, phi, values, legal, spent, scratch)
+    if learn and agent.is_log_policy:
+        gibbs_policy(agent.policy, scratch.q, legal, scratch.next_drawn)
+    return phi, values, legal, action, DONE
+
+
+@njit(cache=True, inline="always")
+def _room(
+    rep: IFDDKernel, agent: AgentKernel, arrays: LearnerArrays, row_traces: RowTracePair,
+    box: BoxKernel, phi: np.ndarray,
+) -> tuple[int, int]:  # fmt: skip
+    """Before a learning step: (status, room for discoveries on φ(s)); a status asks to grow.
+
+    Choice: inside a box the tables must fit two discoveries from any sparsified φ (at s'
+    after a vetoed proposal, and at s), since the box cannot pause once the domain stepped.
+    """
+    room = room_for(rep, phi) if rep.is_ifdd else 0
+    if room < 0 or (rep.is_ifdd and box.kind != NO_BOX and not has_room_for(rep, 2)):
+        return GROW_REPRESENTATION, room
+    if agent.traces != NO_TRACES and not traces_fit(agent, arrays, row_traces, phi.shape[0]):
+        return GROW_TRACES, room
+    return DONE, room
+
+
+@njit(cache=True, inline="always")
+def _learn(
+    agent: AgentKernel,
+    arrays: LearnerArrays,
+    row_traces: RowTracePair,
+    scratch: Scratch,
+    phi: np.ndarray,
+    values: np.ndarray | None,
+    action: int,
+    reward: float,
+    cost: float,
+    terminated: bool,
+    next_phi: np.ndarray,
+    next_values: np.ndarray | None,
+    next_action: int,
+    next_legal: np.ndarray,
+    spent: float,
+    episode: int,
+    drawn: np.ndarray,
+) -> float:
+    """The learn slot: Q⁺(s, a) and the update (Algorithms 10-12); returns δ.
+
+    ``spent``: the cost before s (Sauté's blocks and r̃; s' reads ``spent + cost``).
+    """
+    constraint = agent.constraint
+    next_spent = spent + cost if cost > 0.0 else spent
+    target, cost_target = saute_reward(constraint, reward, next_spent), cost
+    if not terminated:
+        q, critic_q, cost_q = scratch.q, scratch.critic_q, scratch.cost_q
+        if agent.kind == ACTOR_CRITIC:
+            critic = budget_rows(constraint, arrays.weights, next_spent)
+            q_values_into(critic, next_phi, next_values, critic_q)
+        lagrange = multiplier(agent, arrays)
+        if has_cost_critic(constraint):  # θ_Cᵀφ(s') and the cost critic's target
+            q_values_into(arrays.cost_weights, next_phi, next_values, cost_q)
+            cost_target = cost_bootstrap(agent, cost, q, next_action, next_legal, cost_q, lagrange)
+        target = bootstrap(agent, target, q, next_action, next_legal, critic_q, cost_q, lagrange)
+    return td_learn(
+        agent, budget_arrays(agent, arrays, spent), row_traces, phi, values, action, target,
+        episode, drawn, cost, cost_target,
+    )  # fmt: skip
+
+
+@njit(cache=True, inline="always")
+def _begin(
+    p: Parts, learn: bool, obs: np.ndarray, drawn: np.ndarray, scratch: Scratch, episode: int
+) -> tuple[int, np.ndarray, np.ndarray | None, int, float]:
+    """The learner's begin_episode (traces cleared), then a = π(s) (`_choose`) at the start s.
+
+    Returns (status, φ(s), values, a, a vetoed proposal's δ). Inside a box the tables must
+    first fit that proposal's discovery (`GROW_REPRESENTATION`).
+    """
+    rep = p.rep
+    if learn and rep.is_ifdd and p.box.kind != NO_BOX and not has_room_for(rep, 1):
+        return GROW_REPRESENTATION, scratch.phi_buffer, values_of(rep.base, obs), 0, 0.0
+    if learn:
+        clear_learner_traces(p.agent, p.arrays, p.row_traces, episode - 1)
+    phi, values, _, action, status, vetoed, _ = _choose(
+        p, learn, False, obs, scratch.phi_buffer, scratch.legal_buffer, drawn, 0.0, scratch,
+        episode,
+    )  # fmt: skip
+    return status, phi, values, action, vetoed
 
 
 @njit(cache=True)
@@ -250,67 +589,24 @@ def learning_loop(
     state, the step is not counted and the episode cannot be continued).
     θ (and ω, the trace slots) must have a row for every feature iFDD's tables can hold.
     """
-    domain, domain_rng, agent_rng = borrowed(domain), borrowed(domain_rng), borrowed(agent_rng)
-    rep, arrays, obs, box = borrowed(rep), borrowed(arrays), borrowed(obs), borrowed(box)
-    state = borrowed(state)
-    num_actions = arrays.actor_weights.shape[1]  # θ has one column for a V critic
-    has_traces = agent.traces != NO_TRACES
-    is_tracing = learn and has_traces
-    has_trace_slots = agent.traces == REPLACING or agent.traces == ACCUMULATING  # SARSA(λ)'s
-    is_actor_critic = agent.kind == ACTOR_CRITIC
-    is_log_policy = learn and agent.is_log_policy  # keeps π(s, ·) as drawn (`drawn`)
-    is_box = learn and box.kind != NO_BOX  # a learning box (greedy acting: `greedy_box_action`)
-    is_adaptive_box = is_box and parts.is_adaptive
-    is_constrained = has_cost_critic(agent.constraint)  # a cost critic and λ
-    is_penalized = is_constrained and not is_actor_critic  # acting on Q − λQ_C
-    constraint = agent.constraint  # Sauté: blocks of θ and ω by the budget spent
-    row_buffer = np.empty(1, dtype=np.int64)
-    # The actor's preferences choose actions for Actor-Critic (shared features), θ otherwise
-    # (``chooser``: their rows for the episode's cost so far, `budget_rows`).
-    full_chooser = chooser = arrays.actor_weights
-    # Scratch: φ(s) and φ(s') buffers of tile coding, legal-action lists, Q(s', ·).
-    base, is_ifdd = rep.base, rep.is_ifdd
-    is_discovering = learn and is_ifdd
-    is_growing_box = is_box and is_ifdd  # Algorithm 24's veto rule may discover features
-    max_active = max(base.max_active, 1)
-    quanta = np.empty(obs.shape[0], dtype=np.int64)
-    phi_buffer = np.empty(max_active, dtype=np.int64)
-    next_buffer = np.empty(max_active, dtype=np.int64)
-    all_actions = np.arange(num_actions)
-    legal_buffer = np.arange(num_actions)
-    next_legal_buffer = np.arange(num_actions)
-    is_masked = domain.has_action_constraints
-    next_obs = np.empty_like(obs)
-    q = np.empty(num_actions)
-    critic_q = np.empty(arrays.weights.shape[1])
-    cost_q, choice = np.zeros(arrays.weights.shape[1]), np.empty(num_actions)
-    drawn, next_drawn = state.drawn, np.empty(num_actions)
-    # The scratch as borrowed views too, its owners held until the call ends (`release`).
-    owners = (row_buffer, quanta, phi_buffer, next_buffer, all_actions, legal_buffer,
-              next_legal_buffer, next_obs, q, critic_q, next_drawn, cost_q, choice)  # fmt: skip
-    (row_buffer, quanta, phi_buffer, next_buffer, all_actions, legal_buffer, next_legal_buffer,
-     next_obs, q, critic_q, next_drawn, cost_q, choice) = borrowed(owners)  # fmt: skip
-    ep_float = np.empty((16, 3))
-    ep_int = np.empty((16, 2), dtype=np.int64)
-    is_buffered = base.kind == TILES and not is_ifdd  # φ(s) lives in phi_buffer
-    is_indexed = learn and base.kind == HASHED_TABULAR  # φ(s) may be [FULL] (not on peeking)
-    num_ended = done = failures = 0
-    delta = costs = 0.0
-    status = DONE
+    p = borrowed(Parts(domain, domain_rng, rep, agent, arrays, row_traces, agent_rng, box, parts))
+    domain, domain_rng, rep, agent, arrays, row_traces, agent_rng, box, parts = p
+    obs, state, owned = borrowed(obs), borrowed(state), _new_scratch(obs, rep, arrays)
+    scratch = borrowed(owned)  # its owners held until the call ends (`release`)
+    # Which slots bind a structref (see the Choice above): iFDD's, a box's, the traces'.
+    is_alone = box.kind == NO_BOX and not rep.is_ifdd  # `_choose_alone` at s'
+    is_checked = learn and (rep.is_ifdd or agent.traces != NO_TRACES)  # `_room`
+    is_adaptive = learn and box.kind != NO_BOX and parts.is_adaptive  # Algorithm 26's
+    is_buffered = rep.base.kind == TILES and not rep.is_ifdd  # φ(s) lives in phi_buffer
+    ep_float, ep_int = np.empty((16, 3)), np.empty((16, 2), dtype=np.int64)
+    num_ended = done = failures = room = 0
+    status, delta, costs = DONE, 0.0, 0.0
     # The loop state, in locals while running (LLVM keeps them in registers).
-    phase, action, episode_steps = state.phase[0], state.action[0], state.episode_steps[0]
-    episode, learning_steps = state.episode[0], state.learning_steps[0]
-    episode_failures, total = state.episode_failures[0], state.total[0]
-    discounted, weight = state.discounted[0], state.weight[0]
-    episode_cost = state.episode_cost[0]
-    phi = phi_buffer
-    values = values_of(base, obs)  # φ(s)'s values (None: binary φ)
-    if phase == IN_EPISODE:
-        phi = encode_into(base, obs, quanta, phi_buffer) if learn else peek_into(
-            base, obs, quanta, phi_buffer
-        )  # fmt: skip
-        if is_ifdd:  # `rep` is read only with iFDD (see `sparsify`)
-            phi = sparsify(rep, phi)
+    (phase, action, episode_steps, episode, learning_steps, episode_failures, total, discounted,
+     weight, spent) = _resume(state)  # fmt: skip
+    drawn, next_obs, phi_buffer = state.drawn, scratch.next_obs, scratch.phi_buffer
+    phi = _features(rep, learn, obs, phi_buffer, scratch) if phase == IN_EPISODE else phi_buffer
+    values = values_of(rep.base, obs)
     while done < num_steps:
         if phase == NEEDS_RESET:
             if not reset_into(domain, obs, domain_rng):
@@ -318,183 +614,77 @@ def learning_loop(
                 break
             phase = NEEDS_BEGIN
         if phase == NEEDS_BEGIN:  # the learner's begin_episode, then a = π(s)
-            if is_growing_box and not has_room_for(rep, 1):  # a vetoed proposal's discovery
-                status = GROW_REPRESENTATION
+            episode += 1 if learn else 0
+            status, phi, values, action, vetoed = _begin(p, learn, obs, drawn, scratch, episode)
+            if status != DONE:
+                delta, phase = vetoed if status == DIVERGED else delta, NEEDS_RESET
                 break
-            if learn:
-                episode += 1
-                clear_learner_traces(agent, arrays, row_traces, episode - 1)
-                phi = encode_into(base, obs, quanta, phi_buffer)
-            else:  # a policy check stores nothing (`Representation.peek`)
-                phi = peek_into(base, obs, quanta, phi_buffer)
-            if is_indexed and phi[0] < 0:
-                status, phase = FULL_INDEX, NEEDS_RESET
-                break
-            if is_ifdd:
-                phi = sparsify(rep, phi)
-            values = values_of(base, obs)
-            legal = legal_into(domain, False, legal_buffer) if is_masked else all_actions
-            chooser = budget_rows(constraint, full_chooser, 0.0)  # nothing spent yet
-            if not learn and is_penalized:  # a constrained learner's greedy action (no box)
-                q_values_into(chooser, phi, values, q)
-                action = greedy_action(acting_values(agent, arrays, phi, values, q, choice), legal)
-            elif not learn:
-                action = greedy_box_action(box, parts, chooser, phi, values, q, legal, obs)
-            elif is_box:  # the box fills q (after moving ρ, for Algorithm 23)
-                action, vetoed, imagined = box_action(
-                    box, parts, agent, arrays, phi, values, q, legal, agent_rng, obs, quanta,
-                    row_buffer, episode,
-                )  # fmt: skip
-                if action < 0:  # the box's index is full
-                    status, phase = FULL_INDEX, NEEDS_RESET
-                    break
-                if not math.isfinite(vetoed):  # a vetoed proposal's update diverged
-                    status, delta, phase = DIVERGED, vetoed, NEEDS_RESET
-                    break
-                if is_growing_box and imagined:  # the vetoed update's discovery on φ(s)
-                    room = room_for(rep, phi)
-                    if _discover(rep, arrays, phi, vetoed, room, is_actor_critic, has_trace_slots):
-                        phi = sparsify(rep, encode_into(base, obs, quanta, phi_buffer))
-            else:
-                q_values_into(chooser, phi, values, q)
-                acting = acting_values(agent, arrays, phi, values, q, choice)
-                action = select_action(agent.policy, acting, legal, agent_rng)
-            if is_log_policy:
-                gibbs_policy(agent.policy, q, legal, drawn)
             episode_steps = episode_failures = 0
-            total, discounted, weight, episode_cost = 0.0, 0.0, 1.0, 0.0
-            phase = IN_EPISODE
-        room = room_for(rep, phi) if is_discovering else 0
-        if room < 0 or (is_growing_box and not has_room_for(rep, 2)):  # discoveries at s', s
-            status = GROW_REPRESENTATION
-            break
-        if is_tracing and not traces_fit(agent, arrays, row_traces, phi.shape[0]):
-            status = GROW_TRACES
+            phase, total, discounted, weight, spent = IN_EPISODE, 0.0, 0.0, 1.0, 0.0
+        status, room = _room(rep, agent, arrays, row_traces, box, phi) if is_checked else (DONE, 0)
+        if status != DONE:
             break
         reward, terminated, cost = step_into(domain, action, next_obs, domain_rng)
         if math.isnan(reward):  # only a callback domain's step that raised
-            status = DOMAIN_RAISED
-            phase = NEEDS_RESET
+            status, phase = DOMAIN_RAISED, NEEDS_RESET
             break
         episode_steps += 1
-        next_phi, next_values = phi, values
-        next_action = 0
-        next_spent = episode_cost + cost if cost > 0.0 else episode_cost  # spent at s'
-        target, cost_target = saute_reward(constraint, reward, next_spent), cost
-        if not terminated:  # φ(s'), a' = π(s') and Q⁺(s, a) (Algorithms 10-12, lines 4-5)
-            next_phi = encode_into(base, next_obs, quanta, next_buffer) if learn else peek_into(
-                base, next_obs, quanta, next_buffer
+        next_spent = spent + cost if cost > 0.0 else spent
+        next_phi, next_values, next_action, next_legal = phi, values, 0, scratch.all_actions
+        if not terminated and is_alone:  # φ(s'), a' = π(s') (Algorithms 10-12, lines 4-5)
+            next_phi, next_values, next_legal, next_action, status = _choose_alone(
+                domain, rep.base, agent, arrays, agent_rng, learn, next_obs, next_spent, scratch
             )  # fmt: skip
-            if is_indexed and next_phi[0] < 0:
+        elif not terminated:
+            next_phi, next_values, next_legal, next_action, status, vetoed, grew = _choose(
+                p, learn, True, next_obs, scratch.next_buffer, scratch.next_legal_buffer,
+                scratch.next_drawn, next_spent, scratch, episode,
+            )  # fmt: skip
+            phi = _features(rep, learn, obs, phi_buffer, scratch) if grew else phi  # new features
+            room = room_for(rep, phi) if grew else room
+            delta = vetoed if status == DIVERGED else delta
+        if status != DONE:
+            if status == FULL_INDEX:  # obs is the state that did not fit
                 _copy(obs, next_obs)
-                status, phase = FULL_INDEX, NEEDS_RESET
-                break
-            if is_ifdd:
-                next_phi = sparsify(rep, next_phi)
-            next_values = values_of(base, next_obs)
-            next_legal = legal_into(domain, True, next_legal_buffer) if is_masked else all_actions
-            chooser = budget_rows(constraint, full_chooser, next_spent)
-            if not learn and is_penalized:
-                q_values_into(chooser, next_phi, next_values, q)
-                acting = acting_values(agent, arrays, next_phi, next_values, q, choice)
-                next_action = greedy_action(acting, next_legal)
-            elif not learn:
-                next_action = greedy_box_action(
-                    box, parts, chooser, next_phi, next_values, q, next_legal, next_obs
-                )
-            elif is_box:
-                next_action, vetoed, imagined = box_action(
-                    box, parts, agent, arrays, next_phi, next_values, q, next_legal, agent_rng,
-                    next_obs, quanta, row_buffer, episode,
-                )  # fmt: skip
-                if next_action < 0:  # the box's index is full
-                    _copy(obs, next_obs)
-                    status, phase = FULL_INDEX, NEEDS_RESET
-                    break
-                if not math.isfinite(vetoed):  # a vetoed proposal's update diverged
-                    status, delta, phase = DIVERGED, vetoed, NEEDS_RESET
-                    break
-                if is_growing_box and imagined:  # the vetoed update's discovery on φ(s')
-                    next_room = room_for(rep, next_phi)
-                    if _discover(rep, arrays, next_phi, vetoed, next_room, is_actor_critic,
-                                 has_trace_slots):  # fmt: skip
-                        # φ(s'), Q(s', ·) and φ(s) with the new features (the Python learner
-                        # encodes again after growing)
-                        next_phi = sparsify(rep, encode_into(base, next_obs, quanta, next_buffer))
-                        q_values_into(arrays.weights, next_phi, next_values, q)
-                        phi = sparsify(rep, encode_into(base, obs, quanta, phi_buffer))
-                        room = room_for(rep, phi)
-            else:
-                q_values_into(chooser, next_phi, next_values, q)
-                acting = acting_values(agent, arrays, next_phi, next_values, q, choice)
-                next_action = select_action(agent.policy, acting, next_legal, agent_rng)
-            if is_log_policy:
-                gibbs_policy(agent.policy, q, next_legal, next_drawn)
-            if learn:
-                if is_actor_critic:
-                    critic = budget_rows(constraint, arrays.weights, next_spent)
-                    q_values_into(critic, next_phi, next_values, critic_q)
-                lagrange = multiplier(agent, arrays)
-                if is_constrained:  # θ_Cᵀφ(s') and the cost critic's target
-                    q_values_into(arrays.cost_weights, next_phi, next_values, cost_q)
-                    cost_target = cost_bootstrap(
-                        agent, cost, q, next_action, next_legal, cost_q, lagrange
-                    )
-                target = bootstrap(
-                    agent, target, q, next_action, next_legal, critic_q, cost_q, lagrange
-                )
+            phase = NEEDS_RESET
+            break
         grew = False
         if learn:
-            delta = td_learn(
-                agent, budget_arrays(agent, arrays, episode_cost), row_traces, phi, values,
-                action, target, episode, drawn, cost, cost_target,
+            delta = _learn(
+                agent, arrays, row_traces, scratch, phi, values, action, reward, cost, terminated,
+                next_phi, next_values, next_action, next_legal, spent, episode, drawn,
             )  # fmt: skip
             learning_steps += 1
             if not math.isfinite(delta):
-                status = DIVERGED
-                phase = NEEDS_RESET
+                status, phase = DIVERGED, NEEDS_RESET
                 break
-            grew = is_ifdd and _discover(
-                rep, arrays, phi, delta, room, is_actor_critic, has_trace_slots
-            )
-            if is_adaptive_box:  # Algorithm 26: T̂ learns from the move, π^p may switch
+            grew = rep.is_ifdd and _discover(rep, arrays, phi, delta, room, agent)
+            if is_adaptive:  # Algorithm 26: T̂ learns from the move, π^p may switch
                 box_learn(box, parts, obs, action, next_obs)
             if terminated:
                 end_of_episode_traces(agent, arrays)
         done += 1
         if cost > 0.0:  # a failure step (`info["cost"] > 0`)
-            failures += 1
-            episode_failures += 1
-            costs += cost
-            episode_cost += cost
-        total += reward
-        discounted += weight * reward
+            failures, episode_failures = failures + 1, episode_failures + 1
+            costs, spent = costs + cost, spent + cost
+        total, discounted = total + reward, discounted + weight * reward
         weight *= agent.discount
         if terminated or episode_steps >= cap:
-            ep_float, ep_int = _record_episode(
-                ep_float, ep_int, num_ended, total, discounted, episode_cost, episode_steps,
-                episode_failures,
-            )  # fmt: skip
+            ep_float, ep_int = _record_episode(ep_float, ep_int, num_ended, total, discounted,
+                                               spent, episode_steps, episode_failures)  # fmt: skip
             num_ended += 1
             phase = NEEDS_RESET
             if num_ended >= max_episodes:
                 break
         else:
-            _copy(obs, next_obs)
-            if grew:  # φ(s) with the new features, as the Python learner re-encodes
-                phi = sparsify(rep, encode_into(base, obs, quanta, phi_buffer))
-            elif is_buffered:  # φ(s) ← φ(s'): copy; φ(s) stays in its buffer (phi is phi_buffer)
-                _copy(phi_buffer, next_phi)
-            else:
-                phi = next_phi
-            values = next_values
-            action = next_action
-            if is_log_policy:
-                _copy(drawn, next_drawn)
-    state.phase[0], state.action[0], state.episode_steps[0] = phase, action, episode_steps
-    state.episode[0], state.learning_steps[0] = episode, learning_steps
-    state.episode_failures[0], state.total[0] = episode_failures, total
-    state.discounted[0], state.weight[0] = discounted, weight
-    state.episode_cost[0] = episode_cost
-    release(owners)
+            _copy(obs, next_obs)  # φ(s) with new features, as the Python learner re-encodes
+            phi = _features(rep, learn, obs, phi_buffer, scratch) if grew else _shift(
+                phi_buffer, next_phi, is_buffered
+            )  # fmt: skip
+            values, action = next_values, next_action
+            if learn and agent.is_log_policy:
+                _copy(drawn, scratch.next_drawn)
+    _pause(state, phase, action, episode_steps, episode, learning_steps, episode_failures, total,
+           discounted, weight, spent)  # fmt: skip
+    release(owned)
     return status, done, failures, costs, delta, ep_float[:num_ended], ep_int[:num_ended]
