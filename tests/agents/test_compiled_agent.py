@@ -4,15 +4,7 @@ import numpy as np
 import pytest
 
 from conjure.agents import SARSA, ActorCritic, QLearning
-from conjure.agents.compiled_agent import (
-    MULTIPLIER,
-    bootstrap,
-    cost_bootstrap,
-    end_of_episode_traces,
-    multiplier,
-    step_size,
-    td_learn,
-)
+from conjure.agents.compiled_agent import MULTIPLIER, learn_step, step_size
 from conjure.agents.constraints import Lagrangian, PIDLagrangian
 from conjure.core.interfaces import Transition
 from conjure.core.schedules import ConstantStepSize, EpisodicDecay, FeatureNormalizedDecay
@@ -68,7 +60,8 @@ AGENTS = {
 
 
 @pytest.mark.parametrize("name", list(AGENTS))
-def test_td_learn_updates_as_learn(name):
+def test_learn_step_from_the_loops_values_updates_as_learn(name):
+    """The loop's learn slot passes `learn_step` the values at s' it reads from its arrays."""
     domain = ChainMDP(num_states=5, num_actions=2)
     python = AGENTS[name]().setup(domain.domain_spec, 0)
     compiled = AGENTS[name]().setup(domain.domain_spec, 0)
@@ -86,23 +79,19 @@ def test_td_learn_updates_as_learn(name):
             Transition(np.array([s]), a, reward, np.array([s_next]), a_next, terminated, cost=cost)
         )
         phi = compiled.representation_.active_features(np.array([s]))
-        target, cost_target = reward, cost
+        q = critic_q = cost_q = np.zeros(2)  # not read at a terminal s'
         if not terminated:
             next_phi = compiled.representation_.active_features(np.array([s_next]))
-            chooser = arrays.actor_weights
-            q = chooser[next_phi[0]].copy()
+            q = arrays.actor_weights[next_phi[0]].copy()  # the chooser's values at s'
             critic_q = arrays.weights[next_phi[0]].copy()
             cost_q = arrays.cost_weights[next_phi[0]].copy() if form.constraint.kind else q
-            lagrange = multiplier(form, arrays)
-            legal = np.arange(2)
-            target = bootstrap(form, reward, q, a_next, legal, critic_q, cost_q, lagrange)
-            cost_target = cost_bootstrap(form, cost, q, a_next, legal, cost_q, lagrange)
         # π(s, ·) of the log-policy actor: learn met s without act, so over all actions now.
         drawn = Gibbs().probabilities(arrays.actor_weights[phi[0]], np.arange(2))
-        args = (form, arrays, traces, phi, None, a, target, 1, drawn, cost, cost_target)
-        assert td_learn(*args) == delta
-        if terminated and not isinstance(compiled, ActorCritic):  # SARSA(λ)'s episode end
-            end_of_episode_traces(form, arrays)
+        step = (
+            form, arrays, traces, phi, None, phi, None, a, reward, terminated, q, critic_q,
+            cost_q, a_next, np.arange(2), 1, np.zeros(2), drawn, True, cost, 0.0, 0.0,
+        )  # fmt: skip
+        assert learn_step(*step) == delta
     np.testing.assert_array_equal(arrays.weights, python.weights_)
     actor = getattr(python, "actor_weights_", python.weights_)
     np.testing.assert_array_equal(arrays.actor_weights, actor)

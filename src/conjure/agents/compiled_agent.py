@@ -5,10 +5,10 @@ cost constraint (`ConstraintKernel`, `conjure.agents.constraints`); `LearnerArra
 sparse traces, cost critic θ_C and multiplier λ; `RowTracePair` Actor-Critic's traces;
 `LearnerState` the three as one value. The learners build them in ``setup`` and keep them as
 their state (`conjure.agents.linear_td`). The kernels here are the learners' update, written
-once: `td_update` (δ and the updates of Algorithms 10-12 through `td_step`,
-`td_step_traces` or the row traces' kernels, then the actor's), called by the compiled
-loop's `td_learn` and by the Python ``learn``'s `learn_transition`; the targets `bootstrap`
-and `cost_bootstrap`; ``begin_episode``'s trace clearing and multiplier update
+once: `learn_step` (Q⁺(s, a), α_t and `td_update`: δ and the updates of Algorithms 10-12
+through `td_step`, `td_step_traces` or the row traces' kernels, then the actor's), run by
+the compiled loop's learn slot and by the Python ``learn``'s `learn_transition`; the targets
+`bootstrap` and `cost_bootstrap`; ``begin_episode``'s trace clearing and multiplier update
 (`clear_learner_traces`, `update_multiplier`); the rows of new features (`grow_learner_rows`,
 Section 4.1.1, on both paths); `q_values_into` is Q(s, ·) = θᵀφ(s) and `acting_values` the
 values a constrained learner acts on; Sauté's budget (`budget_bin`, `budget_rows`,
@@ -82,6 +82,7 @@ __all__ = [
     "grow_learner_rows",
     "has_cost_critic",
     "imagined_learn",
+    "learn_step",
     "learn_transition",
     "learn_transition_with_actor_features",
     "learner_state",
@@ -92,7 +93,6 @@ __all__ = [
     "saute_reward",
     "shift_preference_into",
     "step_size",
-    "td_learn",
     "td_update",
     "traces_fit",
     "update_multiplier",
@@ -504,36 +504,66 @@ def _num_active(indices: np.ndarray, values: np.ndarray | None) -> float:
 
 
 @njit(cache=True, inline="always")
-def td_learn(
+def learn_step(
     agent: AgentKernel,
     arrays: LearnerArrays,
     row_traces: RowTracePair,
     phi: np.ndarray,
     values: np.ndarray | None,
+    psi: np.ndarray,
+    psi_values: np.ndarray | None,
     action: int,
-    target: float,
+    reward: float,
+    is_terminal: bool,
+    q_next: np.ndarray,
+    critic_next: np.ndarray,
+    cost_next: np.ndarray,
+    next_action: int,
+    next_legal: np.ndarray,
     episode: int,
+    alphas: np.ndarray,
     drawn: np.ndarray,
+    is_tracing: bool,
     cost: float,
-    cost_target: float,
+    spent: float,
+    next_spent: float,
 ) -> float:
-    """α_t, δ and θ's update (Algorithms 10-12, lines 6-7), then ω's (Algorithm 12, line 9).
+    """The learners' learn, one kernel for both paths: Algorithms 10-12, lines 4-9.
 
-    The compiled loop's update: k_t = |φ(s)|₁ (the number of features for binary φ), α_t
-    (and the actor's α'_t) from the schedules at episode max(episode, 1), then `td_update`
-    with the actor on the critic's features (and a constraint's cost critic toward
-    ``cost_target``, the step's cost c_t = ``cost`` added to the episode's). Returns δ.
+    Q⁺(s, a) by `bootstrap` at a non-terminal s' from ``q_next`` (the chooser's values
+    there), ``critic_next`` (θ's, read by Actor-Critic) and ``cost_next`` (θ_C's, and the
+    cost critic's target by `cost_bootstrap`); α_t (and the actor's α'_t) from the schedules
+    at episode max(episode, 1) with k_t = |φ(s)|₁ (k'_t = |ψ(s)|₁), or from ``alphas`` for a
+    schedule of kind `PYTHON_PART` (the Python learner writes them); then `td_update`, and
+    after a terminal step SARSA(λ) clears its traces (`end_of_episode_traces`) when
+    ``is_tracing`` (False: an imagined transition, no traces). With `Saute` the reward is r̃
+    for the cost ``next_spent`` up to s' (`saute_reward`) and the update reads the blocks of
+    θ and ω for the cost ``spent`` up to s (`budget_arrays`). Returns δ.
     """
-    k_t = _num_active(phi, values)
+    target, cost_target = saute_reward(agent.constraint, reward, next_spent), cost
+    if not is_terminal:
+        lagrange = multiplier(agent, arrays)
+        if has_cost_critic(agent.constraint):
+            cost_target = cost_bootstrap(
+                agent, cost, q_next, next_action, next_legal, cost_next, lagrange
+            )
+        target = bootstrap(
+            agent, target, q_next, next_action, next_legal, critic_next, cost_next, lagrange
+        )
     counted = max(episode, 1)
-    alpha = step_size(agent.schedule, counted, k_t)  # as `imagined_learn`
-    actor_alpha = alpha
-    if agent.kind == ACTOR_CRITIC:
-        actor_alpha = step_size(agent.actor_schedule, counted, k_t)
-    return td_update(
-        agent, arrays, row_traces, phi, values, phi, values, action, target, alpha, actor_alpha,
-        drawn, True, cost, cost_target,
+    alpha, actor_alpha = alphas[0], alphas[1]
+    if agent.schedule.kind != PYTHON_PART:
+        alpha = step_size(agent.schedule, counted, _num_active(phi, values))
+    if agent.actor_schedule.kind != PYTHON_PART:
+        actor_alpha = step_size(agent.actor_schedule, counted, _num_active(psi, psi_values))
+    arrays = budget_arrays(agent, arrays, spent)
+    delta = td_update(
+        agent, arrays, row_traces, phi, values, psi, psi_values, action, target, alpha,
+        actor_alpha, drawn, is_tracing, cost, cost_target,
     )  # fmt: skip
+    if is_terminal and is_tracing:
+        end_of_episode_traces(agent, arrays)
+    return delta
 
 
 @njit(cache=True, inline="always")
@@ -873,18 +903,15 @@ def learn_transition(
     cost: float,
     cost_next: np.ndarray,
 ) -> tuple[bool, float]:
-    """The Python learners' ``learn``: Q⁺(s, a) by `bootstrap`, α_t, then `td_update`.
+    """The Python learners' ``learn``: `learn_step`, the compiled loop's learn, the actor on φ.
 
-    Algorithms 10-12, lines 4-9, through the kernels the compiled loop calls, the actor (if
-    any) on φ. ``q_next``: the chooser's values at a non-terminal s' (θ's; the critic's
-    θᵀφ(s') for Actor-Critic). α_t (and the actor's α'_t) come from the schedules' forms at
-    episode max(episode, 1) with k_t = |φ(s)|₁, or from the state's ``alphas`` for a schedule
-    of kind `PYTHON_PART`; the log-policy actor reads π(s, ·) from its ``drawn``.
-    With a cost constraint, ``cost`` is c_t and ``cost_next`` θ_C's values at s' (the cost
-    critic's target by `cost_bootstrap`); ``is_terminal`` and ``is_tracing`` are 0 or 1 (an
-    int costs the call less than a bool);
-    ``is_tracing`` 0 (an imagined transition) updates without the traces, and after a terminal
-    step SARSA(λ) clears them (`end_of_episode_traces`).
+    Algorithms 10-12, lines 4-9. ``q_next``: the chooser's values at a non-terminal s' (θ's;
+    the critic's θᵀφ(s') for Actor-Critic), passed as both of `learn_step`'s values at s';
+    α_t from the state's ``alphas`` for a schedule of kind `PYTHON_PART`; the log-policy
+    actor reads π(s, ·) from its ``drawn``. With a cost constraint, ``cost`` is c_t and
+    ``cost_next`` θ_C's values at s'; with `Saute` the costs up to s and s' are the ones the
+    learner was told (`observe_episode_cost`). ``is_terminal`` and ``is_tracing`` are 0 or 1
+    (an int costs the call less than a bool); ``is_tracing`` 0 is an imagined transition.
     Returns (False, nan) before touching anything when the traces might not fit
     (`traces_fit`: the caller grows them and calls again), else (True, δ).
     """
@@ -942,35 +969,17 @@ def _learn_transition(
         agent, arrays, row_traces, max(phi.shape[0], psi.shape[0])
     ):
         return False, np.nan
+    spent = next_spent = 0.0
     if agent.constraint.kind == SAUTE:  # the budget bins of s and s' (`observe_episode_cost`)
         spent = arrays.constraint_state[ACTED_SPENT if is_terminal != 0 else PREVIOUS_SPENT]
         next_spent = arrays.constraint_state[ACTED_SPENT]
         if is_terminal != 0 and cost > 0.0:  # no act at a terminal s': the step's cost added
             next_spent = spent + cost
-        reward = saute_reward(agent.constraint, reward, next_spent)
-        arrays = budget_arrays(agent, arrays, spent)
-    target, cost_target = reward, cost
-    if is_terminal == 0:
-        lagrange = multiplier(agent, arrays)
-        target = bootstrap(
-            agent, reward, q_next, next_action, next_legal, q_next, cost_next, lagrange
-        )
-        if has_cost_critic(agent.constraint):
-            cost_target = cost_bootstrap(
-                agent, cost, q_next, next_action, next_legal, cost_next, lagrange
-            )
-    counted = max(episode, 1)
-    alpha, actor_alpha = state.alphas[0], state.alphas[1]
-    if agent.schedule.kind != PYTHON_PART:
-        alpha = step_size(agent.schedule, counted, _num_active(phi, values))
-    if agent.actor_schedule.kind != PYTHON_PART:
-        actor_alpha = step_size(agent.actor_schedule, counted, _num_active(psi, psi_values))
-    delta = td_update(
-        agent, arrays, row_traces, phi, values, psi, psi_values, action, target, alpha,
-        actor_alpha, state.drawn, is_tracing != 0, cost, cost_target,
+    delta = learn_step(
+        agent, arrays, row_traces, phi, values, psi, psi_values, action, reward,
+        is_terminal != 0, q_next, q_next, cost_next, next_action, next_legal, episode,
+        state.alphas, state.drawn, is_tracing != 0, cost, spent, next_spent,
     )  # fmt: skip
-    if is_terminal != 0 and is_tracing != 0:
-        end_of_episode_traces(agent, arrays)
     return True, delta
 
 

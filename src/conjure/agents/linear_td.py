@@ -23,10 +23,10 @@ Notes
   θ, ω and SARSA(λ)'s traces (``arrays_``, a `LearnerArrays`), Actor-Critic's traces
   (``row_traces_``) and the `LearnerState` holding the three (``state_``). ``weights_`` is
   the leading rows of ``arrays_.weights`` in use (the representation's ``num_features_``),
-  never a copy. ``learn`` is one call of `conjure.agents.compiled_agent.learn_transition`:
-  Q⁺(s, a) by `bootstrap`, α_t by the schedule's form and the update by `td_update`, the
-  kernels the compiled loop's `td_learn` calls; new features' rows come from
-  `grow_learner_rows` on both paths. The compiled loop updates the same arrays in place,
+  never a copy. ``learn`` is one call of `conjure.agents.compiled_agent.learn_transition`,
+  which runs `learn_step` (Q⁺(s, a) by `bootstrap`, α_t by the schedule's form, the update
+  by `td_update`), the kernel the compiled loop's learn slot runs too; new features' rows
+  come from `grow_learner_rows` on both paths. The compiled loop updates the same arrays in place,
   so nothing is taken back after it ran (only ``act``'s cache is dropped, `forget_cache`).
 - Choice: a step-size schedule or policy with no compiled form (a user's Python part) is
   marked `PYTHON_PART` in ``kernel_``: ``learn`` then passes α_t from the schedule's

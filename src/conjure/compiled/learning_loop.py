@@ -9,9 +9,10 @@ arithmetic: every step calls the components' own kernels through their compiled 
 - the representation (`conjure.representations.compiled_representation`): `encode_into`
   and `values_of` for φ(s), and with online iFDD (`conjure.representations.compiled_ifdd`)
   `sparsify` (Algorithm 19), `room_for` and `discover_from`;
-- the learner (`conjure.agents.compiled_agent`): `q_values_into`, `bootstrap`, `td_learn`,
-  `clear_learner_traces`, `grow_learner_rows` for new features' rows (Section 4.1.1), and
-  the policy's `select_action` (and `gibbs_policy` for the log-policy actor).
+- the learner (`conjure.agents.compiled_agent`): `q_values_into`, `learn_step` (the Python
+  learner's learn too), `clear_learner_traces`, `grow_learner_rows` for new features' rows
+  (Section 4.1.1), and the policy's `select_action` (and `gibbs_policy` for the log-policy
+  actor).
 
 Per step: a = π(s) was chosen; s', r = step(a); unless terminal, φ(s') and a' = π(s') over the
 legal actions of s'; Q⁺(s, a); δ and the updates (with a `Saute` constraint, acting at s' and
@@ -76,18 +77,12 @@ from conjure.agents.compiled_agent import (
     LearnerArrays,
     RowTracePair,
     acting_values,
-    bootstrap,
-    budget_arrays,
     budget_rows,
     clear_learner_traces,
-    cost_bootstrap,
-    end_of_episode_traces,
     grow_learner_rows,
     has_cost_critic,
-    multiplier,
+    learn_step,
     q_values_into,
-    saute_reward,
-    td_learn,
     traces_fit,
 )
 from conjure.core.compiled_form import borrowed, release
@@ -228,7 +223,7 @@ class Scratch(NamedTuple):
 
     ``quanta`` and ``row_buffer`` for encoding, ``all_actions`` for an unmasked domain, the
     critic's and the cost critic's values at s' and the acting values ``choice``; ``next_drawn``
-    is π(s', ·) for the log-policy actor.
+    is π(s', ·) for the log-policy actor; ``alphas`` is `learn_step`'s (never read here).
     """
 
     quanta: np.ndarray
@@ -244,6 +239,7 @@ class Scratch(NamedTuple):
     cost_q: np.ndarray
     choice: np.ndarray
     next_drawn: np.ndarray
+    alphas: np.ndarray
 
 
 class Parts(NamedTuple):
@@ -278,6 +274,7 @@ def _new_scratch(obs: np.ndarray, rep: IFDDKernel, arrays: LearnerArrays) -> Scr
         cost_q=np.zeros(arrays.weights.shape[1]),
         choice=np.empty(num_actions),
         next_drawn=np.empty(num_actions),
+        alphas=np.zeros(2),  # α_t of a Python schedule (never here: no compiled form)
     )
 
 
@@ -506,26 +503,22 @@ def _learn(
     episode: int,
     drawn: np.ndarray,
 ) -> float:
-    """The learn slot: Q⁺(s, a) and the update (Algorithms 10-12); returns δ.
+    """The learn slot: the values at s' its target reads, then the learners' `learn_step`.
 
-    ``spent``: the cost before s (Sauté's blocks and r̃; s' reads ``spent + cost``).
+    Q(s', ·) is in ``scratch.q`` (`_act`); Actor-Critic's θᵀφ(s') and a cost critic's
+    θ_Cᵀφ(s') are read here. ``spent``: the cost before s (Sauté's blocks; s' reads
+    ``spent + cost``). Returns δ.
     """
-    constraint = agent.constraint
     next_spent = spent + cost if cost > 0.0 else spent
-    target, cost_target = saute_reward(constraint, reward, next_spent), cost
-    if not terminated:
-        q, critic_q, cost_q = scratch.q, scratch.critic_q, scratch.cost_q
-        if agent.kind == ACTOR_CRITIC:
-            critic = budget_rows(constraint, arrays.weights, next_spent)
-            q_values_into(critic, next_phi, next_values, critic_q)
-        lagrange = multiplier(agent, arrays)
-        if has_cost_critic(constraint):  # θ_Cᵀφ(s') and the cost critic's target
-            q_values_into(arrays.cost_weights, next_phi, next_values, cost_q)
-            cost_target = cost_bootstrap(agent, cost, q, next_action, next_legal, cost_q, lagrange)
-        target = bootstrap(agent, target, q, next_action, next_legal, critic_q, cost_q, lagrange)
-    return td_learn(
-        agent, budget_arrays(agent, arrays, spent), row_traces, phi, values, action, target,
-        episode, drawn, cost, cost_target,
+    if not terminated and agent.kind == ACTOR_CRITIC:
+        critic = budget_rows(agent.constraint, arrays.weights, next_spent)
+        q_values_into(critic, next_phi, next_values, scratch.critic_q)
+    if not terminated and has_cost_critic(agent.constraint):
+        q_values_into(arrays.cost_weights, next_phi, next_values, scratch.cost_q)
+    return learn_step(
+        agent, arrays, row_traces, phi, values, phi, values, action, reward, terminated,
+        scratch.q, scratch.critic_q, scratch.cost_q, next_action, next_legal, episode,
+        scratch.alphas, drawn, True, cost, spent, next_spent,
     )  # fmt: skip
 
 
@@ -661,8 +654,6 @@ def learning_loop(
             grew = rep.is_ifdd and _discover(rep, arrays, phi, delta, room, agent)
             if is_adaptive:  # Algorithm 26: T̂ learns from the move, π^p may switch
                 box_learn(box, parts, obs, action, next_obs)
-            if terminated:
-                end_of_episode_traces(agent, arrays)
         done += 1
         if cost > 0.0:  # a failure step (`info["cost"] > 0`)
             failures, episode_failures = failures + 1, episode_failures + 1
