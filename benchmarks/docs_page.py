@@ -67,6 +67,13 @@ COMMANDS: tuple[tuple[str, str, tuple[str, ...]], ...] = (
         ("benchmarks/dispatch_cost.py", "--steps", "1000000", "--repeats", "3"),
     ),
     (
+        "Reference counts in the loop",
+        "The `NRT_incref` / `NRT_decref` calls left in the compiled loop's optimized code for "
+        "SARSA + tiles, on its structref arguments (each an atomic count where it runs) and "
+        "in all; a static count.",
+        ("benchmarks/loop_refcounts.py",),
+    ),
+    (
         "Start-up",
         "`conjure --help`, `import conjure` and one run's peak memory.",
         ("benchmarks/startup.py", "--repeats", "3"),
