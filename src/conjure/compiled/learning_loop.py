@@ -343,7 +343,8 @@ def _act(
     """The act slot: a = π(s), by the box if there is one (Q(s, ·) in ``scratch.q``).
 
     Returns (a, a vetoed proposal's δ, whether the box learned one). A policy check acts
-    through the box (`greedy_box_action`); a constrained learner's acts alone (`_act_alone`).
+    through the box (`greedy_box_action`); a constrained learner's check acts greedily on its
+    own (`_act_alone`).
     """
     agent, arrays, box = p.agent, p.arrays, p.box
     is_penalized = has_cost_critic(agent.constraint) and agent.kind != ACTOR_CRITIC
