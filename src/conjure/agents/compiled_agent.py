@@ -532,13 +532,14 @@ def learn_step(
 
     Q⁺(s, a) by `bootstrap` at a non-terminal s' from ``q_next`` (the chooser's values
     there), ``critic_next`` (θ's, read by Actor-Critic) and ``cost_next`` (θ_C's, and the
-    cost critic's target by `cost_bootstrap`); α_t (and the actor's α'_t) from the schedules
-    at episode max(episode, 1) with k_t = |φ(s)|₁ (k'_t = |ψ(s)|₁), or from ``alphas`` for a
-    schedule of kind `PYTHON_PART` (the Python learner writes them); then `td_update`, and
-    after a terminal step SARSA(λ) clears its traces (`end_of_episode_traces`) when
-    ``is_tracing`` (False: an imagined transition, no traces). With `Saute` the reward is r̃
-    for the cost ``next_spent`` up to s' (`saute_reward`) and the update reads the blocks of
-    θ and ω for the cost ``spent`` up to s (`budget_arrays`). Returns δ.
+    cost critic's target by `cost_bootstrap`); α_t (and Actor-Critic's α'_t) from the
+    schedules at episode max(episode, 1) with k_t = |φ(s)|₁ (k'_t = |ψ(s)|₁), or from
+    ``alphas`` for a schedule of kind `PYTHON_PART` (the Python learner writes them); then
+    `td_update`, and after a terminal step SARSA(λ) clears its traces
+    (`end_of_episode_traces`) when ``is_tracing`` (False: an imagined transition). With
+    `Saute` the reward is r̃ for the cost ``next_spent`` up to s' (`saute_reward`) and the
+    update reads the blocks of θ and ω for the cost ``spent`` up to s (`budget_arrays`).
+    Returns δ.
     """
     target, cost_target = saute_reward(agent.constraint, reward, next_spent), cost
     if not is_terminal:
@@ -554,7 +555,7 @@ def learn_step(
     alpha, actor_alpha = alphas[0], alphas[1]
     if agent.schedule.kind != PYTHON_PART:
         alpha = step_size(agent.schedule, counted, _num_active(phi, values))
-    if agent.actor_schedule.kind != PYTHON_PART:
+    if agent.kind == ACTOR_CRITIC and agent.actor_schedule.kind != PYTHON_PART:  # ω's α'_t
         actor_alpha = step_size(agent.actor_schedule, counted, _num_active(psi, psi_values))
     arrays = budget_arrays(agent, arrays, spent)
     delta = td_update(

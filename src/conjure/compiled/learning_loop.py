@@ -279,6 +279,19 @@ def _new_scratch(obs: np.ndarray, rep: IFDDKernel, arrays: LearnerArrays) -> Scr
 
 
 @njit(cache=True, inline="always")
+def _encode(
+    base: RepresentationKernel, learn: bool, obs: np.ndarray, buffer: np.ndarray, scratch: Scratch
+) -> np.ndarray:
+    """φ(s) of the fixed features, stored by a learning step (`encode_into`), not by a check.
+
+    A policy check reads without storing a new cell (`peek_into`).
+    """
+    if learn:
+        return encode_into(base, obs, scratch.quanta, buffer)
+    return peek_into(base, obs, scratch.quanta, buffer)
+
+
+@njit(cache=True, inline="always")
 def _observe(
     domain: DomainKernel,
     base: RepresentationKernel,
@@ -291,12 +304,10 @@ def _observe(
 ) -> tuple[np.ndarray, np.ndarray | None, np.ndarray, bool]:
     """φ(s) of the fixed features, its values, the legal actions, and whether an index was full.
 
-    ``at_next``: s is s' of a step. A learning step stores a new cell (`encode_into`), a policy
-    check does not (`peek_into`); a full `HashedTabular` refuses a new one (φ[0] < 0).
+    ``at_next``: s is s' of a step (`_encode`); a full `HashedTabular` refuses a new cell
+    (φ[0] < 0).
     """
-    phi = encode_into(base, obs, scratch.quanta, buffer) if learn else peek_into(
-        base, obs, scratch.quanta, buffer
-    )  # fmt: skip
+    phi = _encode(base, learn, obs, buffer, scratch)
     is_full = learn and base.kind == HASHED_TABULAR and phi[0] < 0
     if domain.has_action_constraints:
         return phi, values_of(base, obs), legal_into(domain, at_next, legal_buffer), is_full
@@ -383,9 +394,7 @@ def _discover(
 def _features(rep: IFDDKernel, learn: bool, obs: np.ndarray, buffer: np.ndarray,
               scratch: Scratch) -> np.ndarray:  # fmt: skip
     """φ(s) encoded again (sparsified by iFDD, Algorithm 19, with the features it holds now)."""
-    phi = encode_into(rep.base, obs, scratch.quanta, buffer) if learn else peek_into(
-        rep.base, obs, scratch.quanta, buffer
-    )  # fmt: skip
+    phi = _encode(rep.base, learn, obs, buffer, scratch)
     return sparsify(rep, phi) if rep.is_ifdd else phi
 
 
@@ -501,16 +510,16 @@ def _learn(
     next_action: int,
     next_legal: np.ndarray,
     spent: float,
+    next_spent: float,
     episode: int,
     drawn: np.ndarray,
 ) -> float:
     """The learn slot: the values at s' its target reads, then the learners' `learn_step`.
 
     Q(s', ·) is in ``scratch.q`` (`_act`); Actor-Critic's θᵀφ(s') and a cost critic's
-    θ_Cᵀφ(s') are read here. ``spent``: the cost before s (Sauté's blocks; s' reads
-    ``spent + cost``). Returns δ.
+    θ_Cᵀφ(s') are read here. ``spent`` and ``next_spent``: the episode's cost before s and
+    before s' (Sauté's blocks). Returns δ.
     """
-    next_spent = spent + cost if cost > 0.0 else spent
     if not terminated and agent.kind == ACTOR_CRITIC:
         critic = budget_rows(agent.constraint, arrays.weights, next_spent)
         q_values_into(critic, next_phi, next_values, scratch.critic_q)
@@ -646,7 +655,7 @@ def learning_loop(
         if learn:
             delta = _learn(
                 agent, arrays, row_traces, scratch, phi, values, action, reward, cost, terminated,
-                next_phi, next_values, next_action, next_legal, spent, episode, drawn,
+                next_phi, next_values, next_action, next_legal, spent, next_spent, episode, drawn,
             )  # fmt: skip
             learning_steps += 1
             if not math.isfinite(delta):
@@ -669,7 +678,7 @@ def learning_loop(
             if num_ended >= max_episodes:
                 break
         else:
-            _copy(obs, next_obs)  # φ(s) with new features, as the Python learner re-encodes
+            _copy(obs, next_obs)  # after a discovery φ(s) is encoded again, as in Python
             phi = _features(rep, learn, obs, phi_buffer, scratch) if grew else _shift(
                 phi_buffer, next_phi, is_buffered
             )  # fmt: skip
