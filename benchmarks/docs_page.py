@@ -17,6 +17,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+from call_cost import cpu_model
+
 ROOT = Path(__file__).resolve().parents[1]
 
 #: (heading, what it measures, the command's arguments after ``python``).
@@ -79,16 +81,6 @@ COMMANDS: tuple[tuple[str, str, tuple[str, ...]], ...] = (
         ("benchmarks/startup.py", "--repeats", "3"),
     ),
 )
-
-
-def cpu_model() -> str:
-    """The CPU's model name, from /proc/cpuinfo (or the platform's processor string)."""
-    cpuinfo = Path("/proc/cpuinfo")
-    if cpuinfo.is_file():
-        for line in cpuinfo.read_text().splitlines():
-            if line.startswith("model name"):
-                return line.split(":", 1)[1].strip()
-    return platform.processor() or "unknown"
 
 
 def run(arguments: tuple[str, ...]) -> str:

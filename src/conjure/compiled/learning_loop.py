@@ -31,23 +31,25 @@ choice.
 
 The loop reads like `Stepper._steps`; its slots are small kernels, inlined
 (``inline="always"``) so the step's compiled code is that of one function: `_begin` (the
-learner's begin_episode and a = π(s)), `_room` (before a learning step: whether discoveries and
-traces fit), `_choose` (φ(s), the legal actions and `_act`: a = π(s) by the learner or its box,
-discovery after a learned veto), `_learn` (Q⁺(s, a) and the update), then the grow slot
-`_discover` and Algorithm 26's `box_learn`. Each mode lives in the slot it changes (a policy
-check acts greedily in `_act` and never reaches `_learn`). The loop's own state (phase, action,
-counters, return so far) is `LoopState`, resumable between calls; an episode may span calls.
+learner's begin_episode and a = π(s)), `_room` (before an iFDD learning step: whether
+discoveries fit), `_choose_alone` (φ(s), the legal actions and a = π(s) of the learner alone)
+or `_choose` (the same inside a box, whose `_act` chooses; discovery after a learned veto),
+`_learn` (Q⁺(s, a) and the update), then the grow slot `_discover` and Algorithm 26's
+`box_learn`. Each mode lives in the slot it changes (a policy check acts greedily in `_act`
+and never reaches `_learn`). The loop's own state (phase, action, counters, return so far) is
+`LoopState`, resumable between calls; an episode may span calls.
 
 Choice: the loop reads its arguments and its scratch arrays through borrowed views
 (`conjure.core.compiled_form.borrowed`, `release`): numba counts a reference to every array of
 a form each time a kernel binds it, with an atomic add, and prunes few of those counts in a
 function this large. A structref cannot be borrowed (its pointer is its data), so every
 inlined slot that binds a form holding one (iFDD's tables in `IFDDKernel`, `RowTracePair`,
-`BoxParts`, or the `Parts` bundle of all forms) pays two atomic counts per binding. Choice:
-the slots run on every step bind only the forms they read, and the loop calls a slot that
-binds a structref only where it applies, by flags set once per call: `_room` when iFDD or
-traces may need to grow, `_choose_alone` (no structref) instead of `_choose` for a learner
-alone on fixed features, `_discover` with iFDD and `box_learn` with an adaptive model.
+`BoxParts`) pays two atomic counts per binding, and a slot nested in another pays them again.
+Choice: the slots take the forms they read, each as its own argument (no bundle of all forms),
+and the loop calls a slot that binds a structref only where it applies, by flags set once per
+call: `_room` with iFDD, `traces_fit` with traces, `_choose` only inside a box, `_discover`
+with iFDD and `box_learn` with an adaptive model. `_begin`, which binds every form, runs once
+per episode and is called, not inlined. `benchmarks/loop_refcounts.py` counts what is left.
 
 Compilation: one function serves every combination (the compiled forms have fixed field
 types), with a second compilation for real-valued φ (`RBF`), so binary φ never reads a value.
@@ -242,20 +244,6 @@ class Scratch(NamedTuple):
     alphas: np.ndarray
 
 
-class Parts(NamedTuple):
-    """The components' compiled forms a call reads (`learning_loop`'s arguments)."""
-
-    domain: DomainKernel
-    domain_rng: np.random.Generator
-    rep: IFDDKernel
-    agent: AgentKernel
-    arrays: LearnerArrays
-    row_traces: RowTracePair
-    agent_rng: np.random.Generator
-    box: BoxKernel
-    box_parts: BoxParts
-
-
 @njit(cache=True, inline="always")
 def _new_scratch(obs: np.ndarray, rep: IFDDKernel, arrays: LearnerArrays) -> Scratch:
     max_active = max(rep.base.max_active, 1)
@@ -341,7 +329,11 @@ def _act_alone(
 
 @njit(cache=True, inline="always")
 def _act(
-    p: Parts,
+    agent: AgentKernel,
+    arrays: LearnerArrays,
+    agent_rng: np.random.Generator,
+    box: BoxKernel,
+    box_parts: BoxParts,
     learn: bool,
     phi: np.ndarray,
     values: np.ndarray | None,
@@ -351,23 +343,22 @@ def _act(
     scratch: Scratch,
     episode: int,
 ) -> tuple[int, float, bool]:
-    """The act slot: a = π(s), by the box if there is one (Q(s, ·) in ``scratch.q``).
+    """The act slot inside a box: a = π(s) by the box (Q(s, ·) in ``scratch.q``).
 
     Returns (a, a vetoed proposal's δ, whether the box learned one). A policy check acts
     through the box (`greedy_box_action`); a constrained learner's check acts greedily on its
     own (`_act_alone`).
     """
-    agent, arrays, box = p.agent, p.arrays, p.box
     is_penalized = has_cost_critic(agent.constraint) and agent.kind != ACTOR_CRITIC
-    if box.kind == NO_BOX or (not learn and is_penalized):
-        return _act_alone(agent, arrays, p.agent_rng, learn, phi, values, legal, spent,
+    if not learn and is_penalized:
+        return _act_alone(agent, arrays, agent_rng, learn, phi, values, legal, spent,
                           scratch), 0.0, False  # fmt: skip
     if not learn:
         chooser = budget_rows(agent.constraint, arrays.actor_weights, spent)
-        return greedy_box_action(box, p.box_parts, chooser, phi, values, scratch.q, legal,
+        return greedy_box_action(box, box_parts, chooser, phi, values, scratch.q, legal,
                                  obs), 0.0, False  # fmt: skip
     return box_action(  # it fills Q(s, ·) after moving ρ, for Algorithm 23
-        box, p.box_parts, agent, arrays, phi, values, scratch.q, legal, p.agent_rng, obs,
+        box, box_parts, agent, arrays, phi, values, scratch.q, legal, agent_rng, obs,
         scratch.quanta, scratch.row_buffer, episode,
     )  # fmt: skip
 
@@ -408,8 +399,48 @@ def _shift(phi_buffer: np.ndarray, next_phi: np.ndarray, is_buffered: bool) -> n
 
 
 @njit(cache=True, inline="always")
+def _choose_alone(
+    domain: DomainKernel,
+    rep: IFDDKernel,
+    agent: AgentKernel,
+    arrays: LearnerArrays,
+    agent_rng: np.random.Generator,
+    learn: bool,
+    at_next: bool,
+    obs: np.ndarray,
+    buffer: np.ndarray,
+    legal_buffer: np.ndarray,
+    drawn: np.ndarray,
+    spent: float,
+    scratch: Scratch,
+) -> tuple[np.ndarray, np.ndarray | None, np.ndarray, int, int]:
+    """φ(s), its values and legal actions, then a = π(s) of the learner alone, for s = ``obs``.
+
+    ``at_next``: s is s' of a step. With iFDD φ(s) is sparsified (Algorithm 19). The
+    log-policy actor's π(s, ·) goes to ``drawn``. Returns (φ(s), values, legal actions, a,
+    status). It binds no box part: see `learning_loop`'s Choice.
+    """
+    phi, values, legal, is_full = _observe(domain, rep.base, learn, at_next, obs, buffer,
+                                           legal_buffer, scratch)  # fmt: skip
+    if is_full:
+        return phi, values, legal, -1, FULL_INDEX
+    if rep.is_ifdd:  # `rep` is read only with iFDD (see `sparsify`)
+        phi = sparsify(rep, phi)
+    action = _act_alone(agent, arrays, agent_rng, learn, phi, values, legal, spent, scratch)
+    if learn and agent.is_log_policy:
+        gibbs_policy(agent.policy, scratch.q, legal, drawn)
+    return phi, values, legal, action, DONE
+
+
+@njit(cache=True, inline="always")
 def _choose(
-    p: Parts,
+    domain: DomainKernel,
+    rep: IFDDKernel,
+    agent: AgentKernel,
+    arrays: LearnerArrays,
+    agent_rng: np.random.Generator,
+    box: BoxKernel,
+    box_parts: BoxParts,
     learn: bool,
     at_next: bool,
     obs: np.ndarray,
@@ -420,76 +451,45 @@ def _choose(
     scratch: Scratch,
     episode: int,
 ) -> tuple[np.ndarray, np.ndarray | None, np.ndarray, int, int, float, bool]:
-    """φ(s), its values and legal actions, then a = π(s) (`_act`) for s = ``obs``.
+    """`_choose_alone` inside a box: a = π(s) by the box (`_act`) for s = ``obs``.
 
-    ``at_next``: s is s' of a step. With iFDD φ(s) is sparsified, and a vetoed proposal the
-    box learned is followed by discovery on φ(s) (φ(s) is then encoded again; at s' Q(s', ·)
-    too, the Python learner's order). The log-policy actor's π(s, ·) goes to ``drawn``. Returns
-    (φ(s), values, legal actions, a, status, the vetoed δ, whether features were added).
+    With iFDD, a vetoed proposal the box learned is followed by discovery on φ(s) (φ(s) is
+    then encoded again; at s' Q(s', ·) too, the Python learner's order). Returns (φ(s),
+    values, legal actions, a, status, the vetoed δ, whether features were added).
     """
-    rep = p.rep
-    phi, values, legal, is_full = _observe(p.domain, rep.base, learn, at_next, obs, buffer,
+    phi, values, legal, is_full = _observe(domain, rep.base, learn, at_next, obs, buffer,
                                            legal_buffer, scratch)  # fmt: skip
     if is_full:
         return phi, values, legal, -1, FULL_INDEX, 0.0, False
     if rep.is_ifdd:  # `rep` is read only with iFDD (see `sparsify`)
         phi = sparsify(rep, phi)
-    action, vetoed, imagined = _act(p, learn, phi, values, legal, spent, obs, scratch, episode)
+    action, vetoed, imagined = _act(agent, arrays, agent_rng, box, box_parts, learn, phi, values,
+                                    legal, spent, obs, scratch, episode)  # fmt: skip
     status = FULL_INDEX if action < 0 else DIVERGED if not math.isfinite(vetoed) else DONE
     if status != DONE:
         return phi, values, legal, action, status, vetoed, False
-    grew = imagined and rep.is_ifdd and _discover(rep, p.arrays, phi, vetoed,
-                                                  room_for(rep, phi), p.agent)  # fmt: skip
+    grew = imagined and rep.is_ifdd and _discover(rep, arrays, phi, vetoed, room_for(rep, phi),
+                                                  agent)  # fmt: skip
     if grew:
         phi = _features(rep, learn, obs, buffer, scratch)
         if at_next:
-            q_values_into(p.arrays.weights, phi, values, scratch.q)
-    if learn and p.agent.is_log_policy:
-        gibbs_policy(p.agent.policy, scratch.q, legal, drawn)
+            q_values_into(arrays.weights, phi, values, scratch.q)
+    if learn and agent.is_log_policy:
+        gibbs_policy(agent.policy, scratch.q, legal, drawn)
     return phi, values, legal, action, status, vetoed, grew
 
 
 @njit(cache=True, inline="always")
-def _choose_alone(
-    domain: DomainKernel,
-    base: RepresentationKernel,
-    agent: AgentKernel,
-    arrays: LearnerArrays,
-    agent_rng: np.random.Generator,
-    learn: bool,
-    obs: np.ndarray,
-    spent: float,
-    scratch: Scratch,
-) -> tuple[np.ndarray, np.ndarray | None, np.ndarray, int, int]:
-    """`_choose` at s' for the learner alone on fixed features: (φ(s'), values, legal, a', status).
+def _room(rep: IFDDKernel, box: BoxKernel, phi: np.ndarray) -> tuple[int, int]:
+    """Before an iFDD learning step: (status, room for discoveries on φ(s)).
 
-    It binds no structref (iFDD's tables, the box's parts): see `learning_loop`'s Choice.
+    `GROW_REPRESENTATION` asks to grow the tables. Choice: inside a box they must fit two
+    discoveries from any sparsified φ (at s' after a vetoed proposal, and at s), since the box
+    cannot pause once the domain stepped.
     """
-    phi, values, legal, is_full = _observe(domain, base, learn, True, obs, scratch.next_buffer,
-                                           scratch.next_legal_buffer, scratch)  # fmt: skip
-    if is_full:
-        return phi, values, legal, -1, FULL_INDEX
-    action = _act_alone(agent, arrays, agent_rng, learn, phi, values, legal, spent, scratch)
-    if learn and agent.is_log_policy:
-        gibbs_policy(agent.policy, scratch.q, legal, scratch.next_drawn)
-    return phi, values, legal, action, DONE
-
-
-@njit(cache=True, inline="always")
-def _room(
-    rep: IFDDKernel, agent: AgentKernel, arrays: LearnerArrays, row_traces: RowTracePair,
-    box: BoxKernel, phi: np.ndarray,
-) -> tuple[int, int]:  # fmt: skip
-    """Before a learning step: (status, room for discoveries on φ(s)); a status asks to grow.
-
-    Choice: inside a box the tables must fit two discoveries from any sparsified φ (at s'
-    after a vetoed proposal, and at s), since the box cannot pause once the domain stepped.
-    """
-    room = room_for(rep, phi) if rep.is_ifdd else 0
-    if room < 0 or (rep.is_ifdd and box.kind != NO_BOX and not has_room_for(rep, 2)):
+    room = room_for(rep, phi)
+    if room < 0 or (box.kind != NO_BOX and not has_room_for(rep, 2)):
         return GROW_REPRESENTATION, room
-    if agent.traces != NO_TRACES and not traces_fit(agent, arrays, row_traces, phi.shape[0]):
-        return GROW_TRACES, room
     return DONE, room
 
 
@@ -532,23 +532,42 @@ def _learn(
     )  # fmt: skip
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _begin(
-    p: Parts, learn: bool, obs: np.ndarray, drawn: np.ndarray, scratch: Scratch, episode: int
+    domain: DomainKernel,
+    rep: IFDDKernel,
+    agent: AgentKernel,
+    arrays: LearnerArrays,
+    row_traces: RowTracePair,
+    agent_rng: np.random.Generator,
+    box: BoxKernel,
+    box_parts: BoxParts,
+    learn: bool,
+    obs: np.ndarray,
+    drawn: np.ndarray,
+    scratch: Scratch,
+    episode: int,
 ) -> tuple[int, np.ndarray, np.ndarray | None, int, float]:
-    """The learner's begin_episode (traces cleared), then a = π(s) (`_choose`) at the start s.
+    """The learner's begin_episode (traces cleared), then a = π(s) at the start s.
 
     Returns (status, φ(s), values, a, a vetoed proposal's δ). Inside a box the tables must
-    first fit that proposal's discovery (`GROW_REPRESENTATION`).
+    first fit that proposal's discovery (`GROW_REPRESENTATION`). Called once per episode, not
+    inlined: it binds every form.
     """
-    rep = p.rep
-    if learn and rep.is_ifdd and p.box.kind != NO_BOX and not has_room_for(rep, 1):
+    if learn and rep.is_ifdd and box.kind != NO_BOX and not has_room_for(rep, 1):
         return GROW_REPRESENTATION, scratch.phi_buffer, values_of(rep.base, obs), 0, 0.0
     if learn:
-        clear_learner_traces(p.agent, p.arrays, p.row_traces, episode - 1)
+        clear_learner_traces(agent, arrays, row_traces, episode - 1)
+    buffer, legal_buffer = scratch.phi_buffer, scratch.legal_buffer
+    if box.kind == NO_BOX:
+        phi, values, _, action, status = _choose_alone(
+            domain, rep, agent, arrays, agent_rng, learn, False, obs, buffer, legal_buffer, drawn,
+            0.0, scratch,
+        )  # fmt: skip
+        return status, phi, values, action, 0.0
     phi, values, _, action, status, vetoed, _ = _choose(
-        p, learn, False, obs, scratch.phi_buffer, scratch.legal_buffer, drawn, 0.0, scratch,
-        episode,
+        domain, rep, agent, arrays, agent_rng, box, box_parts, learn, False, obs, buffer,
+        legal_buffer, drawn, 0.0, scratch, episode,
     )  # fmt: skip
     return status, phi, values, action, vetoed
 
@@ -592,13 +611,13 @@ def learning_loop(
     state, the step is not counted and the episode cannot be continued).
     θ (and ω, the trace slots) must have a row for every feature iFDD's tables can hold.
     """
-    p = borrowed(Parts(domain, domain_rng, rep, agent, arrays, row_traces, agent_rng, box, parts))
-    domain, domain_rng, rep, agent, arrays, row_traces, agent_rng, box, parts = p
+    domain, domain_rng, rep, agent, arrays, agent_rng, box = borrowed(
+        (domain, domain_rng, rep, agent, arrays, agent_rng, box)
+    )
     obs, state, owned = borrowed(obs), borrowed(state), _new_scratch(obs, rep, arrays)
     scratch = borrowed(owned)  # its owners held until the call ends (`release`)
     # Which slots bind a structref (see the Choice above): iFDD's, a box's, the traces'.
-    is_alone = box.kind == NO_BOX and not rep.is_ifdd  # `_choose_alone` at s'
-    is_checked = learn and (rep.is_ifdd or agent.traces != NO_TRACES)  # `_room`
+    is_discovering, has_traces = learn and rep.is_ifdd, learn and agent.traces != NO_TRACES
     is_adaptive = learn and box.kind != NO_BOX and parts.is_adaptive  # Algorithm 26's
     is_buffered = rep.base.kind == TILES and not rep.is_ifdd  # φ(s) lives in phi_buffer
     ep_float, ep_int = np.empty((16, 3)), np.empty((16, 2), dtype=np.int64)
@@ -618,13 +637,17 @@ def learning_loop(
             phase = NEEDS_BEGIN
         if phase == NEEDS_BEGIN:  # the learner's begin_episode, then a = π(s)
             episode += 1 if learn else 0
-            status, phi, values, action, vetoed = _begin(p, learn, obs, drawn, scratch, episode)
+            status, phi, values, action, vetoed = _begin(
+                domain, rep, agent, arrays, row_traces, agent_rng, box, parts, learn, obs, drawn,
+                scratch, episode)  # fmt: skip
             if status != DONE:
                 delta, phase = vetoed if status == DIVERGED else delta, NEEDS_RESET
                 break
             episode_steps = episode_failures = 0
             phase, total, discounted, weight, spent = IN_EPISODE, 0.0, 0.0, 1.0, 0.0
-        status, room = _room(rep, agent, arrays, row_traces, box, phi) if is_checked else (DONE, 0)
+        status, room = _room(rep, box, phi) if is_discovering else (DONE, 0)
+        if has_traces and status == DONE and not traces_fit(agent, arrays, row_traces, len(phi)):
+            status = GROW_TRACES
         if status != DONE:
             break
         reward, terminated, cost = step_into(domain, action, next_obs, domain_rng)
@@ -634,15 +657,15 @@ def learning_loop(
         episode_steps += 1
         next_spent = spent + cost if cost > 0.0 else spent
         next_phi, next_values, next_action, next_legal = phi, values, 0, scratch.all_actions
-        if not terminated and is_alone:  # φ(s'), a' = π(s') (Algorithms 10-12, lines 4-5)
+        if not terminated and box.kind == NO_BOX:  # φ(s'), a' = π(s') (Algorithms 10-12)
             next_phi, next_values, next_legal, next_action, status = _choose_alone(
-                domain, rep.base, agent, arrays, agent_rng, learn, next_obs, next_spent, scratch
-            )  # fmt: skip
+                domain, rep, agent, arrays, agent_rng, learn, True, next_obs, scratch.next_buffer,
+                scratch.next_legal_buffer, scratch.next_drawn, next_spent, scratch)  # fmt: skip
         elif not terminated:
             next_phi, next_values, next_legal, next_action, status, vetoed, grew = _choose(
-                p, learn, True, next_obs, scratch.next_buffer, scratch.next_legal_buffer,
-                scratch.next_drawn, next_spent, scratch, episode,
-            )  # fmt: skip
+                domain, rep, agent, arrays, agent_rng, box, parts, learn, True, next_obs,
+                scratch.next_buffer, scratch.next_legal_buffer, scratch.next_drawn, next_spent,
+                scratch, episode)  # fmt: skip
             phi = _features(rep, learn, obs, phi_buffer, scratch) if grew else phi  # new features
             room = room_for(rep, phi) if grew else room
             delta = vetoed if status == DIVERGED else delta
@@ -653,10 +676,9 @@ def learning_loop(
             break
         grew = False
         if learn:
-            delta = _learn(
-                agent, arrays, row_traces, scratch, phi, values, action, reward, cost, terminated,
-                next_phi, next_values, next_action, next_legal, spent, next_spent, episode, drawn,
-            )  # fmt: skip
+            delta = _learn(agent, arrays, row_traces, scratch, phi, values, action, reward, cost,
+                           terminated, next_phi, next_values, next_action, next_legal, spent,
+                           next_spent, episode, drawn)  # fmt: skip
             learning_steps += 1
             if not math.isfinite(delta):
                 status, phase = DIVERGED, NEEDS_RESET
@@ -679,9 +701,8 @@ def learning_loop(
                 break
         else:
             _copy(obs, next_obs)  # after a discovery φ(s) is encoded again, as in Python
-            phi = _features(rep, learn, obs, phi_buffer, scratch) if grew else _shift(
-                phi_buffer, next_phi, is_buffered
-            )  # fmt: skip
+            phi = (_features(rep, learn, obs, phi_buffer, scratch) if grew
+                   else _shift(phi_buffer, next_phi, is_buffered))  # fmt: skip
             values, action = next_values, next_action
             if learn and agent.is_log_policy:
                 _copy(drawn, scratch.next_drawn)
