@@ -31,18 +31,23 @@ from conjure.domains import InvertedPendulum
 STRUCTREF_ARGUMENTS = ("arg.rep.2", "arg.row_traces", "arg.parts")
 
 
-def loop_ir() -> str:
-    """The optimized IR of the loop function, compiled for the pendulum workload."""
+def loop_arguments() -> tuple:
+    """`learning_loop`'s arguments for the pendulum workload, asking for no step."""
     domain = InvertedPendulum()
     agent = make_agent("tiles").setup(domain.domain_spec, 0)
     stepper = for_combination(domain, agent, seed=0)
     rep = representation_form(agent)
     form = box_form(agent, rep)
-    args = (
+    return (
         0, domain.compiled_form(), domain.np_random, rep, agent_form(agent), agent.arrays_,
         agent.row_traces_, agent.rng_, 3000, stepper._obs, stepper._state, form.box,
         form.parts, True, 1,
     )  # fmt: skip
+
+
+def loop_ir() -> str:
+    """The optimized IR of the loop function, compiled afresh for the pendulum workload."""
+    args = loop_arguments()
     loop = njit(lp.learning_loop.py_func)
     loop(*args)
     module = loop.inspect_llvm(loop.signatures[0])
