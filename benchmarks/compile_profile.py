@@ -8,9 +8,10 @@ numba's cache, so this is the loop function's own compile) under `cProfile`, and
 cumulative seconds of numba's stages: the untyped inlining of ``inline="always"`` kernels
 (``inline_function``, with the IR copies ``copy_ir`` it makes at every site and the passes it
 runs on each copy, which inline that copy's own callees, so the two overlap), type inference,
-and LLVM's optimisation and finalisation. Each site
-copies the callee's IR with everything inlined into it, so a slot nested in slots is copied
-once per level. Timings depend on the CPU and its load; both are printed.
+and LLVM's optimisation and finalisation. Each site copies the callee's IR with everything
+inlined into it, so a slot nested in slots is copied once per level. Where numba has several
+functions of one name in one file, the row is the one with the most cumulative time. Timings
+depend on the CPU and its load; both are printed.
 """
 
 from __future__ import annotations
@@ -48,10 +49,10 @@ def profile() -> tuple[float, dict[tuple[str, str], tuple[int, float]]]:
     seconds = time.perf_counter() - start
     stats = pstats.Stats(profiler).stats  # {(file, line, name): (cc, nc, tt, ct, callers)}
     by_function: dict[tuple[str, str], tuple[int, float]] = {}
-    for (path, _, name), (_, calls_in_all, _, cumulative, _) in stats.items():
+    for (path, _, name), (_, calls, _, cumulative, _) in stats.items():
         key = (os.path.basename(path), name)
-        calls, total = by_function.get(key, (0, 0.0))
-        by_function[key] = (calls + calls_in_all, max(total, cumulative))
+        if cumulative > by_function.get(key, (0, -1.0))[1]:
+            by_function[key] = (calls, cumulative)
     return seconds, by_function
 
 

@@ -30,14 +30,14 @@ Python path (numba shares their state): the domain's draws per step and one unif
 choice.
 
 The loop reads like `Stepper._steps`; its slots are small kernels, inlined
-(``inline="always"``) so the step's compiled code is that of one function: `_begin` (the
-learner's begin_episode and a = π(s)), `_room` (before an iFDD learning step: whether
-discoveries fit), `_choose_alone` (φ(s), the legal actions and a = π(s) of the learner alone)
-or `_choose` (the same inside a box, whose `_act` chooses; discovery after a learned veto),
-`_learn` (Q⁺(s, a) and the update), then the grow slot `_discover` and Algorithm 26's
-`box_learn`. Each mode lives in the slot it changes (a policy check acts greedily in `_act`
-and never reaches `_learn`). The loop's own state (phase, action, counters, return so far) is
-`LoopState`, resumable between calls; an episode may span calls.
+(``inline="always"``) so the step's compiled code is that of one function, except `_begin` (the
+learner's begin_episode and a = π(s), once per episode, called): `_room` (before an iFDD
+learning step: whether discoveries fit), `_choose_alone` (φ(s), the legal actions and a = π(s)
+of the learner alone) or `_choose` (the same inside a box, whose `_act` chooses; discovery
+after a learned veto), `_learn` (Q⁺(s, a) and the update), then the grow slot `_discover` and
+Algorithm 26's `box_learn`. Each mode lives in the slot it changes (a policy check acts
+greedily in `_act` and never reaches `_learn`). The loop's own state (phase, action, counters,
+return so far) is `LoopState`, resumable between calls; an episode may span calls.
 
 Choice: the loop reads its arguments and its scratch arrays through borrowed views
 (`conjure.core.compiled_form.borrowed`, `release`): numba counts a reference to every array of
@@ -683,7 +683,7 @@ def learning_loop(
             if not math.isfinite(delta):
                 status, phase = DIVERGED, NEEDS_RESET
                 break
-            grew = rep.is_ifdd and _discover(rep, arrays, phi, delta, room, agent)
+            grew = is_discovering and _discover(rep, arrays, phi, delta, room, agent)
             if is_adaptive:  # Algorithm 26: T̂ learns from the move, π^p may switch
                 box_learn(box, parts, obs, action, next_obs)
         done += 1
