@@ -46,7 +46,7 @@ COMMANDS: tuple[tuple[str, str, tuple[str, ...]], ...] = (
     (
         "Online iFDD: Python and compiled paths",
         "SARSA and Actor-Critic with online iFDD / iFDD⁺ on BlocksWorld, Persistent "
-        "Surveillance, the pendulum and the Rescue Mission.",
+        "Surveillance, the pendulum and the Rescue Mission; SARSA with ARiFDD on the pendulum.",
         ("benchmarks/ifdd_speed.py", "--paths-only", "--steps", "20000", "--repeats", "3"),
     ),
     (

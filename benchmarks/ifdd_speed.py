@@ -22,8 +22,9 @@ compilation excluded), each the median of ``repeats`` runs:
    without the learner's `grow_weights`, against a call that adds nothing.
 4. SARSA + iFDD+ on BlocksWorld (``examples/blocksworld.yaml``'s ``ifdd_plus`` agent) and
    Persistent Surveillance, Actor-Critic + iFDD+ on BlocksWorld, SARSA + signed iFDD+ on the
-   pendulum (``examples/reproduction/fig_4_8_pendulum_ifdd_plus.yaml``) and SARSA + iFDD at a
-   fixed rate on Rescue Mission (``fig_4_7_rescue.yaml``) on the Python path
+   pendulum (``examples/reproduction/fig_4_8_pendulum_ifdd_plus.yaml``), SARSA + iFDD at a
+   fixed rate on Rescue Mission (``fig_4_7_rescue.yaml``) and SARSA + ARiFDD on the pendulum
+   (``fig_4_11.yaml``'s ``arifdd``) on the Python path
    (`LearningLoop`) and on the compiled path (`conjure.compiled`), the same 5 N
    steps from the same seeds; the compiled kernels' first calls in this process (compile, or
    load from numba's disk cache) are timed separately and not in steps/s. ``--paths-only``
@@ -52,7 +53,12 @@ from conjure.core.schedules import FeatureNormalizedDecay
 from conjure.domains import BlocksWorld, InvertedPendulum, PersistentSurveillance, RescueMission
 from conjure.experiments.loop import LearningLoop
 from conjure.policies import EpsilonGreedy
-from conjure.representations import BinaryIndicators, IndependentDiscretization, TileCoding
+from conjure.representations import (
+    ARiFDD,
+    BinaryIndicators,
+    IndependentDiscretization,
+    TileCoding,
+)
 from conjure.representations.online_ifdd import OnlineIFDD
 from conjure.representations.weights import grow_weights
 
@@ -305,6 +311,15 @@ def rescue_ifdd_fixed_rate() -> tuple[RescueMission, SARSA]:
     return RescueMission(), agent
 
 
+def pendulum_arifdd() -> tuple[InvertedPendulum, SARSA]:
+    """examples/reproduction/fig_4_11.yaml's ``arifdd`` learner (2 tiles per dimension)."""
+    representation = ARiFDD(initial_tiles_per_dim=2, discovery_threshold=1.0, split_threshold=1.0)
+    step_size = FeatureNormalizedDecay(alpha_0=1.0, n_0=100)
+    policy = EpsilonGreedy(epsilon=0.1)
+    agent = SARSA(representation=representation, policy=policy, step_size=step_size)
+    return InvertedPendulum(), agent
+
+
 #: (name, fresh (domain, learner)) of the Python vs compiled comparison.
 PATH_WORKLOADS = (
     ("BlocksWorld, SARSA + iFDD+ xi = 0.05 (examples/)", blocks_ifdd_plus),
@@ -312,6 +327,7 @@ PATH_WORKLOADS = (
     ("BlocksWorld, Actor-Critic + iFDD+ xi = 0.05", blocks_actor_critic),
     ("InvertedPendulum, SARSA + signed iFDD+ xi = 0.02 (fig 4-8)", pendulum_ifdd_plus),
     ("RescueMission, SARSA + iFDD at C = 0.004 (fig 4-7)", rescue_ifdd_fixed_rate),
+    ("InvertedPendulum, SARSA + ARiFDD, 2 tiles per dim (fig 4-11)", pendulum_arifdd),
 )
 
 

@@ -1,8 +1,8 @@
 """Online iFDD and legal actions on the compiled path: same seed, same learner as Python.
 
 BlocksWorld and Persistent Surveillance (Geramifard 2012, Section 4.1.4) with their initial
-features alone or under online iFDD / iFDD+, and the pendulum, GridWorld and chain with
-online iFDD over tile coding, a table or independent discretization
+features alone or under online iFDD / iFDD+ or ARiFDD, and the pendulum, GridWorld and chain
+with online iFDD over tile coding, a table or independent discretization, or ARiFDD
 (`conjure.compiled.learning_loop`), learned by SARSA(λ), Q-Learning or Actor-Critic.
 """
 
@@ -26,6 +26,7 @@ from conjure.experiments import run
 from conjure.experiments.loop import LearningLoop, run_episode
 from conjure.policies import EpsilonGreedy, Gibbs
 from conjure.representations import (
+    ARiFDD,
     BinaryIndicators,
     HashedTabular,
     IndependentDiscretization,
@@ -51,6 +52,7 @@ REPRESENTATIONS = {
         max_features=100,
     ),
     "ifdd-fixed-rate": lambda: OnlineIFDD(base=BinaryIndicators(), discovery_rate=0.4),
+    "arifdd": lambda: ARiFDD(discovery_threshold=0.5),
     "indicators": BinaryIndicators,
     "ifdd-plus-over-buckets": lambda: OnlineIFDD(
         base=IndependentDiscretization(num_buckets=2),
@@ -80,6 +82,15 @@ UNCONSTRAINED_REPRESENTATIONS = {
         base=IndependentDiscretization(), relevance="ifdd_plus", discovery_threshold=0.01
     ),
     "chain-ifdd-over-table": lambda: OnlineIFDD(base=Tabular(), discovery_threshold=0.01),
+    # ARiFDD (Algorithm 22): tiles split past their capacity; iFDD+ up to a feature cap
+    "pendulum-arifdd": lambda: ARiFDD(initial_tiles_per_dim=2, discovery_threshold=0.5),
+    "pendulum-arifdd-plus-capped": lambda: ARiFDD(
+        initial_tiles_per_dim=[3, 5],
+        relevance="ifdd_plus",
+        discovery_threshold=0.2,
+        split_threshold=2.0,
+        max_features=60,
+    ),
     "chain-ifdd-over-hashed-table": lambda: OnlineIFDD(
         base=HashedTabular(capacity=50), discovery_threshold=0.01
     ),
@@ -179,6 +190,7 @@ def test_same_seed_gives_the_same_learner_on_both_paths(rep, agent_name, seed):
         "indicators",
         "pst-ifdd-plus",
         "pendulum-ifdd-plus-over-tiles",
+        "pendulum-arifdd",
         "gridworld-ifdd-plus-over-buckets",
         "rescue-ifdd-plus",
         "uav-ifdd-fixed-rate",
@@ -197,6 +209,7 @@ def test_sarsa_lambda_gives_the_same_learner_on_both_paths(rep, agent_name):
         "indicators",
         "pst-ifdd-plus",
         "pendulum-ifdd-plus-over-tiles",
+        "pendulum-arifdd",
         "pendulum-ifdd-over-hashed-tiles",
         "gridworld-ifdd-plus-over-buckets",
         "chain-ifdd-over-table",
@@ -380,7 +393,14 @@ def _curve(rows: list) -> list:
 
 
 @pytest.mark.parametrize(
-    "rep", ["ifdd-plus", "pst-ifdd-plus", "pendulum-ifdd-plus-over-tiles", "rescue-ifdd-plus"]
+    "rep",
+    [
+        "ifdd-plus",
+        "pst-ifdd-plus",
+        "pendulum-ifdd-plus-over-tiles",
+        "rescue-ifdd-plus",
+        "pendulum-arifdd",
+    ],
 )
 def test_a_run_records_the_same_curve_on_both_paths(monkeypatch, rep):
     import conjure.compiled

@@ -52,7 +52,7 @@ def check_cover(rep, state):
     phi = rep.active_features(state)
     assert phi.dtype == np.int64 and phi.size > 0
     assert np.all(np.diff(phi) > 0) and phi[0] >= 0 and phi[-1] < rep.num_features_, phi
-    basic = rep._basic_features(np.asarray(state, dtype=float))
+    basic = rep.base_.active_features(np.asarray(state, dtype=float))
     covered = np.sort(np.concatenate([rep.initial_set(int(f)) for f in phi]))
     np.testing.assert_array_equal(covered, basic)  # disjoint: no id twice
     assert not np.intersect1d(covered, rep.retired_tiles_).size
@@ -293,7 +293,7 @@ def test_split_parents_are_active_tiles():
     rng = np.random.default_rng(3)
     for state in random_states(SQUARE, 2000, seed=7):
         phi = rep.active_features(state)
-        basic = rep._basic_features(state)
+        basic = rep.base_.active_features(state)
         expansion = rep.discover(phi, float(rng.normal()), state)
         if expansion is None:
             continue

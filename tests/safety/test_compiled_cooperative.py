@@ -11,7 +11,13 @@ from conjure.domains import GridWorld, UAVMission
 from conjure.experiments.loop import LearningLoop, greedy_episodes, run_episode
 from conjure.models.approximate_model import ApproximateModel
 from conjure.planners import CBBAPlanner, ModelPlanner, ShortestPathPlanner, SwitchingPlanner
-from conjure.representations import HashedTabular, IndependentDiscretization, OnlineIFDD, Tabular
+from conjure.representations import (
+    ARiFDD,
+    HashedTabular,
+    IndependentDiscretization,
+    OnlineIFDD,
+    Tabular,
+)
 from conjure.safety import (
     AdaptiveCooperativeLearner,
     CooperativeActorCritic,
@@ -237,11 +243,16 @@ def test_a_full_box_index_raises_its_own_error_at_the_same_step_on_both_paths():
 
 
 def _uav_csarsa_ifdd(domain: UAVMission, variant: str) -> CooperativeLearner:
-    """Section 6.2.6's CSARSA + iFDD⁺ (a small ξ, so that features are discovered early)."""
+    """Section 6.2.6's CSARSA + iFDD⁺ (a small ξ, so that features are discovered early).
+
+    ``arifdd``: ARiFDD's splitting tiles under iFDD⁺ instead (Algorithm 22).
+    """
     box = _uav_csarsa(domain, "printed" if variant == "printed" else "veto")
     ifdd = OnlineIFDD(
         base=IndependentDiscretization(), relevance="ifdd_plus", discovery_threshold=5.0
     )
+    if variant == "arifdd":
+        ifdd = ARiFDD(relevance="ifdd_plus", discovery_threshold=5.0, split_threshold=20.0)
     trace_decay = 0.9 if variant == "traces" else 0.0
     learner = SARSA(
         representation=ifdd, step_size=EpisodicDecay(alpha_0=0.1), trace_decay=trace_decay
@@ -249,11 +260,14 @@ def _uav_csarsa_ifdd(domain: UAVMission, variant: str) -> CooperativeLearner:
     return box.set_params(learner=learner, veto_reward=-20.0 if variant != "printed" else None)
 
 
-@pytest.mark.parametrize("variant", ["veto", "printed", "traces"])
+@pytest.mark.parametrize("variant", ["veto", "printed", "traces", "arifdd"])
 def test_algorithm_24_around_online_ifdd_takes_the_same_steps_on_both_paths(variant):
     python_agent, _, agent = _same_algorithm_24_steps(_uav_csarsa_ifdd, variant, 6)
     ifdd, python_ifdd = agent.learner_.representation_, python_agent.learner_.representation_
     assert ifdd.num_features_ == python_ifdd.num_features_ > ifdd.num_initial_features_
+    if variant == "arifdd":
+        assert ifdd.num_splits_ == python_ifdd.num_splits_ > 0
+        np.testing.assert_array_equal(ifdd.retired_tiles_, python_ifdd.retired_tiles_)
 
 
 def test_algorithm_24_around_unsparsified_ifdd_stays_in_python():

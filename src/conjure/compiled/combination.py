@@ -9,18 +9,18 @@ Covered today (Geramifard 2012): the domains `InvertedPendulum`, `GridWorld`, `C
 `BlocksWorld`, `PersistentSurveillance`, `RescueMission`, `UAVMission`, and any Gymnasium
 environment through `GymnasiumDomain` (its own ``step`` called back); the representations
 `TileCoding` (hashed or not), `Tabular`, `HashedTabular`, `IndependentDiscretization`,
-`BinaryIndicators`, `RBF` (real-valued φ, Section 3.1.2) and online iFDD (`OnlineIFDD` and
-`RandomExpansion`, Algorithms 19-21) over a binary base; the learners `SARSA` (with or
-without traces), `QLearning` and `ActorCritic` (Algorithm 12 as printed, or with a V critic
-and the log-policy actor, with the actor sharing the critic's features; with eligibility
-traces on fixed features); the policies `EpsilonGreedy`, `Gibbs`; the schedules
-`ConstantStepSize`, `FeatureNormalizedDecay`, `EpisodicDecay`; and the iCCA boxes around such
-a learner (`CooperativeActorCritic`, Algorithm 23; `CooperativeLearner` with SARSA or
-Q-Learning, Algorithm 24, also around online iFDD; `AdaptiveCooperativeLearner`, Algorithm
-26) when π^p can be tabulated per state (grid worlds: value iteration on a static model,
-shortest-path or switching planners) with the nominal rule or Monte-Carlo rollouts in the
-tabular T̂, or on UAV missions with CBBA and the fuel rule or Monte-Carlo rollouts
-(`conjure.safety.compiled_cooperative`).
+`BinaryIndicators`, `RBF` (real-valued φ, Section 3.1.2), online iFDD (`OnlineIFDD` and
+`RandomExpansion`, Algorithms 19-21) over a binary base, and `ARiFDD` (Algorithm 22); the
+learners `SARSA` (with or without traces), `QLearning` and `ActorCritic` (Algorithm 12 as
+printed, or with a V critic and the log-policy actor, with the actor sharing the critic's
+features; with eligibility traces on fixed features); the policies `EpsilonGreedy`, `Gibbs`;
+the schedules `ConstantStepSize`, `FeatureNormalizedDecay`, `EpisodicDecay`; and the iCCA
+boxes around such a learner (`CooperativeActorCritic`, Algorithm 23; `CooperativeLearner`
+with SARSA or Q-Learning, Algorithm 24, also around online iFDD or ARiFDD;
+`AdaptiveCooperativeLearner`, Algorithm 26) when π^p can be tabulated per state (grid
+worlds: value iteration on a static model, shortest-path or switching planners) with the
+nominal rule or Monte-Carlo rollouts in the tabular T̂, or on UAV missions with CBBA and the
+fuel rule or Monte-Carlo rollouts (`conjure.safety.compiled_cooperative`).
 The same loop plays the policy checks' greedy episodes (``learn=False``).
 """
 

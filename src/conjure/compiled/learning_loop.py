@@ -7,24 +7,26 @@ arithmetic: every step calls the components' own kernels through their compiled 
 
 - the domain (`conjure.domains.compiled_domain`): `reset_into`, `step_into`, `legal_into`;
 - the representation (`conjure.representations.compiled_representation`): `encode_into`
-  and `values_of` for φ(s), and with online iFDD (`conjure.representations.compiled_ifdd`)
-  `sparsify` (Algorithm 19), `room_for` and `discover_from`;
+  and `values_of` for φ(s), and with online iFDD or ARiFDD
+  (`conjure.representations.compiled_ifdd`) `sparsify` (Algorithm 19), `room_for` and
+  `discover_from` (Algorithms 20-22: the loop never asks which);
 - the learner (`conjure.agents.compiled_agent`): `q_values_into`, `learn_step` (the Python
   learner's learn too), `clear_learner_traces`, `grow_learner_rows` for new features' rows
   (Section 4.1.1), and the policy's `select_action` (and `gibbs_policy` for the log-policy
   actor).
 
-Per step: a = π(s) was chosen; s', r = step(a); unless terminal, φ(s') and a' = π(s') over the
-legal actions of s'; Q⁺(s, a); δ and the updates (with a `Saute` constraint, acting at s' and
-Q⁺ read the blocks of θ and ω for the episode's cost up to s', the update those up to s, and
-r is Sauté's r̃: `budget_rows`, `budget_arrays`, `saute_reward`, from the loop's own
-``episode_cost``, learning and greedy steps alike); with iFDD, discovery on φ(s) with δ and the
-new features' rows; then s ← s', a ← a' (φ(s) recomputed after a discovery, as the Python
-learner re-encodes). Inside an iCCA box (`conjure.safety.compiled_cooperative`) the box
-chooses a and a'; a vetoed proposal it learns (Algorithm 24's veto rule) is followed by its
-own discovery on that state's φ, before the step's update, as in the Python learner's
-``learn``. Choice: the tables are then grown before a step unless two discoveries from any
-sparsified φ fit (`has_room_for`), since the box cannot pause once the domain has stepped.
+Per step: a = π(s) was chosen; s', r = step(a); unless terminal, φ(s') and a' = π(s') over
+the legal actions of s'; Q⁺(s, a); δ and the updates (with a `Saute` constraint, acting at
+s' and Q⁺ read the blocks of θ and ω for the episode's cost up to s', the update those up to
+s, and r is Sauté's r̃: `budget_rows`, `budget_arrays`, `saute_reward`, from the loop's own
+``episode_cost``, learning and greedy steps alike); with iFDD or ARiFDD, discovery on φ(s)
+with δ and the new features' rows; then s ← s', a ← a' (φ(s) recomputed after a discovery,
+as the Python learner re-encodes). Inside an iCCA box
+(`conjure.safety.compiled_cooperative`) the box chooses a and a'; a vetoed proposal it
+learns (Algorithm 24's veto rule) is followed by its own discovery on that state's φ, before
+the step's update, as in the Python learner's ``learn``. Choice: the tables are then grown
+before a step unless two discoveries from any sparsified φ fit (`has_room_for`), since the
+box cannot pause once the domain has stepped.
 Random numbers come from the same `numpy.random.Generator` objects in the same order as the
 Python path (numba shares their state): the domain's draws per step and one uniform per action
 choice.
@@ -366,15 +368,16 @@ def _act(
 @njit(cache=True)
 def _discover(
     rep: IFDDKernel, arrays: LearnerArrays, phi: np.ndarray, delta: float, room: int,
-    agent: AgentKernel,
+    agent: AgentKernel, state: np.ndarray,
 ) -> bool:  # fmt: skip
-    """The grow slot: Algorithm 20/21 on φ(s) with δ, then the learner's rows for new features.
+    """The grow slot: discovery on φ(s) at s with δ, then the learner's rows for new features.
 
-    The rows come from the learners' own growth kernel (`grow_learner_rows`: θ_f = θ_g + θ_h,
-    Section 4.1.1). Returns whether features were added (φ of every state must then be
-    encoded again).
+    The representation's own `discover_from` runs (Algorithm 20/21, or ARiFDD's 22). The rows
+    come from the learners' own growth kernel (`grow_learner_rows`: θ_f = θ_g + θ_h, Section
+    4.1.1; a split tile's halves copy θ_t). Returns whether features were added (φ of every
+    state must then be encoded again).
     """
-    first, added, parents = discover_from(rep, phi, delta, room)
+    first, added, parents = discover_from(rep, phi, delta, room, state)
     has_trace_slots = agent.traces == REPLACING or agent.traces == ACCUMULATING  # SARSA(λ)'s
     grow_learner_rows(arrays, first, parents[first : first + added],
                       agent.kind == ACTOR_CRITIC, has_trace_slots)  # fmt: skip
@@ -469,7 +472,7 @@ def _choose(
     if status != DONE:
         return phi, values, legal, action, status, vetoed, False
     grew = imagined and rep.is_ifdd and _discover(rep, arrays, phi, vetoed, room_for(rep, phi),
-                                                  agent)  # fmt: skip
+                                                  agent, obs)  # fmt: skip
     if grew:
         phi = _features(rep, learn, obs, buffer, scratch)
         if at_next:
@@ -683,7 +686,7 @@ def learning_loop(
             if not math.isfinite(delta):
                 status, phase = DIVERGED, NEEDS_RESET
                 break
-            grew = is_discovering and _discover(rep, arrays, phi, delta, room, agent)
+            grew = is_discovering and _discover(rep, arrays, phi, delta, room, agent, obs)
             if is_adaptive:  # Algorithm 26: T̂ learns from the move, π^p may switch
                 box_learn(box, parts, obs, action, next_obs)
         done += 1

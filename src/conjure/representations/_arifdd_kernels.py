@@ -8,15 +8,57 @@ The basic tiles of dimension i partition its extent ``[edges[i, 0], edges[i, m_i
 - ``stats (d, capacity, 3)`` float64: Ξ (the sum of |δ|), μ and σ² (the |δ|-weighted mean and
   variance of the states seen in the tile, Alg 22 lines 4-8).
 
+`BasicTiles` holds them with Algorithm 22's settings: the state of `ARiFDD`'s basic tiles,
+which its Python methods and the compiled learning loop pass to the same kernels. A split
+(`split_at`, lines 2-18) writes the two new features into online iFDD's tables
+(`conjure.representations._ifdd_kernels.IFDDTables`) as initial sets.
+
 Inputs are trusted: `ARiFDD` validates at ``setup`` and in ``check_state``.
 """
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 from numba import njit
 
-__all__ = ["basic_features", "record_errors"]
+__all__ = ["BasicTiles", "basic_features", "fits_splits", "record_errors", "split_at", "tile_word"]
+
+_GOLDEN = np.uint64(0x9E3779B97F4A7C15)
+_MIX1 = np.uint64(0xBF58476D1CE4E5B9)
+_MIX2 = np.uint64(0x94D049BB133111EB)
+
+
+class BasicTiles(NamedTuple):
+    """ARiFDD's basic tiles φ⁰ and Algorithm 22's settings (arrays updated in place).
+
+    Parameters
+    ----------
+    edges, num_tiles, tile_feature, stats : ndarray
+        The tiles (module docstring).
+    low, high : ndarray of float64
+        The state range the statistics clip s into.
+    min_width : ndarray of float64
+        The coverage floor per dimension (Section 4.2.1), in state units.
+    is_discrete : ndarray of bool
+        Which dimensions split between integer values.
+    counters : ndarray of int64
+        The steps with a tile past ς and those whose candidates the floor all blocked.
+    split_threshold : float
+        ς (Alg 22 line 9).
+    """
+
+    edges: np.ndarray
+    num_tiles: np.ndarray
+    tile_feature: np.ndarray
+    stats: np.ndarray
+    low: np.ndarray
+    high: np.ndarray
+    min_width: np.ndarray
+    is_discrete: np.ndarray
+    counters: np.ndarray
+    split_threshold: float
 
 
 @njit(cache=True, inline="always")
@@ -122,3 +164,86 @@ def record_errors(
         counters[1] += 1  # every candidate was blocked by the floor
         return -1, -1, 0.0
     return best_dim, best_slot, _split_point(stats[best_dim, best_slot, 1], is_discrete[best_dim])
+
+
+@njit(cache=True)
+def tile_word(seed_word: int, feature: int) -> int:
+    """A new tile's 64-bit hash word (as int64): splitmix64 of the seed word and its id."""
+    z = np.uint64(seed_word) + np.uint64(feature + 1) * _GOLDEN
+    z = (z ^ (z >> np.uint64(30))) * _MIX1
+    z = (z ^ (z >> np.uint64(27))) * _MIX2
+    return np.int64(z ^ (z >> np.uint64(31)))
+
+
+@njit(cache=True)
+def fits_splits(tiles: BasicTiles, count: int, num_features: int, t) -> bool:
+    """Whether ``count`` splits and ``num_features`` new features fit.
+
+    A split needs a free tile slot in every dimension and two features; a discovery's
+    conjunctions need features too (splits add features without iFDD's nodes, so the nodes'
+    room does not bound them). ``t``: iFDD's tables.
+    """
+    for i in range(tiles.num_tiles.shape[0]):
+        if tiles.num_tiles[i] + count > tiles.tile_feature.shape[1]:
+            return False
+    return (
+        t.num_features[0] + num_features <= t.feat_start.shape[0]
+        and t.pool_used[0] + 2 * count <= t.pool.shape[0]
+    )
+
+
+@njit(cache=True)
+def split_at(tiles: BasicTiles, state: np.ndarray, td_error: float, t) -> int:
+    """Algorithm 22, lines 2-18, at a state s whose φ̇(s) is one feature: 0 or 2 new features.
+
+    Lines 2-13 by `record_errors` (with ``|δ|``; no split beyond iFDD's ``max_features``);
+    a split tile's slot gets the two halves (ids n_t and n_t + 1, lower first), which join
+    iFDD's tables ``t`` as initial sets {f₁}, {f₂} with parents (t, −1) (line 15). The tables
+    and tiles must fit it (`fits_splits`).
+    """
+    t.num_calls[0] += 1
+    first = t.num_features[0]
+    dim, slot, point = record_errors(
+        state, abs(td_error), tiles.edges, tiles.num_tiles, tiles.stats, tiles.low, tiles.high,
+        tiles.min_width, tiles.is_discrete, tiles.split_threshold,
+        first + 2 <= t.max_features[0], tiles.counters,
+    )  # fmt: skip
+    if dim < 0:
+        return 0
+    tile = _split_tile(tiles, dim, slot, point, first)
+    for feature in range(first, first + 2):  # line 15: {f₁}, {f₂} join χ as initial sets
+        used = t.pool_used[0]
+        t.pool[used] = feature
+        t.pool_used[0] = used + 1
+        t.feat_start[feature] = used
+        t.feat_len[feature] = 1
+        t.feat_parents[feature, 0] = tile
+        t.feat_parents[feature, 1] = -1
+        t.words[feature] = tile_word(t.random_word[0], feature)
+    t.num_features[0] = first + 2
+    return 2  # lines 16-18: no conjunction on the retired tile is ever activated again
+
+
+@njit(cache=True)
+def _split_tile(tiles: BasicTiles, dim: int, slot: int, point: float, first: int) -> int:
+    """Lines 13-14: tile ``slot`` of ``dim`` becomes ``first`` (below ``point``) and ``first + 1``.
+
+    Returns the retired tile's id. The later tiles move up one slot; the halves' statistics
+    start at zero.
+    """
+    edges, tile_feature, stats = tiles.edges[dim], tiles.tile_feature[dim], tiles.stats[dim]
+    m = tiles.num_tiles[dim]
+    tile = tile_feature[slot]
+    for j in range(m, slot, -1):  # from the top: the slots overlap
+        edges[j + 1] = edges[j]
+        tile_feature[j] = tile_feature[j - 1]
+        for k in range(3):
+            stats[j, k] = stats[j - 1, k]
+    edges[slot + 1] = point
+    tile_feature[slot] = first
+    tile_feature[slot + 1] = first + 1
+    for k in range(3):
+        stats[slot, k] = 0.0
+        stats[slot + 1, k] = 0.0
+    tiles.num_tiles[dim] = m + 1
+    return tile

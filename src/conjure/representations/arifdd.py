@@ -14,12 +14,13 @@ from conjure.representations import _arifdd_kernels as _ak
 from conjure.representations import _ifdd_kernels as _k
 from conjure.representations._kernels import per_dimension, positive_ints
 from conjure.representations._max_features import OPTIONAL_MAX_FEATURES
+from conjure.representations.compiled_ifdd import IFDDKernel
+from conjure.representations.compiled_representation import BASIC_TILES, representation_kernel
 from conjure.representations.online_ifdd import _RELEVANCES, _STATE_ARRAYS, OnlineIFDD
 
 __all__ = ["ARiFDD"]
 
 _STATS = ("error_sum", "mean", "variance")
-_MASK64 = (1 << 64) - 1
 
 
 class ARiFDD(OnlineIFDD):
@@ -177,6 +178,7 @@ class ARiFDD(OnlineIFDD):
         return _BasicTiles(
             initial_tiles_per_dim=self.initial_tiles_per_dim,
             min_tile_fraction=self.min_tile_fraction,
+            split_threshold=self.split_threshold,
         )
 
     # ------------------------------------------------------------------ lifecycle
@@ -186,8 +188,6 @@ class ARiFDD(OnlineIFDD):
         self.validate_params()
         per_dimension(self, "initial_tiles_per_dim", spec)  # a clear error naming ARiFDD
         super().setup(spec, seed)
-        self._split_threshold = float(self.split_threshold)
-        self._max_features = int(self._counts["max_features"][0])
         return self
 
     def _install(
@@ -201,21 +201,31 @@ class ARiFDD(OnlineIFDD):
             grown[: words.shape[0]] = words
             arrays = {**arrays, "words": grown}
         super()._install(arrays, cache)
-        self._encode_base = self._basic_features
 
-    def _basic_features(self, state: np.ndarray) -> np.ndarray:
-        """φ⁰(s): the sorted ids of the d live basic tiles holding ``state``."""
-        state = self.check_state(state)
-        tiles = self.base_
-        return _ak.basic_features(state, tiles.edges_, tiles.num_tiles_, tiles.tile_feature_)
-
-    def _reserve(self, num_new: int) -> None:
-        """Grow the tables until ``num_new`` more features (and their pool entries) fit."""
-        while (
-            self.num_features_ + num_new > self._arrays["feat_start"].shape[0]
-            or self._counts["pool_used"][0] + num_new > self._arrays["pool"].shape[0]
-        ):
+    def _reserve(self, num_splits: int, num_features: int) -> None:
+        """Grow the tables until ``num_splits`` splits and ``num_features`` new features fit."""
+        while not _ak.fits_splits(self.base_.tiles_, num_splits, num_features, self._tables):
             self.grow_tables()
+
+    def grow_tables(self) -> None:
+        """Double the basic tiles' slots per dimension and iFDD's capacities (`OnlineIFDD`)."""
+        self.base_.grow()
+        super().grow_tables()
+
+    def compiled_form(self) -> IFDDKernel:
+        """The basic tiles under iFDD's tables, both updated in place (Algorithms 19-22)."""
+        check_is_set_up(self, "compiled_form")
+        tiles = self.base_.tiles_
+        base = representation_kernel(
+            BASIC_TILES,
+            self.spec_.num_dims,
+            dims=tiles.edges,
+            layout=tiles.tile_feature,
+            vector=tiles.num_tiles,
+        )
+        return IFDDKernel(
+            base=base, is_ifdd=True, tables=self.kernel_tables(), splits=True, tiles=tiles
+        )
 
     # ------------------------------------------------------------------ Algorithm 22
 
@@ -235,49 +245,15 @@ class ARiFDD(OnlineIFDD):
             )
         k = active.shape[0]
         if k != 1:  # line 20: iFDD can still expand at s
-            self._reserve(k * (k - 1) // 2)
+            self._reserve(1, k * (k - 1) // 2)
             return super().discover(active, td_error)
         state = self.check_state(state)
-        tiles = self.base_
-        self._counts["num_calls"][0] += 1
-        dim, slot, point = _ak.record_errors(  # lines 2-13
-            state,
-            abs(float(td_error)),
-            tiles.edges_,
-            tiles.num_tiles_,
-            tiles.stats_,
-            tiles.low_,
-            tiles.high_,
-            tiles.min_width_,
-            tiles.is_discrete_,
-            self._split_threshold,
-            self.num_features_ + 2 <= self._max_features,
-            tiles.counters_,
-        )
-        if dim < 0:
-            return None
-        return self._split(int(dim), int(slot), float(point))
-
-    def _split(self, dim: int, slot: int, point: float) -> Expansion:
-        """Lines 14-18: replace tile ``slot`` of ``dim`` by two new tiles split at ``point``."""
-        self._reserve(2)
+        self._reserve(1, 2)
         first = self.num_features_
-        tile = self.base_.split(dim, slot, point, first)
-        a, counts = self._arrays, self._counts
-        seed_word = int(counts["random_word"][0])
-        for feature in (first, first + 1):  # line 15: {f₁}, {f₂} join χ as initial sets
-            used = int(counts["pool_used"][0])
-            a["pool"][used] = feature
-            counts["pool_used"][0] = used + 1
-            a["feat_start"][feature] = used
-            a["feat_len"][feature] = 1
-            a["feat_parents"][feature] = (tile, -1)
-            a["words"][feature] = _word(seed_word, feature)
-        counts["num_features"][0] = first + 2
-        # lines 16-18: no conjunction on the retired tile is ever activated again
-        return Expansion(
-            first_new=first, parents=np.array([[tile, -1], [tile, -1]], dtype=np.int64)
-        )
+        if _ak.split_at(self.base_.tiles_, state, float(td_error), self._tables) == 0:
+            return None  # lines 2-13 found no tile to split
+        parents = self._arrays["feat_parents"][first : first + 2].copy()
+        return Expansion(first_new=first, parents=parents)  # lines 14-18: `split_at`
 
     # ------------------------------------------------------------------ inspection
 
@@ -289,21 +265,22 @@ class ARiFDD(OnlineIFDD):
 
     @property
     def retired_tiles_(self) -> np.ndarray:
-        """The split (retired) tiles, in split order."""
+        """The split (retired) tiles, in split order: the parent t of each pair of halves."""
         check_is_set_up(self, "retired_tiles_")
-        return self.base_.retired_.copy()
+        parents = self._arrays["feat_parents"][self.num_initial_features_ : self.num_features_]
+        return parents[parents[:, 1] == -1][::2, 0].copy()
 
     @property
     def num_splits_(self) -> int:
         """Number of tiles split so far."""
         check_is_set_up(self, "num_splits_")
-        return int(self.base_.retired_.shape[0])
+        return int(self.base_.tiles_.num_tiles.sum()) - self.num_initial_features_
 
     @property
     def num_rejected_splits_(self) -> int:
         """Number of steps at which the coverage floor blocked every candidate tile."""
         check_is_set_up(self, "num_rejected_splits_")
-        return int(self.base_.counters_[1])
+        return int(self.base_.tiles_.counters[1])
 
     # ------------------------------------------------------------------ persistence
 
@@ -336,33 +313,31 @@ class ARiFDD(OnlineIFDD):
         self._install(loaded)
 
 
-def _word(seed_word: int, feature: int) -> int:
-    """A new tile's 64-bit hash word (as int64): splitmix64 of the seed word and its id."""
-    z = (seed_word + (feature + 1) * 0x9E3779B97F4A7C15) & _MASK64
-    z = ((z ^ (z >> 30)) * 0xBF58476D1CE4E5B9) & _MASK64
-    z = ((z ^ (z >> 27)) * 0x94D049BB133111EB) & _MASK64
-    z ^= z >> 31
-    return z - (1 << 64) if z >= 1 << 63 else z
-
-
 class _BasicTiles(Representation):
     """ARiFDD's φ⁰: per-dimension interval tiles that split (Section 4.2, Fig. 4-10 a-e).
 
     Initial tiles are numbered dimension by dimension; the ids of split halves come from
-    `ARiFDD`. Its arrays are described in `conjure.representations._arifdd_kernels`.
+    `ARiFDD`. Its state is ``tiles_``, the `BasicTiles` its kernels and the compiled loop
+    read and update in place (`conjure.representations._arifdd_kernels`); `grow` replaces it.
     """
 
     parameter_constraints = {
         "initial_tiles_per_dim": positive_ints(),
         "min_tile_fraction": Interval(float, 0, 1, closed="right"),
+        "split_threshold": Interval(float, 0, math.inf),
     }
-    _ARRAYS = ("edges", "num_tiles", "tile_feature", "stats", "retired", "counters")
+    _ARRAYS = ("edges", "num_tiles", "tile_feature", "stats", "counters")
 
     def __init__(
-        self, *, initial_tiles_per_dim: int | list[int] = 1, min_tile_fraction: float = 0.05
+        self,
+        *,
+        initial_tiles_per_dim: int | list[int] = 1,
+        min_tile_fraction: float = 0.05,
+        split_threshold: float = 1.0,
     ):
         self.initial_tiles_per_dim = initial_tiles_per_dim
         self.min_tile_fraction = min_tile_fraction
+        self.split_threshold = split_threshold
 
     def setup(self, spec: DomainSpec, seed: int | np.random.SeedSequence) -> _BasicTiles:
         """Lay out the initial equal tiles of every dimension and return ``self``."""
@@ -387,22 +362,25 @@ class _BasicTiles(Representation):
             boundaries.append([low[i], *cuts, high[i]])
         num_tiles = np.array([len(b) - 1 for b in boundaries], dtype=np.int64)
         capacity = int(num_tiles.max()) + 8
-        self.edges_ = np.full((d, capacity + 1), np.inf)
-        self.tile_feature_ = np.full((d, capacity), -1, dtype=np.int64)
+        edges = np.full((d, capacity + 1), np.inf)
+        tile_feature = np.full((d, capacity), -1, dtype=np.int64)
         offset = 0
         for i, b in enumerate(boundaries):
-            self.edges_[i, : len(b)] = b
-            self.tile_feature_[i, : num_tiles[i]] = offset + np.arange(num_tiles[i])
+            edges[i, : len(b)] = b
+            tile_feature[i, : num_tiles[i]] = offset + np.arange(num_tiles[i])
             offset += int(num_tiles[i])
-        self.num_tiles_ = num_tiles
-        self.stats_ = np.zeros((d, capacity, 3), dtype=np.float64)
-        self.retired_ = np.zeros(0, dtype=np.int64)
-        self.counters_ = np.zeros(2, dtype=np.int64)
-        span = high - low
-        self.low_ = np.asarray(spec.low, dtype=np.float64).copy()
-        self.high_ = np.asarray(spec.high, dtype=np.float64).copy()
-        self.is_discrete_ = is_discrete
-        self.min_width_ = float(self.min_tile_fraction) * span
+        self.tiles_ = _ak.BasicTiles(
+            edges=edges,
+            num_tiles=num_tiles,
+            tile_feature=tile_feature,
+            stats=np.zeros((d, capacity, 3), dtype=np.float64),
+            low=np.asarray(spec.low, dtype=np.float64).copy(),
+            high=np.asarray(spec.high, dtype=np.float64).copy(),
+            min_width=float(self.min_tile_fraction) * (high - low),
+            is_discrete=is_discrete,
+            counters=np.zeros(2, dtype=np.int64),
+            split_threshold=float(self.split_threshold),
+        )
         self.spec_ = spec
         self.num_features_ = offset
         self.is_set_up_ = True
@@ -412,51 +390,41 @@ class _BasicTiles(Representation):
         """Return φ⁰(s) (ids in ARiFDD's numbering)."""
         check_is_set_up(self, "active_features")
         state = self.check_state(state)
-        return _ak.basic_features(state, self.edges_, self.num_tiles_, self.tile_feature_)
+        tiles = self.tiles_
+        return _ak.basic_features(state, tiles.edges, tiles.num_tiles, tiles.tile_feature)
 
-    def split(self, dim: int, slot: int, point: float, first: int) -> int:
-        """Replace tile ``slot`` of ``dim`` by ``first`` (below ``point``) and ``first + 1``."""
-        m = int(self.num_tiles_[dim])
-        if m == self.tile_feature_.shape[1]:  # full: double the per-dimension capacity
-            d, capacity = self.tile_feature_.shape
-            edges = np.full((d, 2 * capacity + 1), np.inf)
-            edges[:, : capacity + 1] = self.edges_
-            feature = np.full((d, 2 * capacity), -1, dtype=np.int64)
-            feature[:, :capacity] = self.tile_feature_
-            stats = np.zeros((d, 2 * capacity, 3), dtype=np.float64)
-            stats[:, :capacity] = self.stats_
-            self.edges_, self.tile_feature_, self.stats_ = edges, feature, stats
-        tile = int(self.tile_feature_[dim, slot])
-        self.edges_[dim, slot + 2 : m + 2] = self.edges_[dim, slot + 1 : m + 1].copy()
-        self.edges_[dim, slot + 1] = point
-        self.tile_feature_[dim, slot + 1 : m + 1] = self.tile_feature_[dim, slot:m].copy()
-        self.tile_feature_[dim, slot] = first
-        self.tile_feature_[dim, slot + 1] = first + 1
-        self.stats_[dim, slot + 1 : m + 1] = self.stats_[dim, slot:m].copy()
-        self.stats_[dim, slot : slot + 2] = 0.0
-        self.num_tiles_[dim] = m + 1
-        self.retired_ = np.append(self.retired_, tile)
-        return tile
+    def grow(self) -> None:
+        """Double the tile slots of every dimension (the tiles and statistics are kept)."""
+        tiles = self.tiles_
+        d, capacity = tiles.tile_feature.shape
+        edges = np.full((d, 2 * capacity + 1), np.inf)
+        edges[:, : capacity + 1] = tiles.edges
+        feature = np.full((d, 2 * capacity), -1, dtype=np.int64)
+        feature[:, :capacity] = tiles.tile_feature
+        stats = np.zeros((d, 2 * capacity, 3), dtype=np.float64)
+        stats[:, :capacity] = tiles.stats
+        self.tiles_ = tiles._replace(edges=edges, tile_feature=feature, stats=stats)
 
     def describe(self) -> dict[str, np.ndarray]:
         """The live tiles and their statistics, dimension by dimension (state units)."""
         columns: dict[str, list] = {name: [] for name in ("feature", "dim", "low", "high", *_STATS)}
-        for i, m in enumerate(self.num_tiles_):
+        tiles = self.tiles_
+        for i, m in enumerate(tiles.num_tiles):
             for j in range(int(m)):
-                columns["feature"].append(int(self.tile_feature_[i, j]))
+                columns["feature"].append(int(tiles.tile_feature[i, j]))
                 columns["dim"].append(i)
-                columns["low"].append(float(self.edges_[i, j]))
-                columns["high"].append(float(self.edges_[i, j + 1]))
+                columns["low"].append(float(tiles.edges[i, j]))
+                columns["high"].append(float(tiles.edges[i, j + 1]))
                 for k, name in enumerate(_STATS):
-                    columns[name].append(float(self.stats_[i, j, k]))
+                    columns[name].append(float(tiles.stats[i, j, k]))
         return {
             name: np.array(values, dtype=np.int64 if name in ("feature", "dim") else np.float64)
             for name, values in columns.items()
         }
 
     def state_arrays(self) -> dict[str, np.ndarray]:
-        """Return the tiles, their statistics, the retired tiles and the counters (copies)."""
-        return {name: getattr(self, f"{name}_").copy() for name in self._ARRAYS}
+        """Return the tiles, their statistics and the counters (copies)."""
+        return {name: getattr(self.tiles_, name).copy() for name in self._ARRAYS}
 
     def load_state_arrays(self, arrays: dict[str, np.ndarray]) -> None:
         """Restore `state_arrays`' output (shapes checked against the spec)."""
@@ -476,6 +444,9 @@ class _BasicTiles(Representation):
                 f"ARiFDD.load_state_arrays: the basic tiles (base.*) do not fit a "
                 f"{d}-D spec (missing {missing}); were they saved with another spec?"
             )
-        for name in self._ARRAYS:
-            current = getattr(self, f"{name}_")
-            setattr(self, f"{name}_", loaded[name].astype(current.dtype, copy=False))
+        self.tiles_ = self.tiles_._replace(
+            **{
+                name: np.ascontiguousarray(loaded[name], dtype=getattr(self.tiles_, name).dtype)
+                for name in self._ARRAYS
+            }
+        )

@@ -2,8 +2,8 @@
 
 `RepresentationKernel` holds an encoder's kind and tables; `encode_into` and `values_of` give
 φ(s) by the representations' own kernels (`tile_indices_into`, `hashed_tile_features`,
-`tabular_feature`, `find_cell`, `independent_features`, `rbf_values`), as their
-``active_features`` and ``encode`` do.
+`tabular_feature`, `find_cell`, `independent_features`, `rbf_values`, ARiFDD's
+`basic_features`), as their ``active_features`` and ``encode`` do.
 """
 
 from __future__ import annotations
@@ -13,6 +13,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
+from conjure.representations._arifdd_kernels import basic_features
 from conjure.representations._hashed_tabular_kernels import (
     EMPTY,
     FULL,
@@ -29,6 +30,7 @@ from conjure.representations._kernels import (
 )
 
 __all__ = [
+    "BASIC_TILES",
     "FULL",
     "HASHED_TABULAR",
     "HASHED_TILES",
@@ -50,7 +52,7 @@ __all__ = [
 
 
 #: Representation kinds of `RepresentationKernel`.
-TILES, HASHED_TILES, TABULAR, INDEPENDENT, INDICATORS, RBF, HASHED_TABULAR = range(7)
+TILES, HASHED_TILES, TABULAR, INDEPENDENT, INDICATORS, RBF, HASHED_TABULAR, BASIC_TILES = range(8)
 _NO_INTS = np.zeros(0, dtype=np.int64)
 _NO_INT_TABLE = np.zeros((0, 0), dtype=np.int64)
 _NO_FLOAT_TABLE = np.zeros((0, 0))
@@ -62,17 +64,18 @@ class RepresentationKernel(NamedTuple):
     Parameters
     ----------
     kind : int
-        Which encoder (`TILES` ... `RBF`).
+        Which encoder (`TILES` ... `BASIC_TILES`).
     num_tilings : int
         Tile coding's tilings.
     max_active : int
         The most features φ(s) lists.
     dims, layout, groups : ndarray
         The tables of `tile_indices_into` / `hashed_tile_features` (``dims`` also the
-        buckets of `tabular_feature`, `find_cell` and `independent_features`).
+        buckets of `tabular_feature`, `find_cell` and `independent_features`, or ARiFDD's
+        tile edges, ``layout`` its tiles' features).
     vector : ndarray of int64
         `tabular_feature`'s strides, `independent_features`' offsets, `find_cell`'s hash
-        slots, or RBF's 0 .. n − 1.
+        slots, RBF's 0 .. n − 1, or ARiFDD's tiles per dimension.
     hash_table, hash_counts : ndarray of int64
         Hashed tile coding's table, or `HashedTabular`'s stored cells and their count: the
         representation's own, updated in place.
@@ -147,6 +150,8 @@ def encode_into(
         return independent_features(state, rep.dims, rep.vector)
     if rep.kind == RBF:
         return rep.vector
+    if rep.kind == BASIC_TILES:  # ARiFDD's φ⁰, over tables its splits update in place
+        return basic_features(state, rep.dims, rep.vector, rep.layout)
     return np.flatnonzero(state)
 
 

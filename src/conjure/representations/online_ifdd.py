@@ -17,7 +17,7 @@ from conjure.core.params import InstanceOf, Interval, Options
 from conjure.core.seeding import make_rng, split_seed
 from conjure.representations import _ifdd_kernels as _k
 from conjure.representations._max_features import OPTIONAL_MAX_FEATURES, check_max_features
-from conjure.representations.compiled_ifdd import IFDDKernel
+from conjure.representations.compiled_ifdd import NO_TILES, IFDDKernel
 
 __all__ = ["OnlineIFDD"]
 
@@ -299,7 +299,9 @@ class OnlineIFDD(Representation):
         base = compiled_form(self.base_)
         if base is None or base.rbf is not None:
             return None
-        return IFDDKernel(base=base, is_ifdd=True, tables=self.kernel_tables())
+        return IFDDKernel(
+            base=base, is_ifdd=True, tables=self.kernel_tables(), splits=False, tiles=NO_TILES
+        )
 
     def grow_tables(self) -> None:
         """Double the node, feature and pool capacities and rebuild the hash table.
