@@ -165,14 +165,14 @@ def _learn(stepper, agent, seed: int, rep: str) -> list:
 
 def _domain_states(domain) -> tuple:
     if isinstance(domain, BlocksWorld):
-        return domain.compiled_form().state.tolist(), domain._obs.tolist()
+        return domain._dstate.tolist(), domain._mask.tolist()
     if isinstance(domain, (PersistentSurveillance, RescueMission)):
         return domain._state.tolist(), domain._mask.tolist()
     if isinstance(domain, UAVMission):
         return (domain._state.tolist(),)
     if isinstance(domain, InvertedPendulum):
-        return domain._theta, domain._theta_dot
-    return (domain._cell,) if isinstance(domain, GridWorld) else (domain._state,)
+        return tuple(domain._fstate)
+    return (domain._cell,) if isinstance(domain, GridWorld) else (int(domain._position[0]),)
 
 
 @pytest.mark.parametrize("rep", sorted(ALL_REPRESENTATIONS))
@@ -382,9 +382,10 @@ def test_epsilon_greedy_chooses_only_legal_moves():
     domain = BlocksWorld()
     agent = SARSA(representation=BinaryIndicators(), policy=EpsilonGreedy(epsilon=1.0))
     for_combination(domain, agent.setup(domain.domain_spec, 0), seed=0).advance(5000)
-    assert domain.legal_actions(domain._obs).size > 0  # raises on a malformed state
-    on = domain._obs.reshape(6, 6).argmax(axis=1).tolist()
-    assert domain._obs.sum() == 6 and on == domain.compiled_form().state[36:42].tolist()
+    obs = domain._current_observation()
+    assert domain.legal_actions(obs).size > 0  # raises on a malformed state
+    on = obs.reshape(6, 6).argmax(axis=1).tolist()
+    assert obs.sum() == 6 and on == domain.compiled_form().state[36:42].tolist()
 
 
 def _curve(rows: list) -> list:

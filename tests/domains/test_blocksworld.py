@@ -9,8 +9,8 @@ from gymnasium.utils.env_checker import check_env
 import conjure.domains  # noqa: F401  (registers the Gymnasium ids)
 from conjure.core.errors import InvalidParameterError
 from conjure.domains import BlocksWorld
-from conjure.domains._blocks_kernels import BlocksConstants, blocks_reset, blocks_step
 from conjure.domains.blocksworld import blocks_world_state_action_count
+from conjure.domains.compiled_domain import reset_into, step_into
 from conjure.testing.checks import check_pickle_round_trip, check_seeded_rollout
 
 
@@ -56,7 +56,7 @@ def test_seeded_rollouts_are_equal_and_pickle_continues():
     domain.reset(seed=3)
     twin = pickle.loads(pickle.dumps(domain))
     for _ in range(50):
-        legal = domain.legal_actions(domain._obs)
+        legal = domain.legal_actions(domain._current_observation())
         a = int(legal[len(legal) // 2])
         first, second = domain.step(a), twin.step(a)
         assert np.array_equal(first[0], second[0]) and first[1:3] == second[1:3]
@@ -170,21 +170,22 @@ def test_bad_parameters_raise(params):
 
 
 def test_step_replays_the_compiled_kernel():
-    # One implementation of the move: `BlocksWorld.step` and the compiled loop's `blocks_step`
-    # follow the same trajectory from the same seed (one uniform per move).
-    domain = BlocksWorld()
+    # One implementation of the move: `BlocksWorld.step` and the compiled loop's `step_into`
+    # follow the same trajectory from the same seed (one uniform per move). The loop steps
+    # the twin's own state and mask (its compiled form holds them): nothing is copied back.
+    domain, twin = BlocksWorld(), BlocksWorld()
     observation, _ = domain.reset(seed=3)
-    constants = BlocksConstants(num_blocks=6, drop=0.3, step_reward=-0.001, goal_reward=1.0)
-    dstate = np.empty(36 + 12, dtype=np.int64)
-    obs = np.empty(36)
-    blocks_reset(6, dstate, obs)
-    rng, choices = np.random.default_rng(3), np.random.default_rng(9)
+    form, obs, rng = twin.compiled_form(), np.empty(36), np.random.default_rng(3)
+    assert reset_into(form, obs, rng)
+    choices = np.random.default_rng(9)
     np.testing.assert_array_equal(obs, observation)
     for _ in range(300):
         action = int(choices.choice(domain.legal_actions(observation)))
         observation, reward, terminated, _, _ = domain.step(action)
-        assert blocks_step(constants, dstate, action, obs, rng) == (reward, terminated)
+        assert step_into(form, action, obs, rng) == (reward, terminated, 0.0)
         np.testing.assert_array_equal(obs, observation)
+        np.testing.assert_array_equal(twin.action_masks(), domain.action_masks())
+        np.testing.assert_array_equal(twin._current_observation(), observation)
         if terminated:
             break
     assert rng.bit_generator.state == domain.np_random.bit_generator.state

@@ -48,7 +48,7 @@ def _kernel_rollout(domain, actions_rng, num_steps):
     out = np.arange(domain.domain_spec.num_actions)
     buffer = obs.astype(np.float64).copy()
     for _ in range(num_steps):
-        legal = legal_into(form, False, out.copy())
+        legal = legal_into(form, out.copy())
         action = int(actions_rng.choice(legal))
         reward, terminated, cost = step_into(form, action, buffer, domain.np_random)
         rows.append((action, buffer.tolist(), reward, terminated, cost))
@@ -65,26 +65,52 @@ def test_the_kernels_step_as_the_python_domain(name):
     assert compiled == python
 
 
+def _mixed_rollout(domain, actions_rng, num_steps):
+    """Kernel steps and Python steps in turn, on one domain (resets alternate too)."""
+    rows = []
+    obs, _ = domain.reset(seed=3)
+    rows.append(("reset", obs.tolist()))
+    form = domain.compiled_form()
+    out = np.arange(domain.domain_spec.num_actions)
+    for k in range(num_steps):
+        if k % 2:  # Python, after a kernel step: the legal actions read the domain's mask
+            action = int(actions_rng.choice(domain.legal_actions(obs)))
+            obs, reward, terminated, _, info = domain.step(action)
+            cost = info.get("cost", 0.0)
+        else:
+            action = int(actions_rng.choice(legal_into(form, out.copy())))
+            obs = obs.astype(np.float64)
+            reward, terminated, cost = step_into(form, action, obs, domain.np_random)
+        rows.append((action, obs.tolist(), reward, terminated, cost))
+        if terminated and k % 2:
+            obs = obs.astype(np.float64)
+            assert reset_into(form, obs, domain.np_random)
+            rows.append(("reset", obs.tolist()))
+        elif terminated:
+            obs, _ = domain.reset()
+            rows.append(("reset", obs.tolist()))
+    return rows
+
+
 @pytest.mark.parametrize("name", list(DOMAINS))
-def test_load_compiled_form_hands_the_state_back(name):
-    domain, twin = DOMAINS[name](), DOMAINS[name]()
-    domain.reset(seed=1)
-    obs, _ = twin.reset(seed=1)
-    twin.step(int(twin.legal_actions(obs)[-1]))  # the twin moves away from the start
-    domain.load_compiled_form(twin.compiled_form())
-    mine, theirs = domain.compiled_form(), twin.compiled_form()
-    np.testing.assert_array_equal(mine.state, theirs.state)
-    np.testing.assert_array_equal(mine.fstate, theirs.fstate)
+def test_the_loop_and_step_share_the_domains_state(name):
+    # The compiled form holds the domain's own state (and legal-action mask): kernel steps and
+    # Python steps on one domain follow a Python-only twin, with nothing copied in or back.
+    python = _python_rollout(DOMAINS[name](), np.random.default_rng(0), 300)
+    assert _mixed_rollout(DOMAINS[name](), np.random.default_rng(0), 300) == python
 
 
-def test_a_form_shares_the_grids_tables_and_copies_its_state():
-    # Built once in setup: a form per `advance` costs no copy of a large map's tables.
+def test_a_form_shares_the_grids_tables_and_holds_its_state():
+    # Built once per `_build`: a form per `advance` costs no copy of a large map's tables,
+    # and the loop steps the domain's own cell (nothing is loaded back).
     domain = GridWorld.gridworld_1()
     domain.reset(seed=0)
     first, second = domain.compiled_form(), domain.compiled_form()
     assert first.table is second.table and first.cells is second.cells
-    first.state[0] = 5  # the loop's copy: the domain keeps its cell until it is loaded back
-    assert domain.compiled_form().state[0] != 5
+    first.state[0] = 5
+    assert domain._cell == 5 and second.state[0] == 5
+    domain.reset()
+    assert first.state[0] == domain._start_cell
 
 
 def test_a_form_names_its_domains_constants():

@@ -91,7 +91,7 @@ def test_without_force_a_tilted_pendulum_falls_over():
     domain = InvertedPendulum(force_noise=0.0)
     for tilt in (0.05, -0.05):
         domain.reset(seed=3)
-        domain._theta, domain._theta_dot = tilt, 0.0  # slightly tilted, at rest
+        domain._fstate[:] = (tilt, 0.0)  # slightly tilted, at rest
         angles = [abs(tilt)]
         for _ in range(100):
             obs, _, terminated, _, _ = domain.step(1)  # 0 N
@@ -111,7 +111,7 @@ def test_reward_and_termination_exactly_at_half_pi():
             obs, reward, terminated, truncated, _ = domain.step(push)
             assert not truncated
             assert domain.observation_space.contains(obs)
-            true_theta = domain._theta
+            true_theta = domain._fstate[0]
             if abs(true_theta) >= math.pi / 2:
                 assert terminated and reward == -1.0
                 assert abs(obs[0]) == pytest.approx(math.pi / 2)

@@ -300,7 +300,7 @@ def _observe(
     phi = _encode(base, learn, obs, buffer, scratch)
     is_full = learn and base.kind == HASHED_TABULAR and phi[0] < 0
     if domain.has_action_constraints:
-        return phi, values_of(base, obs), legal_into(domain, at_next, legal_buffer), is_full
+        return phi, values_of(base, obs), legal_into(domain, legal_buffer), is_full
     return phi, values_of(base, obs), scratch.all_actions, is_full
 
 

@@ -15,10 +15,11 @@ Notes
   shares their state), one uniform per action choice and the domain's own draws per step.
 - Choice: the first reset of a stepper runs in Python (``domain.reset(seed=seed)``, which seeds
   the domain's generator); later resets run in the kernel with the same draws.
-- Choice: the learner's θ, traces and tile hash table are updated in place; the domain's state
-  goes in through ``domain.compiled_form()`` and back through ``load_compiled_form``, and the
-  episode and learning-step counters are written back after every ``advance``, so policy
-  checks, `Agent.save` and the Python path see the same objects.
+- Choice: the learner's θ, traces and tile hash table are updated in place, and so is the
+  domain's state (``domain.compiled_form()`` holds the domain's own state arrays,
+  `conjure.domains.compiled_domain.KeptCompiledForm`); the episode and learning-step counters
+  are written back after every ``advance``, so policy checks, `Agent.save` and the Python
+  path see the same objects.
 - The learner's compiled form is its state (`conjure.agents.linear_td`): the loop reads and
   updates the learner's own ``arrays_`` and ``row_traces_`` in place, so nothing is taken
   back; its act/learn cache is dropped after every call (`forget_cache`: θ changed under it).
@@ -317,7 +318,7 @@ class CompiledStepper:
             self._obs[:] = domain.reset(seed=self._seed)[0]
             self._started = True
             state.phase[0] = lp.NEEDS_BEGIN
-        domain_form = domain.compiled_form()  # the domain's current state
+        domain_form = domain.compiled_form()  # over the domain's own state arrays
         state.episode[0] = agent.episode_
         state.learning_steps[0] = agent.num_learning_steps_
         chunks: list[tuple[np.ndarray, np.ndarray]] = []
@@ -358,7 +359,6 @@ class CompiledStepper:
                     raised = self._full_index_error()
                     break
         finally:
-            domain.load_compiled_form(domain_form)
             agent.episode_ = int(state.episode[0])
             agent.num_learning_steps_ = int(state.learning_steps[0])
             self.total_steps += done

@@ -3,7 +3,7 @@
 Legal-action computation dominated RLPy's BlocksWorld (set differences per step); here it is
 one O(n²) pass over the 36-entry On vector, compiled. The move itself (`blocks_transition`) is
 the one implementation of the dynamics: `BlocksWorld.step` calls it through
-`blocks_masked_transition` and the compiled loop through `blocks_step`. Parameters are
+`blocks_masked_transition`, and so does the compiled loop. Parameters are
 validated by the domain.
 """
 
@@ -21,7 +21,6 @@ __all__ = [
     "blocks_legal_actions",
     "blocks_masked_transition",
     "blocks_reset",
-    "blocks_step",
     "blocks_transition",
     "legal_moves_into",
 ]
@@ -153,18 +152,6 @@ def blocks_transition(
             break
         terminated = dstate[nn + i] == i - 1
     return (constants.goal_reward if terminated else constants.step_reward), terminated
-
-
-@njit(cache=True)
-def blocks_step(
-    constants: BlocksConstants,
-    dstate: np.ndarray,
-    action: int,
-    obs: np.ndarray,
-    rng: np.random.Generator,
-) -> tuple[float, bool]:
-    """`blocks_transition` with its one uniform drawn from ``rng`` (the compiled loop's step)."""
-    return blocks_transition(constants, dstate, action, obs, rng.random())
 
 
 @njit(cache=True)

@@ -185,15 +185,18 @@ class BlocksWorld(KeptCompiledForm, ActionMasking, Domain):
             max_episode_steps=int(self.max_episode_steps),
             has_action_constraints=True,
         )
-        self._dstate = np.empty(dims + 2 * n, dtype=np.int64)  # On vector, on, above
-        self._obs = np.empty(dims, dtype=np.float64)
+        # On vector, on, above; and the legal moves: shared with the compiled form
+        self._dstate = np.empty(dims + 2 * n, dtype=np.int64)
         self._mask = np.empty(dims, dtype=np.int8)
         self._set_start()
         self._set_action_space()
 
-    def _set_start(self) -> None:
-        blocks_reset(self._n, self._dstate, self._obs)
+    def _set_start(self) -> np.ndarray:
+        """Every block on the table; returns the observation."""
+        obs = np.empty(self._n * self._n)
+        blocks_reset(self._n, self._dstate, obs)
         blocks_fill_legal_mask(self._dstate, self._n, self._mask)
+        return obs
 
     def state_action_count(self) -> int:
         """Return the thesis's tabular size |S × A| (368,316 for 6 blocks), Section 4.1.4."""
@@ -202,34 +205,30 @@ class BlocksWorld(KeptCompiledForm, ActionMasking, Domain):
     compiled_methods = ("step", "reset", "legal_actions")
 
     def compiled_form(self) -> DomainKernel:
-        """BlocksWorld for the compiled loop (`blocks_step`).
+        """BlocksWorld for the compiled loop (`blocks_masked_transition`, as ``step``).
 
         `BlocksConstants` (n, drop probability, step reward, goal reward), as ``step`` uses
         them; state the On(·,·) indicators, then each block's support and the block above
-        each block (`KeptCompiledForm`).
+        each block; mask the legal moves (`KeptCompiledForm`).
         """
         n = self._n
         return self._kept_form(
             lambda: domain_kernel(
-                BLOCKS, n * n, constants=self._constants, state=self._dstate, num_units=n
-            ),
-            state=self._dstate,
+                BLOCKS,
+                n * n,
+                constants=self._constants,
+                state=self._dstate,
+                mask=self._mask,
+                num_units=n,
+            )
         )
-
-    def load_compiled_form(self, form: DomainKernel) -> None:
-        """Take the state back from the compiled loop."""
-        n = self._n
-        self._dstate[:] = form.state
-        self._obs[:] = form.state[: n * n]
-        blocks_fill_legal_mask(self._dstate, n, self._mask)
 
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
     ) -> tuple[np.ndarray, dict[str, Any]]:
         """Start an episode with every block on the table."""
         super().reset(seed=seed)
-        self._set_start()
-        return self._obs.copy(), self._with_mask({})
+        return self._set_start(), self._with_mask({})
 
     def _legal_actions_of(self, state: np.ndarray) -> np.ndarray:
         legal, code = blocks_legal_actions(state, self._n)
@@ -240,7 +239,7 @@ class BlocksWorld(KeptCompiledForm, ActionMasking, Domain):
         return legal
 
     def _observed_state(self) -> np.ndarray:
-        return self._obs
+        return self._dstate[: self._n * self._n]  # the On(·,·) indicators
 
     def describe_action(self, action: int) -> str:
         """Return the move in words, e.g. ``move(2, 0)`` or ``move(1, table)``."""
@@ -254,7 +253,8 @@ class BlocksWorld(KeptCompiledForm, ActionMasking, Domain):
             return self._reject(
                 a, "both blocks must be clear and a block on the table cannot move to the table"
             )
+        obs = np.empty(self._n * self._n)
         reward, terminated = blocks_masked_transition(
-            self._constants, self._dstate, a, self._obs, self.np_random.random(), self._mask
+            self._constants, self._dstate, a, obs, self.np_random.random(), self._mask
         )
-        return self._obs.copy(), reward, terminated, False, self._with_mask({})
+        return obs, reward, terminated, False, self._with_mask({})

@@ -117,7 +117,7 @@ class ChainMDP(KeptCompiledForm, Domain):
             discount=float(self.discount),
             max_episode_steps=int(self.max_episode_steps),
         )
-        self._state = 0
+        self._position = np.zeros(1, dtype=np.int64)  # the state, shared with the form
         self._slip = float(self.slip)
         self._step_reward = float(self.step_reward)
 
@@ -126,7 +126,7 @@ class ChainMDP(KeptCompiledForm, Domain):
     ) -> tuple[np.ndarray, dict[str, Any]]:
         """Start an episode in state 0."""
         super().reset(seed=seed)
-        self._state = 0
+        self._position[0] = 0
         return np.array([0.0]), {}
 
     def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
@@ -134,9 +134,9 @@ class ChainMDP(KeptCompiledForm, Domain):
         a = self.check_action(action)
         last = self.num_states - 1
         state, reward = chain_move(
-            last, self._step_reward, self._slip, self._state, a, self.np_random
+            last, self._step_reward, self._slip, self._position[0], a, self.np_random
         )
-        self._state = state
+        self._position[0] = state
         return np.array([float(state)]), reward, state == last, False, {}
 
     compiled_methods = ("step", "reset")
@@ -167,13 +167,10 @@ class ChainMDP(KeptCompiledForm, Domain):
             slip=float(self._slip),
         )
         return self._kept_form(
-            lambda: domain_kernel(CHAIN, int(self.num_actions), constants=constants, state=[0]),
-            state=(self._state,),
+            lambda: domain_kernel(
+                CHAIN, int(self.num_actions), constants=constants, state=self._position
+            )
         )
-
-    def load_compiled_form(self, form: DomainKernel) -> None:
-        """Take the state back from the compiled loop."""
-        self._state = int(form.state[0])
 
     def start_states(self) -> list[tuple[float, np.ndarray]]:
         """Return [(1, state 0)]: the start distribution, for `enumerate_model`."""
@@ -192,7 +189,7 @@ class ChainMDP(KeptCompiledForm, Domain):
 
     def set_state(self, state: Any) -> None:
         """Put the chain in ``state`` (the generative-model hook, Eq. 2.28)."""
-        self._state = round(float(np.asarray(state).reshape(-1)[0]))
+        self._position[0] = round(float(np.asarray(state).reshape(-1)[0]))
 
     def model(self) -> TabularModel:
         """Return the exact `TabularModel`, enumerated from `outcomes` (Section 2.1)."""

@@ -1,10 +1,12 @@
 """The domains as the compiled learning loop reads them (`conjure.core.compiled_form`).
 
-A domain's ``compiled_form()`` returns a `DomainKernel`: its kind, its constants and a copy of
-its internal state; ``load_compiled_form`` writes the state back after the loop ran. The three
+A domain's ``compiled_form()`` returns a `DomainKernel`: its kind, its constants and its
+internal state, the domain's own arrays (`KeptCompiledForm`): the loop's steps and the Python
+``step`` update the same arrays, so nothing is copied back after the loop ran. The three
 kernels here, `reset_into`, `step_into` and `legal_into`, choose the domain's own kernel by
 kind: the shared-source transitions of `conjure.domains._kernels` (chain, grid world,
-pendulum) and the mission kernels (`blocks_step`, `pst_step`, `rescue_step`, `mission_step`)
+pendulum) and the mission kernels (`blocks_masked_transition`, `pst_step`, `rescue_step`,
+`mission_step`)
 that the Python ``step`` methods call too, with the same draws in the same order. A domain
 with no kernel of its own (`conjure.domains.gymnasium_adapter.GymnasiumDomain`: the user's
 environment) can still run in the loop as a `CALLBACK` domain: the loop calls its own Python
@@ -21,7 +23,7 @@ from __future__ import annotations
 import itertools
 import math
 import weakref
-from collections.abc import Callable, Sequence
+from collections.abc import Callable
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -30,9 +32,9 @@ from numba import njit, objmode
 from conjure.domains._blocks_kernels import (
     NO_BLOCKS,
     BlocksConstants,
+    blocks_fill_legal_mask,
+    blocks_masked_transition,
     blocks_reset,
-    blocks_step,
-    legal_moves_into,
 )
 from conjure.domains._kernels import chain_move, gridworld_move, pendulum_start, pendulum_transition
 from conjure.domains._mission_kernels import legal_actions, mission_step
@@ -187,9 +189,9 @@ class DomainKernel(NamedTuple):
         The domain's tables (int64 2-D, float64 2-D; layouts beside each domain's
         ``compiled_form``).
     state, fstate : ndarray
-        A copy of the domain's internal state, int64 or float64, updated in place.
+        The domain's internal state, int64 or float64: its own arrays, updated in place.
     mask : ndarray of int8
-        The legal-action mask of the domains whose step writes one.
+        The legal-action mask of the domains whose step writes one (the domain's own).
     uniforms : ndarray
         Room for a step's draws.
     num_units : int
@@ -224,12 +226,14 @@ def domain_kernel(
     cells: np.ndarray | None = None,
     state: np.ndarray | None = None,
     fstate: np.ndarray | None = None,
+    mask: np.ndarray | None = None,
     num_units: int = 0,
     num_uniforms: int = 0,
 ) -> DomainKernel:
     """A `DomainKernel` of the given constants and arrays, stand-ins and empty ones for the rest.
 
-    The state is copied (the loop updates the copy, `load_compiled_form` takes it back); a
+    ``state``, ``fstate`` and ``mask`` are the domain's own arrays (int64, float64 and int8,
+    C-contiguous), shared, not copied: the loop updates the domain's state in place. A
     constant table is used as it is when it already has the loop's type (C-contiguous,
     writeable, of its dtype), so that a domain that keeps its tables that way pays nothing per
     call, and copied otherwise.
@@ -247,8 +251,11 @@ def domain_kernel(
         )
         return value if is_ready else np.array(value, dtype=dtype, order="C", ndmin=ndim)
 
-    def copy(value: np.ndarray | None, dtype: type) -> np.ndarray:
-        return np.zeros(0, dtype=dtype) if value is None else np.array(value, dtype=dtype)
+    def own(value: np.ndarray | None, dtype: type, size: int = 0) -> np.ndarray:
+        if value is None:
+            return np.zeros(size, dtype=dtype)
+        assert value.dtype == dtype and value.flags.c_contiguous  # shared with the domain
+        return value
 
     fields = {
         "pendulum": _NO_PENDULUM, "grid": _NO_GRID, "chain": _NO_CHAIN, "blocks": NO_BLOCKS,
@@ -261,9 +268,9 @@ def domain_kernel(
         **fields,
         table=constant(table, np.int64, 2),
         cells=constant(cells, np.float64, 2),
-        state=copy(state, np.int64),
-        fstate=copy(fstate, np.float64),
-        mask=np.zeros(num_actions, dtype=np.int8),
+        state=own(state, np.int64),
+        fstate=own(fstate, np.float64),
+        mask=own(mask, np.int8, num_actions),
         uniforms=np.zeros(num_uniforms),  # scratch: each step overwrites what it draws
         num_units=num_units,
         has_action_constraints=BLOCKS <= kind <= UAV_MISSION,
@@ -271,36 +278,25 @@ def domain_kernel(
 
 
 class KeptCompiledForm:
-    """A domain mixin: the compiled form built once per ``_build``, its state copied in per call.
+    """A domain mixin: the compiled form built once per ``_build``, over the domain's own state.
 
     The form is what the compiled loop of Algorithms 10-12 steps (`step_into`).
 
     The constants and tables (`domain_kernel`) are built at the first ``compiled_form`` after
     ``_build`` (the parameters' last change: every ``_build`` makes a new ``domain_spec``,
-    the key) and kept by the domain; each call copies the domain's current state into the
-    kept form's ``state`` or ``fstate``. The loop updates that copy and ``load_compiled_form``
-    takes it back, as before; a call no longer rebuilds the tables.
+    the key) and kept by the domain. Its ``state``, ``fstate`` and ``mask`` are the arrays the
+    domain's Python methods read and write in place, so the loop and ``step`` share one state
+    and nothing is copied in or back per call.
     """
 
     domain_spec: Any
 
-    def _kept_form(
-        self,
-        build: Callable[[], DomainKernel],
-        *,
-        state: Sequence[float] | np.ndarray | None = None,
-        fstate: Sequence[float] | np.ndarray | None = None,
-    ) -> DomainKernel:
-        """``build()``'s form, kept since this ``_build``, with ``state`` / ``fstate`` copied in."""
+    def _kept_form(self, build: Callable[[], DomainKernel]) -> DomainKernel:
+        """``build()``'s form, kept since this ``_build``."""
         kept = getattr(self, "_compiled_form_kept", None)
         if kept is None or kept[0] is not self.domain_spec:
             kept = self._compiled_form_kept = (self.domain_spec, build())
-        form = kept[1]
-        if state is not None:
-            form.state[:] = state
-        if fstate is not None:
-            form.fstate[:] = fstate
-        return form
+        return kept[1]
 
 
 # ---------------------------------------------------------------------- callback domains
@@ -380,6 +376,8 @@ def _callback_step(key: int, action: int, obs: np.ndarray) -> tuple[float, bool,
 def reset_into(domain: DomainKernel, obs: np.ndarray, rng: np.random.Generator) -> bool:
     """The domain's ``reset(seed=None)`` with its draws; writes s into ``obs``.
 
+    A domain with a legal-action mask gets the start state's (the mask is always its state's).
+
     False only when a `CALLBACK` domain's ``reset`` raised (`callback_error` has it).
     """
     kind, state, fstate = domain.kind, domain.state, domain.fstate
@@ -397,9 +395,14 @@ def reset_into(domain: DomainKernel, obs: np.ndarray, rng: np.random.Generator) 
         obs[0] = 0.0
     elif kind == BLOCKS:
         blocks_reset(domain.num_units, state, obs)
+        blocks_fill_legal_mask(state, domain.num_units, domain.mask)
     else:
         if kind == PERSISTENT_SURVEILLANCE:
             pst_start(domain.pst, state)  # `PersistentSurveillance.reset`'s own kernel
+            pst_fill_legal_mask(state, domain.num_units, domain.mask)
+        elif kind == RESCUE:
+            _copy(state, domain.mission.start)
+            rescue_fill_legal_mask(state, domain.table[:, :3], domain.table[:, 3], domain.mask)
         else:
             _copy(state, domain.mission.start)
         for i in range(state.shape[0]):
@@ -426,7 +429,9 @@ def step_into(
     if kind == CHAIN:
         return _chain(domain.chain, domain.state, action, obs, rng)
     if kind == BLOCKS:
-        reward, terminated = blocks_step(domain.blocks, domain.state, action, obs, rng)
+        reward, terminated = blocks_masked_transition(
+            domain.blocks, domain.state, action, obs, rng.random(), domain.mask
+        )
         return reward, terminated, 0.0
     if kind == RESCUE:
         return _rescue(domain, action, obs, rng)
@@ -531,30 +536,22 @@ def _persistent_surveillance(
 
 
 @njit(cache=True)
-def legal_into(domain: DomainKernel, is_filled: bool, out: np.ndarray) -> np.ndarray:
+def legal_into(domain: DomainKernel, out: np.ndarray) -> np.ndarray:
     """The sorted legal actions of the current state (a view of ``out``).
 
     Every action is legal in the pendulum, the grid world and the chain: ``out`` then already
-    lists them all. ``domain.mask`` holds Rescue's and Persistent Surveillance's mask when
-    ``is_filled`` (their step writes it), else it is filled here.
+    lists them all. BlocksWorld's, Rescue's and Persistent Surveillance's are read from
+    ``domain.mask``, the domain's own mask, which their reset and step kernels keep as the
+    current state's (so the domain's Python methods read it too).
     """
     kind, table, state, mask = domain.kind, domain.table, domain.state, domain.mask
     if not domain.has_action_constraints:
         return out
-    if kind == BLOCKS:
-        n = domain.num_units
-        nn = n * n
-        count = legal_moves_into(state[nn : nn + n], state[nn + n :], n, out)
-        return out[:count]
     if kind == UAV_MISSION:
         nodes = table.shape[0] - 1
         legal = legal_actions(state, table[0], table[1:, :nodes])
         _copy(out, legal)
         return out[: legal.shape[0]]
-    if not is_filled and kind == RESCUE:
-        rescue_fill_legal_mask(state, table[:, :3], table[:, 3], mask)
-    elif not is_filled:
-        pst_fill_legal_mask(state, domain.num_units, mask)
     count = 0
     for a in range(mask.shape[0]):
         if mask[a]:

@@ -349,7 +349,7 @@ class GridWorld(KeptCompiledForm, NoisyDomain):
             [self._reward, self._terminal, self._is_pit, self._is_noisy, rows_of, cols_of]
         )
         self._start_cell = self.start_[0] * cols + self.start_[1]
-        self._cell = self._start_cell
+        self._state = np.array([self._start_cell], dtype=np.int64)  # shared with the form
         self._noise = float(self.noise)
 
         low = np.zeros(2, dtype=np.float64)
@@ -412,14 +412,18 @@ class GridWorld(KeptCompiledForm, NoisyDomain):
                 constants=GridConstants(noise=float(self._noise), start_cell=int(self._start_cell)),
                 table=self._move_array,
                 cells=self._cell_table,
-                state=[0],
-            ),
-            state=(self._cell,),
+                state=self._state,
+            )
         )
 
-    def load_compiled_form(self, form: DomainKernel) -> None:
-        """Take the cell back from the compiled loop."""
-        self._cell = int(form.state[0])
+    @property
+    def _cell(self) -> int:
+        """The current cell, kept in the compiled form's ``state`` (`KeptCompiledForm`)."""
+        return int(self._state[0])
+
+    @_cell.setter
+    def _cell(self, cell: int) -> None:
+        self._state[0] = cell
 
     def _cell_of(self, state: Any) -> int:
         row, col = (round(float(x)) for x in np.asarray(state).reshape(-1)[:2])

@@ -265,9 +265,6 @@ class GymnasiumDomain(Domain):
         """
         return callback_kernel(self)
 
-    def load_compiled_form(self, form: DomainKernel) -> None:
-        """Nothing to load: the environment's state never left Python."""
-
     def _observe(self, obs: Any) -> np.ndarray:
         flat = np.asarray(obs).astype(np.float64).ravel()  # a copy: clipped in place
         return flat.clip(self._low, self._high, out=flat)

@@ -115,24 +115,24 @@ class InvertedPendulum(KeptCompiledForm, Domain):
             max_episode_steps=3000,
         )
         self._force_noise = float(self.force_noise)
-        self._theta = 0.0
-        self._theta_dot = 0.0
+        self._fstate = np.zeros(2)  # (θ, θ̇), shared with the compiled form
 
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
     ) -> tuple[np.ndarray, dict[str, Any]]:
         """Start an episode at (0, 0), or uniformly in [−x, x]² with ``start_noise = x``."""
         super().reset(seed=seed)
-        self._theta, self._theta_dot = pendulum_start(float(self.start_noise), self.np_random)
-        return np.array((self._theta, self._theta_dot), dtype=np.float64), {}
+        fstate = self._fstate
+        fstate[0], fstate[1] = pendulum_start(float(self.start_noise), self.np_random)
+        return fstate.copy(), {}
 
     def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
         """Apply force ``action`` (0: −50 N, 1: 0 N, 2: +50 N) plus noise for 0.1 s."""
+        fstate = self._fstate
         theta, theta_dot, shown, reward, terminated = pendulum_transition(
-            self._theta, self._theta_dot, self.check_action(action), self._force_noise,
-            self.np_random,
-        )  # fmt: skip
-        self._theta, self._theta_dot = theta, theta_dot
+            fstate[0], fstate[1], self.check_action(action), self._force_noise, self.np_random
+        )
+        fstate[0], fstate[1] = theta, theta_dot
         info = {"cost": 1.0 if terminated else 0.0}
         return np.array((shown, theta_dot)), reward, terminated, False, info
 
@@ -147,14 +147,9 @@ class InvertedPendulum(KeptCompiledForm, Domain):
                 constants=PendulumConstants(
                     force_noise=self._force_noise, start_noise=float(self.start_noise)
                 ),
-                fstate=np.zeros(2),
-            ),
-            fstate=(self._theta, self._theta_dot),
+                fstate=self._fstate,
+            )
         )
-
-    def load_compiled_form(self, form: DomainKernel) -> None:
-        """Take (θ, θ̇) back from the compiled loop."""
-        self._theta, self._theta_dot = float(form.fstate[0]), float(form.fstate[1])
 
     def is_constrained(self, state: np.ndarray) -> bool:
         """Whether the pendulum has fallen, |θ| >= π/2 (the failure that ends the episode)."""

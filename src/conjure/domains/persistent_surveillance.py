@@ -237,12 +237,13 @@ class PersistentSurveillance(KeptCompiledForm, ActionMasking, Domain):
             max_episode_steps=int(self.max_episode_steps),
             has_action_constraints=True,
         )
+        # the UAVs' state and its legal actions, shared with the compiled form
+        self._state = np.empty(4 * self._n, dtype=np.int64)
         self._mask = np.zeros(self._num_actions, dtype=np.int8)
         self._set_start()
         self._set_action_space()
 
     def _set_start(self) -> None:
-        self._state = np.empty(4 * self._n, dtype=np.int64)
         pst_start(self._constants, self._state)  # the compiled loop's reset too
         pst_fill_legal_mask(self._state, self._n, self._mask)
 
@@ -255,7 +256,7 @@ class PersistentSurveillance(KeptCompiledForm, ActionMasking, Domain):
     def compiled_form(self) -> DomainKernel:
         """The mission for the compiled loop: `pst_step`'s `PSTConstants`, the UAVs' state.
 
-        Kept (`KeptCompiledForm`).
+        Kept, with the domain's state and legal-action mask (`KeptCompiledForm`).
         """
         return self._kept_form(
             lambda: domain_kernel(
@@ -263,16 +264,11 @@ class PersistentSurveillance(KeptCompiledForm, ActionMasking, Domain):
                 self._num_actions,
                 constants=self._constants,
                 state=self._state,
+                mask=self._mask,
                 num_units=self._n,
                 num_uniforms=2 * self._n,
-            ),
-            state=self._state,
+            )
         )
-
-    def load_compiled_form(self, form: DomainKernel) -> None:
-        """Take the UAVs' state back from the compiled loop (and its legal-action mask)."""
-        self._state[:] = form.state
-        pst_fill_legal_mask(self._state, self._n, self._mask)
 
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None

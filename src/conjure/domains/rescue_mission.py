@@ -221,6 +221,8 @@ class RescueMission(KeptCompiledForm, ActionMasking, Domain):
             max_episode_steps=horizon,
             has_action_constraints=True,
         )
+        # the state and its legal actions, shared with the compiled form
+        self._state = self._start_state()
         self._mask = np.zeros(NUM_ACTIONS, dtype=np.int8)
         self._set_start()
         self._set_action_space()
@@ -234,7 +236,8 @@ class RescueMission(KeptCompiledForm, ActionMasking, Domain):
         return state
 
     def _set_start(self) -> None:
-        self._state = state = self._start_state()
+        state = self._state
+        state[:] = self._start_state()
         rescue_fill_legal_mask(state, self.neighbours_, self._degrees, self._mask)
 
     def state_action_count(self) -> int:
@@ -248,9 +251,9 @@ class RescueMission(KeptCompiledForm, ActionMasking, Domain):
 
         `MissionConstants` (s₀, horizon, fuel penalty, failure penalty); table the neighbours
         and degree of each node; cells the one-edge-away table, the people and the success
-        probability (`KeptCompiledForm`).
+        probability; the domain's state and legal-action mask (`KeptCompiledForm`).
         """
-        return self._kept_form(self._build_compiled_form, state=self._state)
+        return self._kept_form(self._build_compiled_form)
 
     def _build_compiled_form(self) -> DomainKernel:
         horizon, fuel_penalty, failure_penalty = self._scalars
@@ -269,12 +272,8 @@ class RescueMission(KeptCompiledForm, ActionMasking, Domain):
             table=np.column_stack([self.neighbours_, self._degrees]),
             cells=np.column_stack([self._is_near, self._people, self._success]),
             state=self._state,
+            mask=self._mask,
         )
-
-    def load_compiled_form(self, form: DomainKernel) -> None:
-        """Take the state back from the compiled loop (and its legal-action mask)."""
-        self._state[:] = form.state
-        rescue_fill_legal_mask(self._state, self.neighbours_, self._degrees, self._mask)
 
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None

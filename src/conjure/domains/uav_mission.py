@@ -255,7 +255,9 @@ class UAVMission(KeptCompiledForm, ActionMasking, NoisyDomain):
         self._eta = float(self.traverse_failure)
         self._num_uniforms = 2 * n
         self.observation_space = spaces.Box(low=np.zeros_like(high), high=high, dtype=np.float64)
-        self._state = graph.initial_state()
+        # the state (int64, the observation layout), shared with the compiled form
+        self._int_state = graph.initial_state().astype(np.int64)
+        self._mask_of: tuple[bytes, np.ndarray] | None = None  # (state bytes, its mask)
         self._set_action_space()
 
     def _read_graph(self) -> MissionGraph:
@@ -283,9 +285,9 @@ class UAVMission(KeptCompiledForm, ActionMasking, NoisyDomain):
         """The mission for the compiled loop (`mission_step`).
 
         `MissionConstants` (s₀, traverse failure); table[0] the state layout, table[1:] the
-        adjacency; cells the node table (`KeptCompiledForm`).
+        adjacency; cells the node table; the domain's state (`KeptCompiledForm`).
         """
-        return self._kept_form(self._build_compiled_form, state=self._state)
+        return self._kept_form(self._build_compiled_form)
 
     def _build_compiled_form(self) -> DomainKernel:
         layout, adjacency = self._layout, self._adjacency
@@ -306,20 +308,16 @@ class UAVMission(KeptCompiledForm, ActionMasking, NoisyDomain):
             ),
             table=table,
             cells=self._tables[3],
-            state=self._state,
+            state=self._int_state,
         )
-
-    def load_compiled_form(self, form: DomainKernel) -> None:
-        """Take the state back from the compiled loop."""
-        self._state = form.state.astype(np.float64)
 
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
     ) -> tuple[np.ndarray, dict[str, Any]]:
         """Start with every UAV at the base with its initial fuel, nothing visited, t = 0."""
         super().reset(seed=seed)
-        self._state = self.graph_.initial_state()
-        return self._state.copy(), self._with_mask({})
+        self._int_state[:] = self.graph_.initial_state()
+        return self._state, self._with_mask({})
 
     def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
         """Fly every UAV one step; ``info["cost"]`` is 1.0 on a crash (Section 5.3.5)."""
@@ -330,36 +328,33 @@ class UAVMission(KeptCompiledForm, ActionMasking, NoisyDomain):
         )
         if status != -1:
             return self._reject(a, "each UAV stays or moves to a neighbour, with fuel left")
-        self._state = state
-        return state.copy(), reward, terminated, False, self._with_mask({"cost": cost})
+        self._int_state[:] = state
+        return state, reward, terminated, False, self._with_mask({"cost": cost})
 
     @property
     def _state(self) -> np.ndarray:
-        """The current state (float64, the observation layout); its legal mask is ``_mask``."""
-        return self._current_state
-
-    @_state.setter
-    def _state(self, state: np.ndarray) -> None:
-        # `conjure.compiled.combination` and `load_compiled_form` also assign here.
-        self._current_state = state
-        self._state_mask = None
+        """A float64 copy of the current state (the observation); its legal mask is ``_mask``."""
+        return self._int_state.astype(np.float64)
 
     @property
     def _mask(self) -> np.ndarray:
         """The legal mask of the current state: one legality pass, at its first read.
 
-        Choice: computed on demand, so the compiled loop handing its state back
-        (`load_compiled_form`) pays no Θ(N^n) pass that nothing reads.
+        Choice: computed on demand and kept with the state's bytes (the compiled loop steps
+        the same state array and computes legality its own way), so a compiled run pays no
+        Θ(N^n) pass that nothing reads, and a state changed by either path is never read
+        with another state's mask.
         """
-        if self._state_mask is None:
-            self._state_mask = checked_legal_mask(
-                self._current_state, self._high, self._layout, self._adjacency,
-                self.graph_.num_actions,
-            )  # fmt: skip
-        return self._state_mask
+        key = self._int_state.tobytes()
+        if self._mask_of is None or self._mask_of[0] != key:
+            mask = checked_legal_mask(
+                self._state, self._high, self._layout, self._adjacency, self.graph_.num_actions
+            )
+            self._mask_of = (key, mask)
+        return self._mask_of[1]
 
     def _observed_state(self) -> np.ndarray:
-        return self._current_state
+        return self._state
 
     def describe_action(self, action: int) -> str:
         """Return the joint action as destinations, e.g. ``(UAV 0 to node 1, UAV 1 to node 0)``."""
