@@ -6,8 +6,8 @@ Prints the CPU model and the load average beside every figure (the machine may b
 
 - **fixed cost of one compiled call** (issue 33's target: at most 20 µs): a warm compiled
   stepper's ``advance(1)`` (one kernel call of one step, with everything the stepper packs
-  and takes back around it), minus one step of that stepper's ``advance(S)`` (the per-step
-  cost of long calls). Median of ``--repeats`` batches of ``--calls`` calls.
+  around it and the counters it writes back), minus one step of that stepper's ``advance(S)``
+  (the per-step cost of long calls). Median of ``--repeats`` batches of ``--calls`` calls.
 - **Python path**: `profile_steps` (a timed learning `Stepper`) over ``--steps`` steps: the
   microseconds per call of ``act`` and ``learn`` (issue 33's target: at most 20% above the
   figures before its refactor).

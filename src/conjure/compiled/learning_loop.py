@@ -29,12 +29,13 @@ before a step unless two discoveries from any sparsified φ fit (`has_room_for`)
 box cannot pause once the domain has stepped.
 Random numbers come from the same `numpy.random.Generator` objects in the same order as the
 Python path (numba shares their state): the domain's draws per step and one uniform per action
-choice.
+choice. "iFDD" below is any representation with online iFDD's tables (`IFDDKernel.is_ifdd`:
+`OnlineIFDD`, `RandomExpansion`, and `ARiFDD`, whose φ⁰ also splits).
 
 The loop reads like `Stepper._steps`; its slots are small kernels, inlined
 (``inline="always"``) so the step's compiled code is that of one function, except `_begin` (the
-learner's begin_episode and a = π(s), once per episode, called): `_room` (before an iFDD
-learning step: whether discoveries fit), `_choose_alone` (φ(s), the legal actions and a = π(s)
+learner's begin_episode and a = π(s), once per episode, called): `_room` (before a learning
+step that discovers: whether discoveries fit), `_choose_alone` (φ(s), the legal actions and a = π(s)
 of the learner alone) or `_choose` (the same inside a box, whose `_act` chooses; discovery
 after a learned veto), `_learn` (Q⁺(s, a) and the update), then the grow slot `_discover` and
 Algorithm 26's `box_learn`. Each mode lives in the slot it changes (a policy check acts
@@ -286,7 +287,6 @@ def _observe(
     domain: DomainKernel,
     base: RepresentationKernel,
     learn: bool,
-    at_next: bool,
     obs: np.ndarray,
     buffer: np.ndarray,
     legal_buffer: np.ndarray,
@@ -294,8 +294,7 @@ def _observe(
 ) -> tuple[np.ndarray, np.ndarray | None, np.ndarray, bool]:
     """φ(s) of the fixed features, its values, the legal actions, and whether an index was full.
 
-    ``at_next``: s is s' of a step (`_encode`); a full `HashedTabular` refuses a new cell
-    (φ[0] < 0).
+    A full `HashedTabular` refuses a new cell (φ[0] < 0).
     """
     phi = _encode(base, learn, obs, buffer, scratch)
     is_full = learn and base.kind == HASHED_TABULAR and phi[0] < 0
@@ -409,7 +408,6 @@ def _choose_alone(
     arrays: LearnerArrays,
     agent_rng: np.random.Generator,
     learn: bool,
-    at_next: bool,
     obs: np.ndarray,
     buffer: np.ndarray,
     legal_buffer: np.ndarray,
@@ -419,12 +417,12 @@ def _choose_alone(
 ) -> tuple[np.ndarray, np.ndarray | None, np.ndarray, int, int]:
     """φ(s), its values and legal actions, then a = π(s) of the learner alone, for s = ``obs``.
 
-    ``at_next``: s is s' of a step. With iFDD φ(s) is sparsified (Algorithm 19). The
+    With iFDD or ARiFDD φ(s) is sparsified (Algorithm 19). The
     log-policy actor's π(s, ·) goes to ``drawn``. Returns (φ(s), values, legal actions, a,
     status). It binds no box part: see `learning_loop`'s Choice.
     """
-    phi, values, legal, is_full = _observe(domain, rep.base, learn, at_next, obs, buffer,
-                                           legal_buffer, scratch)  # fmt: skip
+    phi, values, legal, is_full = _observe(domain, rep.base, learn, obs, buffer, legal_buffer,
+                                           scratch)  # fmt: skip
     if is_full:
         return phi, values, legal, -1, FULL_INDEX
     if rep.is_ifdd:  # `rep` is read only with iFDD (see `sparsify`)
@@ -460,8 +458,8 @@ def _choose(
     then encoded again; at s' Q(s', ·) too, the Python learner's order). Returns (φ(s),
     values, legal actions, a, status, the vetoed δ, whether features were added).
     """
-    phi, values, legal, is_full = _observe(domain, rep.base, learn, at_next, obs, buffer,
-                                           legal_buffer, scratch)  # fmt: skip
+    phi, values, legal, is_full = _observe(domain, rep.base, learn, obs, buffer, legal_buffer,
+                                           scratch)  # fmt: skip
     if is_full:
         return phi, values, legal, -1, FULL_INDEX, 0.0, False
     if rep.is_ifdd:  # `rep` is read only with iFDD (see `sparsify`)
@@ -484,7 +482,7 @@ def _choose(
 
 @njit(cache=True, inline="always")
 def _room(rep: IFDDKernel, box: BoxKernel, phi: np.ndarray) -> tuple[int, int]:
-    """Before an iFDD learning step: (status, room for discoveries on φ(s)).
+    """Before a learning step that discovers: (status, room for discoveries on φ(s)).
 
     `GROW_REPRESENTATION` asks to grow the tables. Choice: inside a box they must fit two
     discoveries from any sparsified φ (at s' after a vetoed proposal, and at s), since the box
@@ -564,8 +562,8 @@ def _begin(
     buffer, legal_buffer = scratch.phi_buffer, scratch.legal_buffer
     if box.kind == NO_BOX:
         phi, values, _, action, status = _choose_alone(
-            domain, rep, agent, arrays, agent_rng, learn, False, obs, buffer, legal_buffer, drawn,
-            0.0, scratch,
+            domain, rep, agent, arrays, agent_rng, learn, obs, buffer, legal_buffer, drawn, 0.0,
+            scratch,
         )  # fmt: skip
         return status, phi, values, action, 0.0
     phi, values, _, action, status, vetoed, _ = _choose(
@@ -662,7 +660,7 @@ def learning_loop(
         next_phi, next_values, next_action, next_legal = phi, values, 0, scratch.all_actions
         if not terminated and box.kind == NO_BOX:  # φ(s'), a' = π(s') (Algorithms 10-12)
             next_phi, next_values, next_legal, next_action, status = _choose_alone(
-                domain, rep, agent, arrays, agent_rng, learn, True, next_obs, scratch.next_buffer,
+                domain, rep, agent, arrays, agent_rng, learn, next_obs, scratch.next_buffer,
                 scratch.next_legal_buffer, scratch.next_drawn, next_spent, scratch)  # fmt: skip
         elif not terminated:
             next_phi, next_values, next_legal, next_action, status, vetoed, grew = _choose(

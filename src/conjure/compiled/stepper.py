@@ -25,12 +25,13 @@ Notes
   back; its act/learn cache is dropped after every call (`forget_cache`: θ changed under it).
   So is a cooperative box's (`conjure.safety.compiled_cooperative.CompiledBox`): its tables,
   T̂'s counts, η̂^p and the planner's switch are the box's and its parts' own arrays.
-- Choice (with `OnlineIFDD`): the representation's tables are its own arrays, updated in
-  place; when a discovery would not fit, the kernel returns, the representation grows them
-  with its own method and the kernel continues. θ (and Actor-Critic's ω, SARSA(λ)'s
-  trace slots) has as many rows as the representation can hold features (the learner's
-  ``reserve_rows``, which reallocates and replaces its form only when they do not fit); its
-  ``weights_`` are the first n_t rows, grown by the same kernel as the Python learner's
+- Choice (with `OnlineIFDD`, `RandomExpansion` or `ARiFDD`): the representation's tables
+  (and ARiFDD's basic tiles) are its own arrays, updated in place; when a discovery would not
+  fit, the kernel returns, the representation grows them with its own method and the kernel
+  continues. θ (and Actor-Critic's ω, SARSA(λ)'s trace slots) has as many rows as the
+  representation can hold features (the learner's ``reserve_rows``, which reallocates and
+  replaces its form only when they do not fit); its ``weights_`` are the first n_t rows, grown
+  by the same kernel as the Python learner's
   (`conjure.agents.compiled_agent.grow_learner_rows`).
 - Choice: ``advance`` calls the kernel in chunks sized in time, not in steps (`next_chunk`):
   the first call of a stepper takes one step, each next one as many as the last call's rate
@@ -429,7 +430,8 @@ class CompiledStepper:
 
         Read from the components' own state: the learner's ``state_`` (replaced when θ or its
         traces are reallocated) and ``rng_``, the domain's ``np_random`` (replaced by a seeded
-        reset), iFDD's tables (replaced when they grow) and the box's kept form. A fixed
+        reset), iFDD's tables (replaced when they grow; ARiFDD's `grow_tables` replaces its
+        basic tiles with them) and the box's kept form. A fixed
         representation's form never changes after its ``setup``. ``agent``: the learner
         (`learner_of` the stepper's agent).
         """

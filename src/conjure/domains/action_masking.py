@@ -57,10 +57,11 @@ class ActionMasking:
     Geramifard (2012), Section 4.1.4 (the constrained domains BlocksWorld, Persistent
     Surveillance, Rescue Mission) and Section 5.3.5 (UAV missions). A domain lists it before
     its `Domain` base, merges `masking_constraints` into its ``parameter_constraints`` and takes
-    the two parameters below in its constructor. It keeps ``_mask``, the legal actions of its
-    current state (1 or True where legal), up to date with one compiled pass whenever its state
-    changes, builds its ``action_space`` with `_set_action_space`, and implements
-    ``_observed_state`` (its current state, not copied), ``_legal_actions_of`` (the legal
+    the two parameters below in its constructor. Its ``_mask`` is the legal actions of its
+    current state (1 or True where legal), one compiled pass per state (kept up to date as the
+    state changes, or computed at its first read after a change, `UAVMission`); it builds its
+    ``action_space`` with `_set_action_space`, and implements ``_observed_state`` (its current
+    state, as the observation shows it), ``_legal_actions_of`` (the legal
     actions of any other state, validated) and ``describe_action``. Its ``step`` returns
     ``self._reject(action, rule)`` for an action that ``_mask`` rules out and
     ``self._with_mask(info)`` as the info of every other step; ``reset`` returns

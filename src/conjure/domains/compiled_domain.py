@@ -191,7 +191,8 @@ class DomainKernel(NamedTuple):
     state, fstate : ndarray
         The domain's internal state, int64 or float64: its own arrays, updated in place.
     mask : ndarray of int8
-        The legal-action mask of the domains whose step writes one (the domain's own).
+        The legal-action mask of the domains whose reset and step write one (BlocksWorld,
+        Persistent Surveillance, Rescue: the domain's own); unused otherwise.
     uniforms : ndarray
         Room for a step's draws.
     num_units : int
@@ -254,7 +255,12 @@ def domain_kernel(
     def own(value: np.ndarray | None, dtype: type, size: int = 0) -> np.ndarray:
         if value is None:
             return np.zeros(size, dtype=dtype)
-        assert value.dtype == dtype and value.flags.c_contiguous  # shared with the domain
+        if value.dtype != dtype or not value.flags.c_contiguous or not value.flags.writeable:
+            raise TypeError(
+                f"domain_kernel shares a domain's state arrays: expected a writeable "
+                f"C-contiguous {np.dtype(dtype).name} array, got {value.dtype} with flags "
+                f"{value.flags}."
+            )
         return value
 
     fields = {
@@ -400,11 +406,10 @@ def reset_into(domain: DomainKernel, obs: np.ndarray, rng: np.random.Generator) 
         if kind == PERSISTENT_SURVEILLANCE:
             pst_start(domain.pst, state)  # `PersistentSurveillance.reset`'s own kernel
             pst_fill_legal_mask(state, domain.num_units, domain.mask)
-        elif kind == RESCUE:
-            _copy(state, domain.mission.start)
-            rescue_fill_legal_mask(state, domain.table[:, :3], domain.table[:, 3], domain.mask)
         else:
             _copy(state, domain.mission.start)
+        if kind == RESCUE:
+            rescue_fill_legal_mask(state, domain.table[:, :3], domain.table[:, 3], domain.mask)
         for i in range(state.shape[0]):
             obs[i] = state[i]
     return True

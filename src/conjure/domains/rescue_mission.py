@@ -222,7 +222,7 @@ class RescueMission(KeptCompiledForm, ActionMasking, Domain):
             has_action_constraints=True,
         )
         # the state and its legal actions, shared with the compiled form
-        self._state = self._start_state()
+        self._state = np.empty(5 + NUM_NODES, dtype=np.int64)
         self._mask = np.zeros(NUM_ACTIONS, dtype=np.int8)
         self._set_start()
         self._set_action_space()
@@ -230,7 +230,7 @@ class RescueMission(KeptCompiledForm, ActionMasking, Domain):
     def _start_state(self) -> np.ndarray:
         """s₀: both UAVs at the base with full fuel, the comm UAV flying, nothing rescued, t = 0."""
         fuel = int(self.max_fuel)
-        state = np.zeros(5 + NUM_NODES - 1 + 1, dtype=np.int64)
+        state = np.zeros(5 + NUM_NODES, dtype=np.int64)
         state[1] = fuel
         state[3] = fuel
         return state

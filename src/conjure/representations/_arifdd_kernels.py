@@ -23,11 +23,11 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
+from conjure.representations._ifdd_kernels import splitmix64
+
 __all__ = ["BasicTiles", "basic_features", "fits_splits", "record_errors", "split_at", "tile_word"]
 
 _GOLDEN = np.uint64(0x9E3779B97F4A7C15)
-_MIX1 = np.uint64(0xBF58476D1CE4E5B9)
-_MIX2 = np.uint64(0x94D049BB133111EB)
 
 
 class BasicTiles(NamedTuple):
@@ -169,10 +169,7 @@ def record_errors(
 @njit(cache=True)
 def tile_word(seed_word: int, feature: int) -> int:
     """A new tile's 64-bit hash word (as int64): splitmix64 of the seed word and its id."""
-    z = np.uint64(seed_word) + np.uint64(feature + 1) * _GOLDEN
-    z = (z ^ (z >> np.uint64(30))) * _MIX1
-    z = (z ^ (z >> np.uint64(27))) * _MIX2
-    return np.int64(z ^ (z >> np.uint64(31)))
+    return np.int64(splitmix64(np.uint64(seed_word) + np.uint64(feature) * _GOLDEN))
 
 
 @njit(cache=True)

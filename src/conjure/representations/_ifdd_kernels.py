@@ -57,6 +57,7 @@ __all__ = [
     "new_tables",
     "rebuild_table",
     "relevance_of",
+    "splitmix64",
 ]
 
 #: The int64 counters and integer settings, in the order of the saved ``ints`` vector.
@@ -400,7 +401,8 @@ def _pool_remove(heap, node_slot, node, heap_size, node_stats, kind, is_heap):
 
 
 @njit(cache=True)
-def _splitmix64(x):
+def splitmix64(x):
+    """splitmix64's output for the state before ``x`` (uint64): one mix of x + golden gamma."""
     z = x + np.uint64(0x9E3779B97F4A7C15)
     z = (z ^ (z >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)
     z = (z ^ (z >> np.uint64(27))) * np.uint64(0x94D049BB133111EB)
@@ -410,7 +412,7 @@ def _splitmix64(x):
 @njit(cache=True)
 def random_index(random_word, draw, size):
     """The ``draw``-th uniform index in [0, size) of the stream ``random_word`` (counter-based)."""
-    z = _splitmix64(np.uint64(random_word) + np.uint64(draw) * np.uint64(0xD1B54A32D192ED03))
+    z = splitmix64(np.uint64(random_word) + np.uint64(draw) * np.uint64(0xD1B54A32D192ED03))
     u = np.float64(z >> np.uint64(11)) * (1.0 / 9007199254740992.0)
     return int(u * size)
 

@@ -676,7 +676,8 @@ def cooperative_learner_kernel(agent: Any) -> CompiledBox | None:
 
     As `icca_kernel`, for a SARSA or Q-Learning learner (the compiled imagined update of a
     vetoed proposal is theirs), on fixed features or online iFDD with sparsified activation
-    (Algorithm 19; the loop discovers after a vetoed proposal's update, `learning_loop`).
+    (Algorithm 19; `ARiFDD` too; the loop discovers after a vetoed proposal's update,
+    `learning_loop`).
     """
     tables = agent.compiled_tables()
     learner_form = compiled_form(agent.learner_)
