@@ -67,6 +67,14 @@ def blocks_legal_actions(state: np.ndarray, num_blocks: int) -> tuple[np.ndarray
     return out[:count].copy(), 0
 
 
+@njit(cache=True, inline="always")
+def _is_legal_move(on: np.ndarray, above: np.ndarray, b: int, d: int) -> bool:
+    """move(b, d): b is clear, and d is a clear other block or, for d = b, the table under b."""
+    if above[b] >= 0:
+        return False
+    return on[b] != b if d == b else above[d] < 0
+
+
 @njit(cache=True)
 def legal_moves_into(on: np.ndarray, above: np.ndarray, num_blocks: int, out: np.ndarray) -> int:
     """Write the sorted legal moves of a well-formed state into ``out``; return their number.
@@ -77,14 +85,8 @@ def legal_moves_into(on: np.ndarray, above: np.ndarray, num_blocks: int, out: np
     n = num_blocks
     count = 0
     for b in range(n):
-        if above[b] >= 0:
-            continue
         for d in range(n):
-            if d == b:
-                if on[b] != b:
-                    out[count] = b * n + d
-                    count += 1
-            elif above[d] < 0:
+            if _is_legal_move(on, above, b, d):
                 out[count] = b * n + d
                 count += 1
     return count
@@ -156,14 +158,19 @@ def blocks_transition(
 
 @njit(cache=True)
 def blocks_fill_legal_mask(dstate: np.ndarray, num_blocks: int, mask: np.ndarray) -> int:
-    """Write the legal-move mask of ``dstate`` into ``mask`` (1 legal, 0 not); return the count."""
+    """Write the legal-move mask of ``dstate`` into ``mask`` (1 legal, 0 not); return the count.
+
+    Allocates nothing: the compiled loop's step calls it every step.
+    """
     n = num_blocks
     nn = n * n
-    moves = np.empty(nn, dtype=np.int64)
-    count = legal_moves_into(dstate[nn : nn + n], dstate[nn + n :], n, moves)
-    mask[:] = 0
-    for k in range(count):
-        mask[moves[k]] = 1
+    on, above = dstate[nn : nn + n], dstate[nn + n :]
+    count = 0
+    for b in range(n):
+        for d in range(n):
+            is_legal = _is_legal_move(on, above, b, d)
+            mask[b * n + d] = is_legal
+            count += is_legal
     return count
 
 

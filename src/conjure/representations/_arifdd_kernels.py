@@ -104,28 +104,19 @@ def _split_point(mu: float, is_discrete: bool) -> float:
 
 @njit(cache=True)
 def record_errors(
-    state: np.ndarray,
-    weight: float,
-    edges: np.ndarray,
-    num_tiles: np.ndarray,
-    stats: np.ndarray,
-    low: np.ndarray,
-    high: np.ndarray,
-    min_width: np.ndarray,
-    is_discrete: np.ndarray,
-    split_threshold: float,
-    can_split: bool,
-    counters: np.ndarray,
+    tiles: BasicTiles, state: np.ndarray, weight: float, can_split: bool
 ) -> tuple[int, int, float]:
     """Algorithm 22, lines 2-13: update Ξ, μ, σ² of s's basic tiles, pick the tile to split.
 
     ``weight`` is |δ|. Among the tiles whose Ξ exceeds ς and whose split at μ leaves both
     halves at least ``min_width`` wide, returns (dimension, tile slot, split point) of the one
-    with the least σ² (line 12 as printed). Returns
-    (-1, -1, 0) when no tile passes ς, when every one that does is blocked by the floor
-    (counted in ``counters[1]``), or when ``can_split`` is False. ``counters[0]`` counts the
-    steps with a tile past ς.
+    with the least σ² (line 12 as printed). Returns (-1, -1, 0) when no tile passes ς, when
+    every one that does is blocked by the floor (counted in ``counters[1]``), or when
+    ``can_split`` is False. ``counters[0]`` counts the steps with a tile past ς.
     """
+    edges, num_tiles, stats, counters = tiles.edges, tiles.num_tiles, tiles.stats, tiles.counters
+    low, high, min_width, is_discrete = tiles.low, tiles.high, tiles.min_width, tiles.is_discrete
+    split_threshold = tiles.split_threshold
     d = state.shape[0]
     best_dim, best_slot, best_score = -1, -1, 0.0
     num_candidates = 0
@@ -200,11 +191,7 @@ def split_at(tiles: BasicTiles, state: np.ndarray, td_error: float, t) -> int:
     """
     t.num_calls[0] += 1
     first = t.num_features[0]
-    dim, slot, point = record_errors(
-        state, abs(td_error), tiles.edges, tiles.num_tiles, tiles.stats, tiles.low, tiles.high,
-        tiles.min_width, tiles.is_discrete, tiles.split_threshold,
-        first + 2 <= t.max_features[0], tiles.counters,
-    )  # fmt: skip
+    dim, slot, point = record_errors(tiles, state, abs(td_error), first + 2 <= t.max_features[0])
     if dim < 0:
         return 0
     tile = _split_tile(tiles, dim, slot, point, first)
